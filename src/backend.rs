@@ -1,0 +1,87 @@
+//! The seam between the simulation thread and whatever steps the model: the CPU reference backend
+//! now, the wgpu compute backend next. Everything above this trait is backend-agnostic.
+
+use std::sync::Arc;
+
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::state::{Divergence, Snapshot, State, StepStats};
+
+/// Which backend steps the simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum BackendKind {
+    /// The multi-threaded CPU reference.
+    #[default]
+    Cpu,
+}
+
+pub trait Backend: Send {
+    /// Human-readable name of the device, printed at the start of every run.
+    fn describe(&self) -> String;
+    /// Advance `substeps` steps of the backend's dt. Stops at the first step whose state is not
+    /// finite or runs away, leaving the last good snapshot intact for the caller.
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, Divergence>;
+    /// What the recorder logs for the current state.
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Snapshot;
+    /// The full state (tests and benchmarks).
+    fn state(&mut self) -> State;
+}
+
+pub fn create(kind: BackendKind, model: Arc<Model>, integrator: Integrator, dt_secs: f64) -> Box<dyn Backend> {
+    match kind {
+        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
+    }
+}
+
+/// Speed beyond which a state counts as runaway: nothing in a mass-spring scene moves at 10 km/s
+/// unless the integration has gone unstable, and stopping there keeps the last frames readable.
+pub const RUNAWAY_SPEED_M_PER_S: f32 = 1.0e4;
+
+/// The first mass whose state is non-finite or runaway, described for the user.
+pub fn find_divergence(model: &Model, state: &State, integrator: Integrator, dt_secs: f64) -> Option<Divergence> {
+    let bad = |i: usize| {
+        let (x, v) = (state.x[i], state.v[i]);
+        if !x.is_finite() || !v.is_finite() {
+            Some("a non-finite position or velocity".to_owned())
+        } else if v.length() > RUNAWAY_SPEED_M_PER_S {
+            Some(format!("a runaway speed of {:.3e} m/s", v.length()))
+        } else {
+            None
+        }
+    };
+    let (i, what) = (0..state.x.len()).find_map(|i| bad(i).map(|w| (i, w)))?;
+    let body = model
+        .body_of_mass(i as u32)
+        .map(|(b, local)| format!(" (body '{}', mass {} of its grid)", b.name, local))
+        .unwrap_or_default();
+    // The spring at this mass that is stretched or squeezed the most points at the culprit.
+    let spring = model
+        .adjacency
+        .of(i)
+        .iter()
+        .map(|nb| {
+            let s = &model.springs[nb.spring as usize];
+            let len = state.x[s.a as usize].distance(state.x[s.b as usize]);
+            let strain = (len - s.rest_m) / s.rest_m;
+            (nb.spring, if strain.is_finite() { strain.abs() } else { f32::INFINITY })
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(s, strain)| {
+            format!(
+                ", its most strained spring is {s} ({}, strain {strain:.3e}, stiffness {} N/m)",
+                model.spring_kind[s as usize].name(),
+                model.springs[s as usize].stiffness_n_per_m
+            )
+        })
+        .unwrap_or_default();
+    Some(Divergence {
+        step: state.steps,
+        time_secs: state.time_secs,
+        mass: i as u32,
+        body,
+        spring,
+        what,
+        dt_secs,
+        integrator: integrator.name().to_owned(),
+    })
+}

@@ -1,0 +1,133 @@
+//! `hooke check`: the model a scene builds, and whether the chosen step is stable.
+
+use std::fmt::Write as _;
+
+use crate::model::{Model, SpringKindTag};
+use crate::settings::Settings;
+use crate::stability::{stable_dts, stiffest_mode};
+
+/// Is the chosen dt above the estimated limit of the chosen integrator?
+pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
+    let limit = stable_dts(model).into_iter().find(|(i, _)| *i == settings.integrator)?.1;
+    match limit {
+        Some(l) if settings.dt_secs <= l => None,
+        Some(l) => Some(format!(
+            "dt = {:.3e} s is above the estimated stable limit {:.3e} s of `{}` for this scene's stiffest spring; \
+             use at least {} substeps per frame (or --dt {:.1e})",
+            settings.dt_secs,
+            l,
+            settings.integrator,
+            (1.0 / (settings.frame_rate_hz * l)).ceil(),
+            l
+        )),
+        None if has_no_damping(model) => Some(format!(
+            "`{}` gains energy at every dt on this undamped scene; prefer semi-implicit, verlet or rk4",
+            settings.integrator
+        )),
+        None => None,
+    }
+}
+
+fn has_no_damping(model: &Model) -> bool {
+    stiffest_mode(model).damping_ratio == 0.0
+}
+
+pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "scene '{name}'");
+    let _ = writeln!(
+        s,
+        "  masses: {} ({} pinned), springs: {}",
+        model.mass_count(),
+        model.pinned_count(),
+        model.spring_count()
+    );
+    for kind in [SpringKindTag::Structural, SpringKindTag::Shear, SpringKindTag::Bending, SpringKindTag::Custom] {
+        let n = model.springs_of_kind(kind);
+        if n > 0 {
+            let _ = writeln!(s, "    {:<10} {n}", kind.name());
+        }
+    }
+    for b in &model.bodies {
+        let grid: Vec<String> = b.grid.iter().map(u32::to_string).collect();
+        let _ = writeln!(
+            s,
+            "  body '{}': grid {} ({}D), {} masses, {} springs",
+            b.name,
+            grid.join("×"),
+            b.grid.len(),
+            b.masses.len(),
+            b.springs.len()
+        );
+    }
+    let e = &model.effects;
+    let _ = writeln!(s, "  effects:");
+    let mut any = false;
+    if let Some(g) = e.gravity_m_per_s2 {
+        let _ = writeln!(s, "    gravity {:?} m/s²", g.to_array());
+        any = true;
+    }
+    if let Some(d) = e.air_drag_per_s {
+        let _ = writeln!(s, "    air drag {d} /s");
+        any = true;
+    }
+    if let Some(g) = &e.ground {
+        let _ = writeln!(
+            s,
+            "    ground at y = {} m: stiffness {} N/m, friction {}, damping ratio {:.3}",
+            g.height_m, g.contact.stiffness_n_per_m, g.contact.friction, g.contact.damping_ratio
+        );
+        any = true;
+    }
+    for (i, sp) in e.spheres.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "    sphere {i}: centre {:?} m, radius {} m, velocity {:?} m/s, stiffness {} N/m, friction {}, damping ratio {:.3}",
+            sp.center_m.to_array(),
+            sp.radius_m,
+            sp.velocity_m_per_s.to_array(),
+            sp.contact.stiffness_n_per_m,
+            sp.contact.friction,
+            sp.contact.damping_ratio
+        );
+        any = true;
+    }
+    if !any {
+        let _ = writeln!(s, "    none");
+    }
+    let _ = writeln!(
+        s,
+        "  solver: {}, dt = {:.4e} s ({} substeps per frame at {} Hz), {} frames ({:.3} s)",
+        settings.integrator,
+        settings.dt_secs,
+        settings.substeps,
+        settings.frame_rate_hz,
+        settings.frames,
+        settings.duration_secs()
+    );
+    let mode = stiffest_mode(model);
+    let _ = writeln!(
+        s,
+        "  stiffest mode (bound): ω ≈ {:.4e} rad/s, damping ratio {:.3}, at mass {}",
+        mode.omega_rad_per_s, mode.damping_ratio, mode.mass
+    );
+    let _ = writeln!(s, "  estimated largest stable dt:");
+    for (i, dt) in stable_dts(model) {
+        let mark = if i == settings.integrator { " <- chosen" } else { "" };
+        match dt {
+            Some(dt) if dt.is_finite() => {
+                let _ = writeln!(s, "    {:<14} {:.3e} s ({:.0} substeps/frame){mark}", i.name(), dt, (1.0 / (settings.frame_rate_hz * dt)).ceil());
+            }
+            Some(_) => {
+                let _ = writeln!(s, "    {:<14} unlimited (no springs or contacts){mark}", i.name());
+            }
+            None => {
+                let _ = writeln!(s, "    {:<14} unstable at any dt (needs damping){mark}", i.name());
+            }
+        }
+    }
+    if let Some(w) = dt_warning(model, settings) {
+        let _ = writeln!(s, "warning: {w}");
+    }
+    s
+}

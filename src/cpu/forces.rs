@@ -1,0 +1,156 @@
+//! `compute_forces`: the full force on every mass (springs, gravity, drag, contact), gathered per
+//! mass through the CSR adjacency. Mirrors `compute_forces` in `shaders/forces.wgsl`.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::model::{ContactModel, Model, Spring};
+use crate::state::Power;
+
+/// Masses per work item. Fixed, so that the per-chunk partial sums (and hence the energy ledger)
+/// are bit-identical whatever the thread count.
+pub const CHUNK: usize = 1024;
+
+/// Below this many masses the thread pool costs more than it saves.
+pub const PARALLEL_MIN_MASSES: usize = 4 * CHUNK;
+
+/// Force exerted on mass `i` by spring `s` whose other end is `j`: elastic plus damping along the
+/// spring, and the damping part's power at `i`. A zero-length spring has no direction and exerts
+/// nothing (no division by zero).
+#[inline(always)]
+pub fn spring_force(s: &Spring, xi: Vec3, xj: Vec3, vi: Vec3, vj: Vec3) -> (Vec3, f32) {
+    let d = xi - xj;
+    let len = d.length();
+    if len <= f32::MIN_POSITIVE * 1e6 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let n = d / len;
+    let elastic = -s.stiffness_n_per_m * (len - s.rest_m);
+    let damping = -s.damping_n_s_per_m * (vi - vj).dot(n);
+    (n * (elastic + damping), damping * n.dot(vi))
+}
+
+/// Penalty contact along unit normal `n` at depth `depth` > 0, for a mass with velocity `v_rel`
+/// relative to the collider. Returns the force and the power dissipated by its damping and
+/// friction parts (≥ 0). Friction is Coulomb, `|F_t| ≤ μ F_n`, never more than stops the sliding
+/// within one step (so it cannot reverse the motion).
+#[inline(always)]
+pub fn contact_force(c: &ContactModel, depth: f32, n: Vec3, v_rel: Vec3, mass: f32, dt: f32) -> (Vec3, f32) {
+    let vn = v_rel.dot(n);
+    let spring = c.stiffness_n_per_m * depth;
+    let damper = -2.0 * c.damping_ratio * (c.stiffness_n_per_m * mass).sqrt() * vn;
+    // Contact pushes, never pulls: the damper may at most cancel the spring.
+    let fn_total = (spring + damper).max(0.0);
+    let damper_part = fn_total - spring;
+    let mut force = n * fn_total;
+    let mut dissipated = -damper_part * vn;
+    if c.friction > 0.0 {
+        let vt = v_rel - vn * n;
+        let speed = vt.length();
+        if speed > 0.0 {
+            let ft = (c.friction * fn_total).min(mass * speed / dt);
+            force -= vt * (ft / speed);
+            dissipated += ft * speed;
+        }
+    }
+    (force, dissipated)
+}
+
+/// Colliders as they stand at the time of one force evaluation.
+pub struct CollidersAt {
+    pub sphere_centers: Vec<Vec3>,
+}
+
+impl CollidersAt {
+    pub fn new(model: &Model, t: f64) -> Self {
+        Self {
+            sphere_centers: model.effects.spheres.iter().map(|s| s.center_at(t)).collect(),
+        }
+    }
+}
+
+/// Force on mass `i` and its contributions to the ledger's rates.
+#[inline(always)]
+fn force_on_mass(model: &Model, col: &CollidersAt, x: &[Vec3], v: &[Vec3], i: usize, dt: f32) -> (Vec3, [f32; 4]) {
+    let xi = x[i];
+    let vi = v[i];
+    let m = model.mass_kg[i];
+    let mut f = Vec3::ZERO;
+    let mut damping_w = 0.0f32;
+    for nb in model.adjacency.of(i) {
+        let j = nb.other as usize;
+        let (fs, pw) = spring_force(&model.springs[nb.spring as usize], xi, x[j], vi, v[j]);
+        f += fs;
+        damping_w += pw;
+    }
+    let e = &model.effects;
+    if let Some(g) = e.gravity_m_per_s2 {
+        f += m * g;
+    }
+    let mut drag_w = 0.0;
+    if let Some(gamma) = e.air_drag_per_s {
+        let fd = -m * gamma * vi;
+        f += fd;
+        drag_w = fd.dot(vi);
+    }
+    let mut contact_w = 0.0;
+    let mut collider_w = 0.0;
+    if let Some(g) = &e.ground {
+        let depth = g.height_m - xi.y;
+        if depth > 0.0 {
+            let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, vi, m, dt);
+            f += fc;
+            contact_w += diss;
+        }
+    }
+    for (s, &c) in e.spheres.iter().zip(&col.sphere_centers) {
+        let r = xi - c;
+        let dist = r.length();
+        let depth = s.radius_m - dist;
+        if depth > 0.0 && dist > 0.0 {
+            let (fc, diss) = contact_force(&s.contact, depth, r / dist, vi - s.velocity_m_per_s, m, dt);
+            f += fc;
+            contact_w += diss;
+            collider_w += fc.dot(s.velocity_m_per_s);
+        }
+    }
+    // Ledger rates are energy leaving the system (damping, drag, contact) and entering it
+    // (collider work); a pinned mass does not move, so nothing flows through it.
+    if model.inv_mass[i] == 0.0 {
+        return (Vec3::ZERO, [0.0; 4]);
+    }
+    (f * model.inv_mass[i], [-damping_w, -drag_w, contact_w, collider_w])
+}
+
+/// Accelerations of every mass at state (x, v, t) into `acc`; returns the ledger rates.
+pub fn compute_forces(model: &Model, x: &[Vec3], v: &[Vec3], t: f64, dt: f32, acc: &mut [Vec3]) -> Power {
+    let col = CollidersAt::new(model, t);
+    let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
+        let mut sum = [0.0f64; 4];
+        for (k, a) in out.iter_mut().enumerate() {
+            let (ai, p) = force_on_mass(model, &col, x, v, ci * CHUNK + k, dt);
+            *a = ai;
+            for (s, q) in sum.iter_mut().zip(p) {
+                *s += f64::from(q);
+            }
+        }
+        sum
+    };
+    let partials: Vec<[f64; 4]> = if acc.len() >= PARALLEL_MIN_MASSES {
+        acc.par_chunks_mut(CHUNK).enumerate().map(chunk_sum).collect()
+    } else {
+        acc.chunks_mut(CHUNK).enumerate().map(chunk_sum).collect()
+    };
+    let mut total = [0.0f64; 4];
+    for p in &partials {
+        for (t, q) in total.iter_mut().zip(p) {
+            *t += q;
+        }
+    }
+    Power {
+        damping_w: total[0],
+        drag_w: total[1],
+        contact_w: total[2],
+        collider_w: total[3],
+    }
+}

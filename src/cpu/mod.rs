@@ -1,0 +1,90 @@
+//! The CPU reference backend: f32 like the GPU, multi-threaded with rayon, deterministic (every
+//! mass is written by one task and every sum is taken over fixed chunks in a fixed order).
+
+mod collide;
+mod forces;
+mod integrate;
+mod reduce;
+
+pub use collide::project_contacts;
+pub use forces::{compute_forces, contact_force, spring_force};
+pub use reduce::{compute_energies, compute_strain};
+
+use crate::backend::{Backend, find_divergence};
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::state::{Divergence, Snapshot, State, StepStats};
+
+pub struct CpuBackend {
+    model: std::sync::Arc<Model>,
+    integrator: Integrator,
+    dt: f32,
+    state: State,
+    scratch: integrate::Scratch,
+}
+
+impl CpuBackend {
+    pub fn new(model: std::sync::Arc<Model>, integrator: Integrator, dt_secs: f64) -> Self {
+        let n = model.mass_count();
+        Self {
+            state: model.initial.clone(),
+            scratch: integrate::Scratch::new(n),
+            model,
+            integrator,
+            dt: dt_secs as f32,
+        }
+    }
+}
+
+impl Backend for CpuBackend {
+    fn describe(&self) -> String {
+        format!("cpu ({} threads)", rayon::current_num_threads())
+    }
+
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, Divergence> {
+        let start = std::time::Instant::now();
+        let mut projections = 0;
+        for _ in 0..substeps {
+            integrate::step(&self.model, self.integrator, &mut self.state, &mut self.scratch, self.dt);
+            let p = project_contacts(&self.model, &mut self.state);
+            if p > 0 {
+                self.scratch.invalidate();
+                projections += p;
+            }
+            if let Some(d) = find_divergence(&self.model, &self.state, self.integrator, f64::from(self.dt)) {
+                return Err(d);
+            }
+        }
+        Ok(StepStats {
+            substeps,
+            dt_secs: f64::from(self.dt),
+            step_ms: start.elapsed().as_secs_f64() * 1e3,
+            projections,
+        })
+    }
+
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Snapshot {
+        let mut strain = Vec::with_capacity(self.model.spring_count());
+        compute_strain(&self.model, &self.state.x, &mut strain);
+        Snapshot {
+            frame,
+            time_secs: self.state.time_secs,
+            steps: self.state.steps,
+            positions: self.state.x.clone(),
+            strain,
+            energies: compute_energies(&self.model, &self.state),
+            stats,
+            sphere_centers: self
+                .model
+                .effects
+                .spheres
+                .iter()
+                .map(|s| s.center_at(self.state.time_secs))
+                .collect(),
+        }
+    }
+
+    fn state(&mut self) -> State {
+        self.state.clone()
+    }
+}

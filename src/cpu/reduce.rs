@@ -1,0 +1,57 @@
+//! `compute_energies` and `compute_strain`: what a snapshot logs. Mirrors `shaders/reduce.wgsl`.
+
+use glam::Vec3;
+
+use crate::model::Model;
+use crate::state::{Energies, State};
+
+/// (|x| − L) / L for every spring.
+pub fn compute_strain(model: &Model, x: &[Vec3], out: &mut Vec<f32>) {
+    out.clear();
+    out.extend(model.springs.iter().map(|s| {
+        let len = x[s.a as usize].distance(x[s.b as usize]);
+        (len - s.rest_m) / s.rest_m.max(f32::MIN_POSITIVE)
+    }));
+}
+
+/// Kinetic, elastic, gravitational and contact energy of a state, summed in f64.
+pub fn compute_energies(model: &Model, state: &State) -> Energies {
+    let (x, v) = (&state.x, &state.v);
+    let mut e = Energies {
+        ledger: state.ledger,
+        ..Energies::default()
+    };
+    for i in 0..x.len() {
+        let m = f64::from(model.mass_kg[i]);
+        if model.inv_mass[i] != 0.0 {
+            e.kinetic_j += 0.5 * m * f64::from(v[i].length_squared());
+        }
+        if let Some(g) = model.effects.gravity_m_per_s2 {
+            e.gravity_j -= m * f64::from(g.dot(x[i]));
+        }
+    }
+    for s in &model.springs {
+        let stretch = f64::from(x[s.a as usize].distance(x[s.b as usize]) - s.rest_m);
+        e.elastic_j += 0.5 * f64::from(s.stiffness_n_per_m) * stretch * stretch;
+    }
+    let fx = &model.effects;
+    let centers: Vec<Vec3> = fx.spheres.iter().map(|s| s.center_at(state.time_secs)).collect();
+    for (i, xi) in x.iter().enumerate() {
+        if model.inv_mass[i] == 0.0 {
+            continue;
+        }
+        if let Some(g) = &fx.ground {
+            let d = f64::from(g.height_m - xi.y);
+            if d > 0.0 {
+                e.contact_j += 0.5 * f64::from(g.contact.stiffness_n_per_m) * d * d;
+            }
+        }
+        for (s, c) in fx.spheres.iter().zip(&centers) {
+            let d = f64::from(s.radius_m - xi.distance(*c));
+            if d > 0.0 {
+                e.contact_j += 0.5 * f64::from(s.contact.stiffness_n_per_m) * d * d;
+            }
+        }
+    }
+    e
+}

@@ -1,0 +1,166 @@
+//! The explicit integrators, what they cost, and how large a step each survives.
+
+use serde::{Deserialize, Serialize};
+
+/// Time integration scheme. Names match `--integrator` and the scene's `solver.integrator`.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Integrator {
+    /// Explicit (forward) Euler: first order, gains energy on undamped oscillation.
+    Euler,
+    /// Semi-implicit (symplectic) Euler: first order, bounded energy error.
+    #[default]
+    SemiImplicit,
+    /// Runge–Kutta midpoint: second order.
+    Rk2,
+    /// Classic Runge–Kutta: fourth order.
+    Rk4,
+    /// Velocity Verlet: second order, symplectic for conservative forces.
+    Verlet,
+}
+
+impl Integrator {
+    pub const ALL: [Integrator; 5] = [
+        Integrator::Euler,
+        Integrator::SemiImplicit,
+        Integrator::Rk2,
+        Integrator::Rk4,
+        Integrator::Verlet,
+    ];
+
+    /// The name used on the command line and in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Euler => "euler",
+            Integrator::SemiImplicit => "semi-implicit",
+            Integrator::Rk2 => "rk2",
+            Integrator::Rk4 => "rk4",
+            Integrator::Verlet => "verlet",
+        }
+    }
+
+    /// Global order of accuracy: halving dt divides the error by `2^order`.
+    pub fn order(self) -> u32 {
+        match self {
+            Integrator::Euler | Integrator::SemiImplicit => 1,
+            Integrator::Rk2 | Integrator::Verlet => 2,
+            Integrator::Rk4 => 4,
+        }
+    }
+
+    /// Full force evaluations per step (Verlet reuses the previous step's last one).
+    pub fn force_evaluations(self) -> u32 {
+        match self {
+            Integrator::Euler | Integrator::SemiImplicit | Integrator::Verlet => 1,
+            Integrator::Rk2 => 2,
+            Integrator::Rk4 => 4,
+        }
+    }
+
+    /// One step of this scheme on the linear test oscillator `x'' = -ω² x - 2ζω x'`, written
+    /// exactly as the backends apply the scheme, so that its amplification is the scheme's own.
+    fn step_oscillator(self, omega: f64, zeta: f64, dt: f64, x: f64, v: f64) -> (f64, f64) {
+        let acc = |x: f64, v: f64| -omega * omega * x - 2.0 * zeta * omega * v;
+        match self {
+            Integrator::Euler => (x + dt * v, v + dt * acc(x, v)),
+            Integrator::SemiImplicit => {
+                let v1 = v + dt * acc(x, v);
+                (x + dt * v1, v1)
+            }
+            Integrator::Rk2 => {
+                let (xm, vm) = (x + 0.5 * dt * v, v + 0.5 * dt * acc(x, v));
+                (x + dt * vm, v + dt * acc(xm, vm))
+            }
+            Integrator::Rk4 => {
+                let (k1x, k1v) = (v, acc(x, v));
+                let (k2x, k2v) = (v + 0.5 * dt * k1v, acc(x + 0.5 * dt * k1x, v + 0.5 * dt * k1v));
+                let (k3x, k3v) = (v + 0.5 * dt * k2v, acc(x + 0.5 * dt * k2x, v + 0.5 * dt * k2v));
+                let (k4x, k4v) = (v + dt * k3v, acc(x + dt * k3x, v + dt * k3v));
+                (
+                    x + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
+                    v + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v),
+                )
+            }
+            Integrator::Verlet => {
+                let a0 = acc(x, v);
+                let x1 = x + dt * v + 0.5 * dt * dt * a0;
+                let a1 = acc(x1, v + dt * a0);
+                (x1, v + 0.5 * dt * (a0 + a1))
+            }
+        }
+    }
+
+    /// Spectral radius of one step on the test oscillator.
+    fn amplification(self, omega: f64, zeta: f64, dt: f64) -> f64 {
+        let (a, c) = self.step_oscillator(omega, zeta, dt, 1.0, 0.0);
+        let (b, d) = self.step_oscillator(omega, zeta, dt, 0.0, 1.0);
+        // Eigenvalues of [[a, b], [c, d]].
+        let tr = a + d;
+        let det = a * d - b * c;
+        let disc = tr * tr / 4.0 - det;
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            (tr / 2.0 + s).abs().max((tr / 2.0 - s).abs())
+        } else {
+            det.abs().sqrt()
+        }
+    }
+
+    /// Largest dt for which the stiffest mode (angular frequency `omega`, damping ratio `zeta`)
+    /// does not grow, found by bisection on the scheme's amplification. `None` when it grows at
+    /// every step size (explicit Euler and RK2 on an undamped oscillator).
+    pub fn stable_dt(self, omega: f64, zeta: f64) -> Option<f64> {
+        if omega <= 0.0 {
+            return Some(f64::INFINITY);
+        }
+        let stable = |dt: f64| self.amplification(omega, zeta, dt) <= 1.0 + 1e-12;
+        // Every scheme here is unstable by ωdt = 4; search below that.
+        let probe = 1e-4 / omega;
+        if !stable(probe) {
+            return None;
+        }
+        let (mut lo, mut hi) = (probe, 4.0 / omega);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if stable(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(lo)
+    }
+}
+
+impl std::fmt::Display for Integrator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stability_limits_match_theory_for_undamped_oscillator() {
+        let w = 10.0;
+        assert!(Integrator::Euler.stable_dt(w, 0.0).is_none());
+        assert!(Integrator::Rk2.stable_dt(w, 0.0).is_none());
+        let se = Integrator::SemiImplicit.stable_dt(w, 0.0).unwrap_or(0.0);
+        assert!((se * w - 2.0).abs() < 1e-6, "semi-implicit ωdt = {}", se * w);
+        let vv = Integrator::Verlet.stable_dt(w, 0.0).unwrap_or(0.0);
+        assert!((vv * w - 2.0).abs() < 1e-6, "verlet ωdt = {}", vv * w);
+        let rk4 = Integrator::Rk4.stable_dt(w, 0.0).unwrap_or(0.0);
+        assert!((rk4 * w - 8f64.sqrt()).abs() < 1e-6, "rk4 ωdt = {}", rk4 * w);
+    }
+
+    #[test]
+    fn damping_makes_euler_conditionally_stable() {
+        // Forward Euler on a damped oscillator: stable while ωdt < 2ζ (for small ζ).
+        let dt = Integrator::Euler.stable_dt(10.0, 0.05).unwrap_or(0.0);
+        assert!((dt * 10.0 - 0.1).abs() < 2e-3, "ωdt = {}", dt * 10.0);
+    }
+}

@@ -1,0 +1,20 @@
+//! Hooke: mass-spring systems (hair, cloth, jello) stepped on the CPU reference backend (and,
+//! next, wgpu compute), streamed to the Rerun viewer.
+//!
+//! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
+
+pub mod backend;
+pub mod check;
+pub mod cpu;
+pub mod error;
+pub mod integrator;
+pub mod model;
+pub mod record;
+pub mod run;
+pub mod scene;
+pub mod settings;
+pub mod sim;
+pub mod stability;
+pub mod state;
+
+pub use error::{Error, Result};

@@ -1,0 +1,235 @@
+//! The recorder: turns snapshots into Rerun entities on the `frame` and `sim_time` timelines.
+//!
+//! Layout (see ARCHITECTURE.md): `world/<body>/masses` points, `world/<body>/springs` lines
+//! coloured by strain, `world/colliders/*`, `world/ground`; `energy/*` and `stats/*` scalars;
+//! `scene`, `legend` text documents. What never changes is logged once with `log_static`.
+
+use glam::Vec3;
+use rerun::RecordingStream;
+
+use crate::model::Model;
+use crate::settings::Settings;
+use crate::state::Snapshot;
+
+type RResult<T = ()> = Result<T, rerun::RecordingStreamError>;
+
+/// Colour of a strain value on the diverging scale: blue (compressed by `range` or more), light
+/// grey (at rest), red (stretched by `range` or more).
+pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
+    const BLUE: [f32; 3] = [59.0, 76.0, 192.0];
+    const GREY: [f32; 3] = [221.0, 221.0, 221.0];
+    const RED: [f32; 3] = [180.0, 4.0, 38.0];
+    let t = if strain.is_finite() { (strain / range).clamp(-1.0, 1.0) } else { 1.0 };
+    let (end, w) = if t < 0.0 { (BLUE, -t) } else { (RED, t) };
+    let mix = |i: usize| (GREY[i] + (end[i] - GREY[i]) * w).round() as u8;
+    [mix(0), mix(1), mix(2)]
+}
+
+/// The default layout: the 3D view beside the energy and statistics plots.
+pub fn blueprint() -> rerun::blueprint::Blueprint {
+    use rerun::blueprint::{Blueprint, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical};
+    Blueprint::new(
+        Horizontal::new([
+            Spatial3DView::new("world").with_origin("/world").into(),
+            Vertical::new([
+                TimeSeriesView::new("energy (J)").with_origin("/energy").into(),
+                TimeSeriesView::new("step statistics").with_origin("/stats").into(),
+                TextDocumentView::new("strain colour scale").with_origin("/legend").into(),
+            ])
+            .with_row_shares([0.45, 0.35, 0.2])
+            .into(),
+        ])
+        .with_column_shares([0.62, 0.38]),
+    )
+    .with_auto_views(false)
+}
+
+/// Entity paths for the energy series, with their display names.
+const ENERGY_SERIES: [(&str, &str); 8] = [
+    ("energy/kinetic", "kinetic"),
+    ("energy/elastic", "elastic (springs)"),
+    ("energy/gravity", "gravitational"),
+    ("energy/contact", "contact (penalty)"),
+    ("energy/dissipated", "dissipated (damping + drag + contact)"),
+    ("energy/collider_work", "work done by moving colliders"),
+    ("energy/total", "total mechanical"),
+    ("energy/balance", "total + dissipated − collider work"),
+];
+
+pub struct Recorder {
+    rec: RecordingStream,
+    model: std::sync::Arc<Model>,
+    strain_range: f32,
+    /// Per body: springs as (a, b) pairs reused to build line strips each frame.
+    strips: Vec<Vec<[Vec3; 2]>>,
+    colors: Vec<Vec<rerun::Color>>,
+}
+
+impl Recorder {
+    pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, strain_range: f32) -> Self {
+        let strips = model.bodies.iter().map(|b| Vec::with_capacity(b.springs.len())).collect();
+        let colors = model.bodies.iter().map(|b| Vec::with_capacity(b.springs.len())).collect();
+        Self {
+            rec,
+            model,
+            strain_range,
+            strips,
+            colors,
+        }
+    }
+
+    /// Everything that does not change over the run.
+    pub fn log_static(&self, scene_name: &str, scene_text: &str, settings: &Settings, backend: &str) -> RResult {
+        let rec = &self.rec;
+        rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
+        rec.log_static(
+            "scene",
+            &rerun::TextDocument::from_markdown(format!(
+                "# {scene_name}\n\nintegrator `{}`, dt = {:.3e} s, {} substeps per frame, {} frames at {} Hz, backend {backend}\n\n```toml\n{scene_text}\n```",
+                settings.integrator, settings.dt_secs, settings.substeps, settings.frames, settings.frame_rate_hz
+            )),
+        )?;
+        let r = self.strain_range;
+        let swatch = |s: f32| {
+            let [cr, cg, cb] = strain_color(s, r);
+            format!("<span style=\"color:#{cr:02x}{cg:02x}{cb:02x}\">■</span>")
+        };
+        rec.log_static(
+            "legend",
+            &rerun::TextDocument::from_markdown(format!(
+                "Springs are coloured by strain (|x| − L) / L:\n\n\
+                 | colour | strain |\n|---|---|\n\
+                 | {} blue | ≤ −{r} (compressed) |\n| {} grey | 0 (at rest) |\n| {} red | ≥ +{r} (stretched) |\n\n\
+                 Set the range with `[view] strain_range` in the scene file. Pinned masses are drawn black.",
+                swatch(-r),
+                swatch(0.0),
+                swatch(r)
+            )),
+        )?;
+        for (path, name) in ENERGY_SERIES {
+            rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
+        }
+        for (path, name) in [
+            ("stats/max_strain", "max |strain|"),
+            ("stats/step_ms", "wall time per frame (ms)"),
+            ("stats/substeps", "substeps per frame"),
+            ("stats/projections", "contact safeguard projections"),
+        ] {
+            rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
+        }
+        let m = &self.model;
+        for b in &m.bodies {
+            let range = b.masses.start as usize..b.masses.end as usize;
+            let spacing = b
+                .springs
+                .clone()
+                .map(|s| m.springs[s as usize].rest_m)
+                .fold(f32::INFINITY, f32::min);
+            let radius = if spacing.is_finite() { 0.12 * spacing } else { 0.02 };
+            let colors: Vec<rerun::Color> = m.inv_mass[range]
+                .iter()
+                .map(|&w| if w == 0.0 { rerun::Color::from_rgb(0, 0, 0) } else { rerun::Color::from_rgb(230, 170, 40) })
+                .collect();
+            rec.log_static(
+                format!("world/{}/masses", b.name),
+                &rerun::Points3D::update_fields().with_colors(colors).with_radii([radius]),
+            )?;
+            rec.log_static(
+                format!("world/{}/springs", b.name),
+                &rerun::LineStrips3D::update_fields().with_radii([0.25 * radius]),
+            )?;
+        }
+        if let Some(g) = &m.effects.ground {
+            // A 10 m grid of lines at the ground height.
+            let h = g.height_m;
+            let lines: Vec<[Vec3; 2]> = (-10..=10)
+                .flat_map(|i| {
+                    let c = i as f32 * 0.5;
+                    [[Vec3::new(c, h, -5.0), Vec3::new(c, h, 5.0)], [Vec3::new(-5.0, h, c), Vec3::new(5.0, h, c)]]
+                })
+                .collect();
+            rec.log_static(
+                "world/ground",
+                &rerun::LineStrips3D::new(lines)
+                    .with_colors([rerun::Color::from_rgb(120, 120, 120)])
+                    .with_radii([0.004]),
+            )?;
+        }
+        for (i, s) in m.effects.spheres.iter().enumerate() {
+            let sphere = rerun::Ellipsoids3D::from_centers_and_radii([s.center_m], [s.radius_m])
+                .with_colors([rerun::Color::from_unmultiplied_rgba(90, 140, 200, 255)])
+                .with_fill_mode(rerun::FillMode::Solid);
+            if s.velocity_m_per_s == Vec3::ZERO {
+                rec.log_static(format!("world/colliders/sphere_{i}"), &sphere)?;
+            } else {
+                rec.log_static(
+                    format!("world/colliders/sphere_{i}"),
+                    &rerun::Ellipsoids3D::update_fields()
+                        .with_half_sizes([[s.radius_m; 3]])
+                        .with_colors([rerun::Color::from_rgb(90, 140, 200)])
+                        .with_fill_mode(rerun::FillMode::Solid),
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// One frame on both timelines.
+    pub fn log_snapshot(&mut self, snap: &Snapshot) -> RResult {
+        let rec = &self.rec;
+        rec.set_time_sequence("frame", snap.frame as i64);
+        rec.set_duration_secs("sim_time", snap.time_secs);
+        let m = &self.model;
+        for (bi, b) in m.bodies.iter().enumerate() {
+            let pos = &snap.positions[b.masses.start as usize..b.masses.end as usize];
+            rec.log(format!("world/{}/masses", b.name), &rerun::Points3D::update_fields().with_positions(pos.iter().copied()))?;
+            if b.springs.is_empty() {
+                continue;
+            }
+            let (strips, colors) = (&mut self.strips[bi], &mut self.colors[bi]);
+            strips.clear();
+            colors.clear();
+            for si in b.springs.clone() {
+                let s = &m.springs[si as usize];
+                strips.push([snap.positions[s.a as usize], snap.positions[s.b as usize]]);
+                let [r, g, bl] = strain_color(snap.strain[si as usize], self.strain_range);
+                colors.push(rerun::Color::from_rgb(r, g, bl));
+            }
+            rec.log(
+                format!("world/{}/springs", b.name),
+                &rerun::LineStrips3D::update_fields()
+                    .with_strips(strips.iter().map(|s| s.to_vec()))
+                    .with_colors(colors.iter().copied()),
+            )?;
+        }
+        for (i, (s, c)) in m.effects.spheres.iter().zip(&snap.sphere_centers).enumerate() {
+            if s.velocity_m_per_s != Vec3::ZERO {
+                rec.log(format!("world/colliders/sphere_{i}"), &rerun::Ellipsoids3D::update_fields().with_centers([*c]))?;
+            }
+        }
+        let e = &snap.energies;
+        let values = [
+            e.kinetic_j,
+            e.elastic_j,
+            e.gravity_j,
+            e.contact_j,
+            e.ledger.dissipated_j(),
+            e.ledger.collider_work_j,
+            e.total_j(),
+            e.balance_j(),
+        ];
+        for ((path, _), v) in ENERGY_SERIES.iter().zip(values) {
+            rec.log(*path, &rerun::Scalars::single(v))?;
+        }
+        let st = &snap.stats;
+        rec.log("stats/max_strain", &rerun::Scalars::single(f64::from(snap.max_abs_strain())))?;
+        rec.log("stats/step_ms", &rerun::Scalars::single(st.step_ms))?;
+        rec.log("stats/substeps", &rerun::Scalars::single(f64::from(st.substeps)))?;
+        rec.log("stats/projections", &rerun::Scalars::single(f64::from(st.projections)))?;
+        Ok(())
+    }
+
+    pub fn stream(&self) -> &RecordingStream {
+        &self.rec
+    }
+}

@@ -1,0 +1,118 @@
+//! `hooke run` as a library call: build the model, start the simulation thread and the recorder
+//! thread, join them, and say how it went.
+
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use crate::backend::{self, BackendKind};
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::record::Recorder;
+use crate::scene::LoadedScene;
+use crate::settings::Settings;
+use crate::sim::{self, Delivery};
+
+/// Snapshots in flight between the threads: enough to smooth out a slow log call, small enough
+/// that a large scene's snapshots do not pile up in memory.
+pub const CHANNEL_CAPACITY: usize = 4;
+
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    pub backend: BackendKind,
+    pub delivery: Delivery,
+    /// Draw a progress bar on a terminal.
+    pub progress: bool,
+}
+
+#[derive(Debug)]
+pub struct RunSummary {
+    pub backend: String,
+    pub frames_recorded: u64,
+    pub frames_dropped: u64,
+    pub sim_time_secs: f64,
+    pub wall_secs: f64,
+    pub cancelled: bool,
+}
+
+/// Run a scene into `rec`. On divergence every good frame is recorded and flushed before the
+/// error is returned.
+pub fn run(
+    loaded: &LoadedScene,
+    model: Arc<Model>,
+    settings: &Settings,
+    rec: rerun::RecordingStream,
+    opts: &RunOptions,
+    cancel: Arc<AtomicBool>,
+) -> Result<RunSummary> {
+    let be = backend::create(opts.backend, model.clone(), settings.integrator, settings.dt_secs);
+    let backend_name = be.describe();
+    let mut recorder = Recorder::new(rec.clone(), model.clone(), loaded.scene.view.strain_range);
+    recorder
+        .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
+        .map_err(|e| Error::Rerun(e.to_string()))?;
+
+    let start = std::time::Instant::now();
+    let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
+    let progress = if opts.progress {
+        indicatif::ProgressBar::new(settings.frames + 1).with_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} frames, {per_sec}, eta {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        )
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    progress.set_message(loaded.scene.name.clone());
+
+    let (outcome, recorded, log_error) = std::thread::scope(|scope| {
+        let sim = std::thread::Builder::new().name("hooke-sim".into()).spawn_scoped(scope, {
+            let cancel = cancel.clone();
+            let (frames, substeps, delivery) = (settings.frames, settings.substeps, opts.delivery);
+            move || {
+                let mut be = be;
+                sim::simulate(be.as_mut(), frames, substeps, &tx, delivery, &cancel)
+            }
+        });
+        let rec_thread = std::thread::Builder::new().name("hooke-record".into()).spawn_scoped(scope, || {
+            let mut recorded = 0u64;
+            for snap in rx.iter() {
+                if let Err(e) = recorder.log_snapshot(&snap) {
+                    // Dropping the receiver tells the simulation to stop.
+                    return (recorded, Some(e.to_string()));
+                }
+                recorded += 1;
+                progress.inc(1);
+            }
+            (recorded, None)
+        });
+        match (sim, rec_thread) {
+            (Ok(s), Ok(r)) => {
+                let outcome = s.join().map_err(|_| "the simulation thread panicked".to_owned());
+                let rec_out = r.join().map_err(|_| "the recorder thread panicked".to_owned());
+                match (outcome, rec_out) {
+                    (Ok(o), Ok((n, err))) => (Ok(o), n, err),
+                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
+                }
+            }
+            (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
+        }
+    });
+    progress.finish_and_clear();
+    // Whatever happened, what was logged reaches the sink before we report.
+    rec.flush_blocking().map_err(|e| Error::Rerun(format!("flushing the recording failed: {e}")))?;
+    let outcome = outcome.map_err(Error::Rerun)?;
+    if let Some(e) = log_error {
+        return Err(Error::RecorderGone(e));
+    }
+    if let Some(d) = outcome.diverged {
+        return Err(Error::Diverged(d));
+    }
+    Ok(RunSummary {
+        backend: backend_name,
+        frames_recorded: recorded,
+        frames_dropped: outcome.frames_dropped,
+        sim_time_secs: settings.frames.min(outcome.frames_sent.saturating_sub(1)) as f64 / settings.frame_rate_hz,
+        wall_secs: start.elapsed().as_secs_f64(),
+        cancelled: outcome.cancelled,
+    })
+}

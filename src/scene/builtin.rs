@@ -1,0 +1,19 @@
+//! The built-in scenes are the TOML files under `examples/scenes/`, compiled in, so that
+//! `hooke run NAME` and `hooke run examples/scenes/NAME.toml` run exactly the same thing.
+
+pub struct BuiltIn {
+    pub name: &'static str,
+    pub toml: &'static str,
+}
+
+macro_rules! built_in {
+    ($($name:literal),* $(,)?) => {
+        &[$(BuiltIn { name: $name, toml: include_str!(concat!("../../examples/scenes/", $name, ".toml")) }),*]
+    };
+}
+
+pub const BUILT_IN: &[BuiltIn] = built_in!["hair", "cloth", "jello", "jello-sphere"];
+
+pub fn find(name: &str) -> Option<&'static BuiltIn> {
+    BUILT_IN.iter().find(|b| b.name == name)
+}

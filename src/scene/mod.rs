@@ -1,0 +1,282 @@
+//! Scenes: what a user writes (TOML, or a built-in name) before it becomes a [`crate::model::Model`].
+//!
+//! The structs here are the file format itself (`deny_unknown_fields`, SI units in the names). A
+//! scene is only handed out by [`load`] / [`from_toml`] after [`validate`] has checked every value,
+//! so the model builder can trust it.
+
+mod builtin;
+mod locate;
+mod validate;
+
+pub use builtin::{BUILT_IN, BuiltIn};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, SceneError, SceneOrigin};
+use crate::integrator::Integrator;
+
+/// A whole scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name, used for the Rerun application id and default `.rrd` name.
+    pub name: String,
+    /// One line shown by `hooke scenes`.
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub solver: Solver,
+    #[serde(default)]
+    pub effects: Effects,
+    pub bodies: Vec<Body>,
+    #[serde(default)]
+    pub view: View,
+}
+
+/// Time stepping. One frame is `substeps` steps of `dt`, and `frame_rate_hz · substeps · dt = 1`;
+/// give `substeps` or `dt_secs` (not both), the other follows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Solver {
+    #[serde(default)]
+    pub integrator: Integrator,
+    #[serde(default = "default_frame_rate")]
+    pub frame_rate_hz: f64,
+    #[serde(default)]
+    pub substeps: Option<u32>,
+    #[serde(default)]
+    pub dt_secs: Option<f64>,
+    /// Simulated time to run; `frames` wins when both are given on the command line.
+    #[serde(default)]
+    pub duration_secs: Option<f64>,
+    #[serde(default)]
+    pub frames: Option<u64>,
+}
+
+fn default_frame_rate() -> f64 {
+    60.0
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Self {
+            integrator: Integrator::default(),
+            frame_rate_hz: default_frame_rate(),
+            substeps: None,
+            dt_secs: None,
+            duration_secs: None,
+            frames: None,
+        }
+    }
+}
+
+/// Effects a scene opts into. Anything absent is not simulated at all.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    /// Gravitational acceleration, e.g. `[0, -9.81, 0]` (y is up).
+    #[serde(default)]
+    pub gravity_m_per_s2: Option<[f32; 3]>,
+    /// Linear air drag as a rate: each mass feels `-m · air_drag_per_s · v`.
+    #[serde(default)]
+    pub air_drag_per_s: Option<f32>,
+    #[serde(default)]
+    pub ground: Option<Ground>,
+    #[serde(default)]
+    pub spheres: Vec<Sphere>,
+}
+
+/// How a collider pushes back: a penalty spring along the contact normal, damped so that an
+/// impact keeps the given coefficient of restitution, plus Coulomb friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Penalty stiffness per mass point in contact.
+    pub stiffness_n_per_m: f32,
+    /// Coulomb friction coefficient (0 = frictionless).
+    pub friction: f32,
+    /// Coefficient of restitution of a single mass hitting the collider (0 = no bounce, 1 = elastic).
+    pub restitution: f32,
+}
+
+fn default_contact_stiffness() -> f32 {
+    1.0e4
+}
+fn default_restitution() -> f32 {
+    0.5
+}
+
+/// The plane `y = height_m`, solid below.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ground {
+    #[serde(default)]
+    pub height_m: f32,
+    /// Penalty stiffness per mass point in contact.
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    /// Coulomb friction coefficient (0 = frictionless).
+    #[serde(default)]
+    pub friction: f32,
+    /// Coefficient of restitution of a single mass hitting the ground (0 = no bounce, 1 = elastic).
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+impl Ground {
+    pub fn contact(&self) -> Contact {
+        Contact {
+            stiffness_n_per_m: self.stiffness_n_per_m,
+            friction: self.friction,
+            restitution: self.restitution,
+        }
+    }
+}
+
+/// A solid sphere, optionally moving at constant velocity from `center_m` at t = 0.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sphere {
+    pub center_m: [f32; 3],
+    pub radius_m: f32,
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+impl Sphere {
+    pub fn contact(&self) -> Contact {
+        Contact {
+            stiffness_n_per_m: self.stiffness_n_per_m,
+            friction: self.friction,
+            restitution: self.restitution,
+        }
+    }
+}
+
+/// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    pub name: String,
+    /// Masses along each grid axis: `[n]`, `[nu, nv]` or `[nu, nv, nw]`.
+    pub grid: Vec<u32>,
+    /// Distance between grid neighbours at rest.
+    pub spacing_m: f32,
+    /// Total mass of the body, shared equally by its mass points.
+    pub mass_kg: f32,
+    /// World position of grid index `[0, 0, 0]`.
+    #[serde(default)]
+    pub origin_m: [f32; 3],
+    /// World direction of each grid axis (normalised); defaults to x, y, z in turn.
+    #[serde(default)]
+    pub axes: Option<Vec<[f32; 3]>>,
+    /// Initial velocity of every mass.
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    /// Grid indices of masses held fixed in place.
+    #[serde(default)]
+    pub pins: Vec<Vec<u32>>,
+    #[serde(default)]
+    pub springs: Springs,
+}
+
+/// Which spring kinds the body has. Absent kinds are not built.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Springs {
+    /// Nearest grid neighbours along each axis.
+    #[serde(default)]
+    pub structural: Option<SpringKind>,
+    /// Diagonal neighbours (face diagonals, and body diagonals in 3D).
+    #[serde(default)]
+    pub shear: Option<SpringKind>,
+    /// Second neighbours along each axis: resist folding.
+    #[serde(default)]
+    pub bending: Option<SpringKind>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringKind {
+    pub stiffness_n_per_m: f32,
+    /// Damping along the spring: force `-c (v_rel · x̂)`.
+    #[serde(default)]
+    pub damping_n_s_per_m: f32,
+}
+
+/// How the recording presents the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct View {
+    /// Strain mapped to the ends of the colour scale: `-strain_range` is fully blue (compressed),
+    /// `+strain_range` fully red (stretched).
+    #[serde(default = "default_strain_range")]
+    pub strain_range: f32,
+}
+
+fn default_strain_range() -> f32 {
+    0.1
+}
+
+impl Default for View {
+    fn default() -> Self {
+        Self {
+            strain_range: default_strain_range(),
+        }
+    }
+}
+
+/// A scene plus the text it came from, so later checks can still point at lines.
+#[derive(Debug, Clone)]
+pub struct LoadedScene {
+    pub scene: Scene,
+    pub origin: SceneOrigin,
+    pub text: String,
+}
+
+/// Parse and validate scene text.
+pub fn from_toml(text: &str, origin: SceneOrigin) -> Result<Scene, SceneError> {
+    let scene: Scene = toml::from_str(text).map_err(|e| locate::from_toml_error(&e, text, &origin))?;
+    validate::validate(&scene).map_err(|(field, message)| SceneError {
+        position: locate::position_of(text, &field),
+        origin: origin.clone(),
+        field,
+        message,
+    })?;
+    Ok(scene)
+}
+
+/// Load a built-in scene by name, or a TOML file by path.
+pub fn load(name_or_path: &str) -> Result<LoadedScene, Error> {
+    if let Some(b) = builtin::find(name_or_path) {
+        let origin = SceneOrigin::BuiltIn(b.name.to_owned());
+        let scene = from_toml(b.toml, origin.clone())?;
+        return Ok(LoadedScene {
+            scene,
+            origin,
+            text: b.toml.to_owned(),
+        });
+    }
+    let path = std::path::Path::new(name_or_path);
+    if !path.exists() {
+        return Err(Error::UnknownScene {
+            name: name_or_path.to_owned(),
+        });
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| Error::ReadScene {
+        path: path.to_owned(),
+        source,
+    })?;
+    let origin = SceneOrigin::File(path.to_owned());
+    let scene = from_toml(&text, origin.clone())?;
+    Ok(LoadedScene {
+        scene,
+        origin,
+        text,
+    })
+}

@@ -1,0 +1,207 @@
+//! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
+//! [`super::from_toml`] adds the file position.
+
+use super::{Body, Scene, SpringKind};
+
+type Check = Result<(), (String, String)>;
+
+/// Upper bound on the masses one scene may hold: far beyond any GPU's storage limits, low enough
+/// that an absurd grid is refused before it is allocated.
+pub const MAX_MASSES: u64 = 1 << 26;
+
+fn fail(field: impl Into<String>, message: impl Into<String>) -> Check {
+    Err((field.into(), message.into()))
+}
+
+fn finite(field: &str, v: f64) -> Check {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        fail(field, format!("must be a finite number, got {v}"))
+    }
+}
+
+fn positive(field: &str, v: f64) -> Check {
+    finite(field, v)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        fail(field, format!("must be greater than zero, got {v}"))
+    }
+}
+
+fn non_negative(field: &str, v: f64) -> Check {
+    finite(field, v)?;
+    if v >= 0.0 {
+        Ok(())
+    } else {
+        fail(field, format!("must be zero or more, got {v}"))
+    }
+}
+
+fn finite3(field: &str, v: [f32; 3]) -> Check {
+    for (i, c) in v.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), f64::from(*c))?;
+    }
+    Ok(())
+}
+
+fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Check {
+    positive(&format!("{field}.stiffness_n_per_m"), f64::from(stiffness))?;
+    non_negative(&format!("{field}.friction"), f64::from(friction))?;
+    let r = f64::from(restitution);
+    finite(&format!("{field}.restitution"), r)?;
+    if !(0.0..=1.0).contains(&r) {
+        return fail(
+            format!("{field}.restitution"),
+            format!("must lie between 0 (no bounce) and 1 (elastic), got {r}"),
+        );
+    }
+    Ok(())
+}
+
+pub fn validate(scene: &Scene) -> Check {
+    if scene.name.trim().is_empty() {
+        return fail("name", "must not be empty");
+    }
+    let s = &scene.solver;
+    positive("solver.frame_rate_hz", s.frame_rate_hz)?;
+    if let Some(n) = s.substeps {
+        if n == 0 {
+            return fail("solver.substeps", "must be at least 1");
+        }
+    }
+    if let Some(dt) = s.dt_secs {
+        positive("solver.dt_secs", dt)?;
+        if s.substeps.is_some() {
+            return fail(
+                "solver.dt_secs",
+                "give either `substeps` or `dt_secs`, not both: dt = 1 / (frame_rate_hz · substeps)",
+            );
+        }
+    }
+    if let Some(d) = s.duration_secs {
+        positive("solver.duration_secs", d)?;
+    }
+    if s.frames == Some(0) {
+        return fail("solver.frames", "must be at least 1");
+    }
+
+    let e = &scene.effects;
+    if let Some(g) = e.gravity_m_per_s2 {
+        finite3("effects.gravity_m_per_s2", g)?;
+    }
+    if let Some(d) = e.air_drag_per_s {
+        non_negative("effects.air_drag_per_s", f64::from(d))?;
+    }
+    if let Some(g) = &e.ground {
+        finite("effects.ground.height_m", f64::from(g.height_m))?;
+        contact("effects.ground", g.stiffness_n_per_m, g.friction, g.restitution)?;
+    }
+    for (i, sp) in e.spheres.iter().enumerate() {
+        let f = format!("effects.spheres[{i}]");
+        finite3(&format!("{f}.center_m"), sp.center_m)?;
+        positive(&format!("{f}.radius_m"), f64::from(sp.radius_m))?;
+        finite3(&format!("{f}.velocity_m_per_s"), sp.velocity_m_per_s)?;
+        contact(&f, sp.stiffness_n_per_m, sp.friction, sp.restitution)?;
+    }
+
+    if scene.bodies.is_empty() {
+        return fail("bodies", "a scene needs at least one body ([[bodies]])");
+    }
+    let mut total: u64 = 0;
+    for (i, b) in scene.bodies.iter().enumerate() {
+        let f = format!("bodies[{i}]");
+        body(&f, b)?;
+        if scene.bodies[..i].iter().any(|o| o.name == b.name) {
+            return fail(format!("{f}.name"), format!("another body is already named '{}'", b.name));
+        }
+        total += b.grid.iter().map(|&n| u64::from(n)).product::<u64>();
+        if total > MAX_MASSES {
+            return fail(
+                format!("{f}.grid"),
+                format!("the scene would hold {total} masses, more than the limit of {MAX_MASSES}"),
+            );
+        }
+    }
+    positive("view.strain_range", f64::from(scene.view.strain_range))?;
+    Ok(())
+}
+
+fn body(f: &str, b: &Body) -> Check {
+    if b.name.trim().is_empty() {
+        return fail(format!("{f}.name"), "must not be empty");
+    }
+    let dim = b.grid.len();
+    if !(1..=3).contains(&dim) {
+        return fail(
+            format!("{f}.grid"),
+            format!("must list 1, 2 or 3 counts (a strand, sheet or block), got {dim}"),
+        );
+    }
+    for (a, &n) in b.grid.iter().enumerate() {
+        if n == 0 {
+            return fail(format!("{f}.grid[{a}]"), "the grid is empty: every count must be at least 1");
+        }
+    }
+    let count: u64 = b.grid.iter().map(|&n| u64::from(n)).product();
+    if count > MAX_MASSES {
+        return fail(
+            format!("{f}.grid"),
+            format!("{count} masses is more than the limit of {MAX_MASSES}"),
+        );
+    }
+    positive(&format!("{f}.spacing_m"), f64::from(b.spacing_m))?;
+    positive(&format!("{f}.mass_kg"), f64::from(b.mass_kg))?;
+    finite3(&format!("{f}.origin_m"), b.origin_m)?;
+    finite3(&format!("{f}.velocity_m_per_s"), b.velocity_m_per_s)?;
+    if let Some(axes) = &b.axes {
+        if axes.len() != dim {
+            return fail(
+                format!("{f}.axes"),
+                format!("needs one direction per grid axis ({dim}), got {}", axes.len()),
+            );
+        }
+        for (a, v) in axes.iter().enumerate() {
+            let fa = format!("{f}.axes[{a}]");
+            finite3(&fa, *v)?;
+            if glam::Vec3::from(*v).length() < 1e-6 {
+                return fail(fa, "must be a non-zero direction");
+            }
+        }
+    }
+    for (p, pin) in b.pins.iter().enumerate() {
+        let fp = format!("{f}.pins[{p}]");
+        if pin.len() != dim {
+            return fail(
+                fp,
+                format!("a pin is a grid index with {dim} entries, like the grid; got {}", pin.len()),
+            );
+        }
+        for (a, (&idx, &n)) in pin.iter().zip(&b.grid).enumerate() {
+            if idx >= n {
+                return fail(
+                    format!("{fp}[{a}]"),
+                    format!("pin index {idx} is outside the grid: axis {a} has indices 0 to {}", n - 1),
+                );
+            }
+        }
+    }
+    let kind = |name: &str, k: &Option<SpringKind>| -> Check {
+        if let Some(k) = k {
+            positive(&format!("{f}.springs.{name}.stiffness_n_per_m"), f64::from(k.stiffness_n_per_m))?;
+            non_negative(&format!("{f}.springs.{name}.damping_n_s_per_m"), f64::from(k.damping_n_s_per_m))?;
+        }
+        Ok(())
+    };
+    kind("structural", &b.springs.structural)?;
+    kind("shear", &b.springs.shear)?;
+    kind("bending", &b.springs.bending)?;
+    if dim == 1 && b.springs.shear.is_some() {
+        return fail(
+            format!("{f}.springs.shear"),
+            "shear springs join diagonal neighbours and need a 2D or 3D grid; remove them for a strand",
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,109 @@
+//! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
+
+use crate::error::{Error, Result};
+use crate::integrator::Integrator;
+use crate::scene::Scene;
+
+/// Values given on the command line; each replaces the scene's.
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    pub integrator: Option<Integrator>,
+    pub dt_secs: Option<f64>,
+    pub substeps: Option<u32>,
+    pub frames: Option<u64>,
+    pub duration_secs: Option<f64>,
+}
+
+/// How a run steps: `frames` frames of `substeps` steps of `dt_secs`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    pub integrator: Integrator,
+    pub frame_rate_hz: f64,
+    pub substeps: u32,
+    pub dt_secs: f64,
+    pub frames: u64,
+    /// Things the user should know about how their values were applied.
+    pub notes: Vec<String>,
+}
+
+/// Simulated time when neither the scene nor the command line says.
+pub const DEFAULT_DURATION_SECS: f64 = 5.0;
+
+impl Settings {
+    pub fn resolve(scene: &Scene, o: &Overrides) -> Result<Self> {
+        let s = &scene.solver;
+        let fps = s.frame_rate_hz;
+        let frame_secs = 1.0 / fps;
+        let mut notes = Vec::new();
+        if let Some(dt) = o.dt_secs {
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(Error::Settings(format!("--dt must be a positive number of seconds, got {dt}")));
+            }
+        }
+        if o.substeps == Some(0) {
+            return Err(Error::Settings("--substeps must be at least 1".into()));
+        }
+        // The command line wins; within one source, dt and substeps are two views of one value.
+        let (dt_req, sub_req) = match (o.dt_secs, o.substeps) {
+            (None, None) => (s.dt_secs, s.substeps),
+            other => other,
+        };
+        let substeps = match (dt_req, sub_req) {
+            (Some(dt), Some(n)) => {
+                if ((dt * fps * f64::from(n)) - 1.0).abs() > 1e-6 {
+                    return Err(Error::Settings(format!(
+                        "--dt {dt} s and --substeps {n} disagree: at {fps} frames/s, {n} substeps means dt = {:.6e} s; give only one",
+                        frame_secs / f64::from(n)
+                    )));
+                }
+                n
+            }
+            (None, Some(n)) => n,
+            (Some(dt), None) => {
+                let exact = frame_secs / dt;
+                let n = (exact - 1e-9).ceil().max(1.0);
+                if n > f64::from(u32::MAX) {
+                    return Err(Error::Settings(format!("dt = {dt} s would need {n} substeps per frame")));
+                }
+                let n = n as u32;
+                if (exact - f64::from(n)).abs() > 1e-6 * exact {
+                    notes.push(format!(
+                        "dt = {dt} s does not divide the frame time 1/{fps} s; using {n} substeps of {:.6e} s",
+                        frame_secs / f64::from(n)
+                    ));
+                }
+                n
+            }
+            (None, None) => 1,
+        };
+        let frames = match (o.frames, o.duration_secs, s.frames, s.duration_secs) {
+            (Some(f), _, _, _) => f,
+            (None, Some(d), _, _) => duration_frames(d, fps)?,
+            (None, None, Some(f), _) => f,
+            (None, None, None, Some(d)) => duration_frames(d, fps)?,
+            (None, None, None, None) => duration_frames(DEFAULT_DURATION_SECS, fps)?,
+        };
+        if frames == 0 {
+            return Err(Error::Settings("--frames must be at least 1".into()));
+        }
+        Ok(Self {
+            integrator: o.integrator.unwrap_or(s.integrator),
+            frame_rate_hz: fps,
+            substeps,
+            dt_secs: frame_secs / f64::from(substeps),
+            frames,
+            notes,
+        })
+    }
+
+    pub fn duration_secs(&self) -> f64 {
+        self.frames as f64 / self.frame_rate_hz
+    }
+}
+
+fn duration_frames(d: f64, fps: f64) -> Result<u64> {
+    if !(d.is_finite() && d > 0.0) {
+        return Err(Error::Settings(format!("--duration must be a positive number of seconds, got {d}")));
+    }
+    Ok((d * fps).round().max(1.0) as u64)
+}

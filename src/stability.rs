@@ -1,0 +1,73 @@
+//! How large a step the scene survives: a bound on its stiffest mode, fed to each integrator's
+//! own amplification (see [`Integrator::stable_dt`]).
+
+use crate::integrator::Integrator;
+use crate::model::Model;
+
+/// The stiffest mode's angular frequency (an upper bound) and its damping ratio.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StiffestMode {
+    pub omega_rad_per_s: f64,
+    pub damping_ratio: f64,
+    /// The mass where the bound is reached.
+    pub mass: u32,
+}
+
+/// Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2, where K holds the springs
+/// (and any contact spring, which a mass may feel at any time): ω² ≤ max_i Σ_j k_ij (1/m_i +
+/// 1/√(m_i m_j)). Exact for a uniform chain. The damping ratio uses the same weights, which is
+/// exact when damping is proportional to stiffness.
+pub fn stiffest_mode(model: &Model) -> StiffestMode {
+    let mut best = StiffestMode {
+        omega_rad_per_s: 0.0,
+        damping_ratio: 0.0,
+        mass: 0,
+    };
+    let fx = &model.effects;
+    for i in 0..model.mass_count() {
+        if model.inv_mass[i] == 0.0 {
+            continue;
+        }
+        let mi = f64::from(model.mass_kg[i]);
+        let (mut k, mut c) = (0.0f64, 0.0f64);
+        for nb in model.adjacency.of(i) {
+            let s = &model.springs[nb.spring as usize];
+            let j = nb.other as usize;
+            let w = 1.0 / mi
+                + if model.inv_mass[j] == 0.0 {
+                    0.0
+                } else {
+                    1.0 / (mi * f64::from(model.mass_kg[j])).sqrt()
+                };
+            k += f64::from(s.stiffness_n_per_m) * w;
+            c += f64::from(s.damping_n_s_per_m) * w;
+        }
+        let contacts = fx.ground.iter().map(|g| g.contact).chain(fx.spheres.iter().map(|s| s.contact));
+        for ct in contacts {
+            let kc = f64::from(ct.stiffness_n_per_m);
+            k += kc / mi;
+            c += 2.0 * f64::from(ct.damping_ratio) * (kc * mi).sqrt() / mi;
+        }
+        if let Some(g) = fx.air_drag_per_s {
+            c += f64::from(g);
+        }
+        if k > best.omega_rad_per_s * best.omega_rad_per_s {
+            let omega = k.sqrt();
+            best = StiffestMode {
+                omega_rad_per_s: omega,
+                damping_ratio: c / (2.0 * omega),
+                mass: i as u32,
+            };
+        }
+    }
+    best
+}
+
+/// Estimated largest stable dt for each integrator; `None` where the scheme is unstable at any dt.
+pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
+    let mode = stiffest_mode(model);
+    Integrator::ALL
+        .iter()
+        .map(|&i| (i, i.stable_dt(mode.omega_rad_per_s, mode.damping_ratio.min(1.0))))
+        .collect()
+}

@@ -1,0 +1,148 @@
+//! What changes over time: the state a backend advances, the energy ledger, and the snapshots the
+//! simulation thread sends to the recorder.
+
+use glam::Vec3;
+
+/// Energy that left (or entered) the system through non-conservative forces, integrated alongside
+/// the state by the same integrator, so that `total + dissipated − collider work` is a check on the
+/// integration itself.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Ledger {
+    /// Spring damping, J.
+    pub damping_j: f64,
+    /// Air drag, J.
+    pub drag_j: f64,
+    /// Contact damping, friction and the post-step safeguard, J.
+    pub contact_j: f64,
+    /// Work done on the system by moving colliders, J.
+    pub collider_work_j: f64,
+}
+
+/// Rates of the ledger's entries at one state (W). Combined by the integrators like derivatives.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Power {
+    pub damping_w: f64,
+    pub drag_w: f64,
+    pub contact_w: f64,
+    pub collider_w: f64,
+}
+
+impl Power {
+    pub fn add_scaled(&mut self, other: &Power, s: f64) {
+        self.damping_w += s * other.damping_w;
+        self.drag_w += s * other.drag_w;
+        self.contact_w += s * other.contact_w;
+        self.collider_w += s * other.collider_w;
+    }
+}
+
+impl Ledger {
+    pub fn accumulate(&mut self, p: &Power, dt: f64) {
+        self.damping_j += dt * p.damping_w;
+        self.drag_j += dt * p.drag_w;
+        self.contact_j += dt * p.contact_w;
+        self.collider_work_j += dt * p.collider_w;
+    }
+    pub fn dissipated_j(&self) -> f64 {
+        self.damping_j + self.drag_j + self.contact_j
+    }
+}
+
+/// Positions and velocities of every mass, the time, and the ledger.
+#[derive(Debug, Clone, PartialEq)]
+pub struct State {
+    pub x: Vec<Vec3>,
+    pub v: Vec<Vec3>,
+    pub time_secs: f64,
+    pub steps: u64,
+    pub ledger: Ledger,
+}
+
+impl State {
+    pub fn new(x: Vec<Vec3>, v: Vec<Vec3>) -> Self {
+        Self {
+            x,
+            v,
+            time_secs: 0.0,
+            steps: 0,
+            ledger: Ledger::default(),
+        }
+    }
+}
+
+/// The energies of one snapshot (J).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Energies {
+    pub kinetic_j: f64,
+    /// Springs' elastic energy.
+    pub elastic_j: f64,
+    /// Gravitational potential, zero at y = 0 for g along −y (in general −m g·x).
+    pub gravity_j: f64,
+    /// Energy stored in compressed contact penalty springs.
+    pub contact_j: f64,
+    pub ledger: Ledger,
+}
+
+impl Energies {
+    /// Mechanical energy held by the system.
+    pub fn total_j(&self) -> f64 {
+        self.kinetic_j + self.elastic_j + self.gravity_j + self.contact_j
+    }
+    /// Constant in exact arithmetic: mechanical energy plus what was dissipated, less what
+    /// moving colliders put in.
+    pub fn balance_j(&self) -> f64 {
+        self.total_j() + self.ledger.dissipated_j() - self.ledger.collider_work_j
+    }
+}
+
+/// Per-frame stepping statistics.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepStats {
+    pub substeps: u32,
+    pub dt_secs: f64,
+    /// Wall time spent stepping this frame.
+    pub step_ms: f64,
+    /// Masses the post-step safeguard pushed back out of a collider this frame.
+    pub projections: u32,
+}
+
+/// One frame as the recorder sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    pub frame: u64,
+    pub time_secs: f64,
+    pub steps: u64,
+    pub positions: Vec<Vec3>,
+    /// (|x| − L) / L per spring.
+    pub strain: Vec<f32>,
+    pub energies: Energies,
+    pub stats: StepStats,
+    /// Sphere collider centres at this time.
+    pub sphere_centers: Vec<Vec3>,
+}
+
+impl Snapshot {
+    pub fn max_abs_strain(&self) -> f32 {
+        self.strain.iter().fold(0.0f32, |m, s| m.max(s.abs()))
+    }
+}
+
+/// The state stopped being finite or ran away. Carries what a user needs to fix it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "the simulation diverged at step {step} (t = {time_secs:.6} s): {what} at mass {mass}{body}{spring}. \
+     The step dt = {dt_secs:.3e} s is too large for this scene with `{integrator}`: use a smaller \
+     --dt or more --substeps (run `hooke check` for each integrator's stable step)"
+)]
+pub struct Divergence {
+    pub step: u64,
+    pub time_secs: f64,
+    pub mass: u32,
+    /// ", body 'cloth' grid index 17" or empty.
+    pub body: String,
+    /// ", its most strained spring is 42 (structural)" or empty.
+    pub spring: String,
+    pub what: String,
+    pub dt_secs: f64,
+    pub integrator: String,
+}

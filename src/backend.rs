@@ -27,7 +27,12 @@ pub trait Backend: Send {
     fn state(&mut self) -> State;
 }
 
-pub fn create(kind: BackendKind, model: Arc<Model>, integrator: Integrator, dt_secs: f64) -> Box<dyn Backend> {
+pub fn create(
+    kind: BackendKind,
+    model: Arc<Model>,
+    integrator: Integrator,
+    dt_secs: f64,
+) -> Box<dyn Backend> {
     match kind {
         BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
     }
@@ -38,7 +43,12 @@ pub fn create(kind: BackendKind, model: Arc<Model>, integrator: Integrator, dt_s
 pub const RUNAWAY_SPEED_M_PER_S: f32 = 1.0e4;
 
 /// The first mass whose state is non-finite or runaway, described for the user.
-pub fn find_divergence(model: &Model, state: &State, integrator: Integrator, dt_secs: f64) -> Option<Divergence> {
+pub fn find_divergence(
+    model: &Model,
+    state: &State,
+    integrator: Integrator,
+    dt_secs: f64,
+) -> Option<Divergence> {
     let bad = |i: usize| {
         let (x, v) = (state.x[i], state.v[i]);
         if !x.is_finite() || !v.is_finite() {
@@ -63,7 +73,14 @@ pub fn find_divergence(model: &Model, state: &State, integrator: Integrator, dt_
             let s = &model.springs[nb.spring as usize];
             let len = state.x[s.a as usize].distance(state.x[s.b as usize]);
             let strain = (len - s.rest_m) / s.rest_m;
-            (nb.spring, if strain.is_finite() { strain.abs() } else { f32::INFINITY })
+            (
+                nb.spring,
+                if strain.is_finite() {
+                    strain.abs()
+                } else {
+                    f32::INFINITY
+                },
+            )
         })
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(s, strain)| {

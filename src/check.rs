@@ -8,7 +8,10 @@ use crate::stability::{stable_dts, stiffest_mode};
 
 /// Is the chosen dt above the estimated limit of the chosen integrator?
 pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
-    let limit = stable_dts(model).into_iter().find(|(i, _)| *i == settings.integrator)?.1;
+    let limit = stable_dts(model)
+        .into_iter()
+        .find(|(i, _)| *i == settings.integrator)?
+        .1;
     match limit {
         Some(l) if settings.dt_secs <= l => None,
         Some(l) => Some(format!(
@@ -42,7 +45,12 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
         model.pinned_count(),
         model.spring_count()
     );
-    for kind in [SpringKindTag::Structural, SpringKindTag::Shear, SpringKindTag::Bending, SpringKindTag::Custom] {
+    for kind in [
+        SpringKindTag::Structural,
+        SpringKindTag::Shear,
+        SpringKindTag::Bending,
+        SpringKindTag::Custom,
+    ] {
         let n = model.springs_of_kind(kind);
         if n > 0 {
             let _ = writeln!(s, "    {:<10} {n}", kind.name());
@@ -113,16 +121,34 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     );
     let _ = writeln!(s, "  estimated largest stable dt:");
     for (i, dt) in stable_dts(model) {
-        let mark = if i == settings.integrator { " <- chosen" } else { "" };
+        let mark = if i == settings.integrator {
+            " <- chosen"
+        } else {
+            ""
+        };
         match dt {
             Some(dt) if dt.is_finite() => {
-                let _ = writeln!(s, "    {:<14} {:.3e} s ({:.0} substeps/frame){mark}", i.name(), dt, (1.0 / (settings.frame_rate_hz * dt)).ceil());
+                let _ = writeln!(
+                    s,
+                    "    {:<14} {:.3e} s ({:.0} substeps/frame){mark}",
+                    i.name(),
+                    dt,
+                    (1.0 / (settings.frame_rate_hz * dt)).ceil()
+                );
             }
             Some(_) => {
-                let _ = writeln!(s, "    {:<14} unlimited (no springs or contacts){mark}", i.name());
+                let _ = writeln!(
+                    s,
+                    "    {:<14} unlimited (no springs or contacts){mark}",
+                    i.name()
+                );
             }
             None => {
-                let _ = writeln!(s, "    {:<14} unstable at any dt (needs damping){mark}", i.name());
+                let _ = writeln!(
+                    s,
+                    "    {:<14} unstable at any dt (needs damping){mark}",
+                    i.name()
+                );
             }
         }
     }

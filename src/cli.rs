@@ -7,7 +7,11 @@ use hooke::integrator::Integrator;
 use hooke::settings::Overrides;
 
 #[derive(Debug, Parser)]
-#[command(name = "hooke", version, about = "Mass-spring simulation (hair, cloth, jello) streamed to the Rerun viewer")]
+#[command(
+    name = "hooke",
+    version,
+    about = "Mass-spring simulation (hair, cloth, jello) streamed to the Rerun viewer"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

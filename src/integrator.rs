@@ -75,8 +75,14 @@ impl Integrator {
             }
             Integrator::Rk4 => {
                 let (k1x, k1v) = (v, acc(x, v));
-                let (k2x, k2v) = (v + 0.5 * dt * k1v, acc(x + 0.5 * dt * k1x, v + 0.5 * dt * k1v));
-                let (k3x, k3v) = (v + 0.5 * dt * k2v, acc(x + 0.5 * dt * k2x, v + 0.5 * dt * k2v));
+                let (k2x, k2v) = (
+                    v + 0.5 * dt * k1v,
+                    acc(x + 0.5 * dt * k1x, v + 0.5 * dt * k1v),
+                );
+                let (k3x, k3v) = (
+                    v + 0.5 * dt * k2v,
+                    acc(x + 0.5 * dt * k2x, v + 0.5 * dt * k2v),
+                );
                 let (k4x, k4v) = (v + dt * k3v, acc(x + dt * k3x, v + dt * k3v));
                 (
                     x + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
@@ -150,11 +156,19 @@ mod tests {
         assert!(Integrator::Euler.stable_dt(w, 0.0).is_none());
         assert!(Integrator::Rk2.stable_dt(w, 0.0).is_none());
         let se = Integrator::SemiImplicit.stable_dt(w, 0.0).unwrap_or(0.0);
-        assert!((se * w - 2.0).abs() < 1e-6, "semi-implicit ωdt = {}", se * w);
+        assert!(
+            (se * w - 2.0).abs() < 1e-6,
+            "semi-implicit ωdt = {}",
+            se * w
+        );
         let vv = Integrator::Verlet.stable_dt(w, 0.0).unwrap_or(0.0);
         assert!((vv * w - 2.0).abs() < 1e-6, "verlet ωdt = {}", vv * w);
         let rk4 = Integrator::Rk4.stable_dt(w, 0.0).unwrap_or(0.0);
-        assert!((rk4 * w - 8f64.sqrt()).abs() < 1e-6, "rk4 ωdt = {}", rk4 * w);
+        assert!(
+            (rk4 * w - 8f64.sqrt()).abs() < 1e-6,
+            "rk4 ωdt = {}",
+            rk4 * w
+        );
     }
 
     #[test]

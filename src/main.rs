@@ -33,10 +33,13 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     match cli.command {
         Command::Scenes => {
             for b in scene::BUILT_IN {
-                let s = scene::from_toml(b.toml, hooke::error::SceneOrigin::BuiltIn(b.name.into()))?;
+                let s =
+                    scene::from_toml(b.toml, hooke::error::SceneOrigin::BuiltIn(b.name.into()))?;
                 println!("{:<14} {}", b.name, s.description);
             }
-            println!("\nEach is also a file under examples/scenes/; `hooke run FILE.toml` runs a copy you edit.");
+            println!(
+                "\nEach is also a file under examples/scenes/; `hooke run FILE.toml` runs a copy you edit."
+            );
             Ok(())
         }
         Command::Check { scene, solver } => {
@@ -46,7 +49,10 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
                 println!("note: {n}");
             }
             let model = hooke::model::build(&loaded.scene);
-            print!("{}", hooke::check::report(&loaded.scene.name, &model, &settings));
+            print!(
+                "{}",
+                hooke::check::report(&loaded.scene.name, &model, &settings)
+            );
             Ok(())
         }
         Command::Run {
@@ -55,7 +61,9 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             backend,
             rerun,
         } => {
-            let run_matches = matches.subcommand_matches("run").context("parsing `run` arguments")?;
+            let run_matches = matches
+                .subcommand_matches("run")
+                .context("parsing `run` arguments")?;
             run(&scene, &solver, backend, &rerun, run_matches)
         }
     }
@@ -63,18 +71,27 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
 
 /// Why the default (spawn a viewer) cannot work here, if it cannot.
 fn viewer_unavailable() -> Option<String> {
-    let on_path = std::env::var_os("PATH").is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("rerun").is_file()));
+    let on_path = std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("rerun").is_file()));
     if !on_path {
-        return Some("no `rerun` viewer on PATH (install it with `pip install rerun-sdk==0.36.3`)".into());
+        return Some(
+            "no `rerun` viewer on PATH (install it with `pip install rerun-sdk==0.36.3`)".into(),
+        );
     }
-    if cfg!(target_os = "linux") && std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
-        return Some("no display to open a viewer window on (DISPLAY and WAYLAND_DISPLAY are unset)".into());
+    if cfg!(target_os = "linux")
+        && std::env::var_os("DISPLAY").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none()
+    {
+        return Some(
+            "no display to open a viewer window on (DISPLAY and WAYLAND_DISPLAY are unset)".into(),
+        );
     }
     None
 }
 
 fn explicit(m: &clap::ArgMatches, id: &str) -> bool {
-    m.try_contains_id(id).unwrap_or(false) && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+    m.try_contains_id(id).unwrap_or(false)
+        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
 }
 
 fn run(
@@ -95,20 +112,31 @@ fn run(
     }
 
     let saving = explicit(m, "save");
-    let streaming_elsewhere = explicit(m, "stdout") || explicit(m, "connect") || explicit(m, "serve");
+    let streaming_elsewhere =
+        explicit(m, "stdout") || explicit(m, "connect") || explicit(m, "serve");
     let blueprint = hooke::record::blueprint;
     // With no sink flag Rerun spawns a viewer; where none can be spawned we record to a file
     // instead and say so, so a run is never lost.
     let mut fallback: Option<PathBuf> = None;
     let (rec, _guard) = if saving || streaming_elsewhere {
-        rerun_args.init_with_blueprint("hooke", blueprint()).context("starting the Rerun recording")?
+        rerun_args
+            .init_with_blueprint("hooke", blueprint())
+            .context("starting the Rerun recording")?
     } else {
         let why = match viewer_unavailable() {
             Some(why) => Some(why),
             None => match rerun_args.init_with_blueprint("hooke", blueprint()) {
                 Ok(pair) => {
                     eprintln!("streaming to a spawned Rerun viewer");
-                    return finish(&loaded, model, &settings, backend, pair, Delivery::DropWhenBusy, None);
+                    return finish(
+                        &loaded,
+                        model,
+                        &settings,
+                        backend,
+                        pair,
+                        Delivery::DropWhenBusy,
+                        None,
+                    );
                 }
                 Err(e) => Some(format!("spawning the viewer failed: {e:#}")),
             },
@@ -131,8 +159,20 @@ fn run(
     } else {
         Delivery::DropWhenBusy
     };
-    let saved = if saving { m.get_one::<PathBuf>("save").cloned() } else { fallback };
-    finish(&loaded, model, &settings, backend, (rec, _guard), delivery, saved.as_deref())
+    let saved = if saving {
+        m.get_one::<PathBuf>("save").cloned()
+    } else {
+        fallback
+    };
+    finish(
+        &loaded,
+        model,
+        &settings,
+        backend,
+        (rec, _guard),
+        delivery,
+        saved.as_deref(),
+    )
 }
 
 fn finish(
@@ -171,7 +211,10 @@ fn finish(
         let open = format!("open it with `rerun {}`", p.display());
         match &result {
             Ok(_) => say(format!("saved {}; {open}", p.display())),
-            Err(_) => say(format!("the frames recorded before the error are in {}; {open}", p.display())),
+            Err(_) => say(format!(
+                "the frames recorded before the error are in {}; {open}",
+                p.display()
+            )),
         }
     }
     let summary = result?;
@@ -182,7 +225,10 @@ fn finish(
         summary.backend,
         summary.wall_secs,
         if summary.frames_dropped > 0 {
-            format!(", {} frames not shown because the viewer fell behind", summary.frames_dropped)
+            format!(
+                ", {} frames not shown because the viewer fell behind",
+                summary.frames_dropped
+            )
         } else {
             String::new()
         }

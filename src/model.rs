@@ -144,7 +144,13 @@ impl Adjacency {
         }
         let offsets = counts;
         let mut fill = offsets.clone();
-        let mut entries = vec![Neighbor { spring: 0, other: 0 }; 2 * springs.len()];
+        let mut entries = vec![
+            Neighbor {
+                spring: 0,
+                other: 0
+            };
+            2 * springs.len()
+        ];
         for (si, s) in springs.iter().enumerate() {
             for (me, other) in [(s.a, s.b), (s.b, s.a)] {
                 let slot = &mut fill[me as usize];
@@ -232,9 +238,22 @@ impl ModelBuilder {
     }
 
     /// Adds a spring whose rest length is the current distance between its ends.
-    pub fn spring(&mut self, a: u32, b: u32, stiffness_n_per_m: f32, damping_n_s_per_m: f32) -> u32 {
+    pub fn spring(
+        &mut self,
+        a: u32,
+        b: u32,
+        stiffness_n_per_m: f32,
+        damping_n_s_per_m: f32,
+    ) -> u32 {
         let rest = self.x[a as usize].distance(self.x[b as usize]);
-        self.spring_with_rest(a, b, rest, stiffness_n_per_m, damping_n_s_per_m, SpringKindTag::Custom)
+        self.spring_with_rest(
+            a,
+            b,
+            rest,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+            SpringKindTag::Custom,
+        )
     }
 
     pub fn spring_with_rest(
@@ -346,14 +365,21 @@ pub fn build(scene: &Scene) -> Model {
         let pinned: std::collections::HashSet<u32> = body
             .pins
             .iter()
-            .map(|p| index(p[0], p.get(1).copied().unwrap_or(0), p.get(2).copied().unwrap_or(0)))
+            .map(|p| {
+                index(
+                    p[0],
+                    p.get(1).copied().unwrap_or(0),
+                    p.get(2).copied().unwrap_or(0),
+                )
+            })
             .collect();
         let base = mb.mass_kg.len() as u32;
         for k in 0..n[2] {
             for j in 0..n[1] {
                 for i in 0..n[0] {
                     let p = origin
-                        + body.spacing_m * (i as f32 * axis(0) + j as f32 * axis(1) + k as f32 * axis(2));
+                        + body.spacing_m
+                            * (i as f32 * axis(0) + j as f32 * axis(1) + k as f32 * axis(2));
                     mb.mass(p, vel, m, pinned.contains(&index(i, j, k)));
                 }
             }
@@ -373,14 +399,31 @@ pub fn build(scene: &Scene) -> Model {
                 for k in 0..n[2] {
                     for j in 0..n[1] {
                         for i in 0..n[0] {
-                            let (ti, tj, tk) = (i as i64 + off[0] as i64, j as i64 + off[1] as i64, k as i64 + off[2] as i64);
-                            if ti < 0 || tj < 0 || tk < 0 || ti >= n[0] as i64 || tj >= n[1] as i64 || tk >= n[2] as i64 {
+                            let (ti, tj, tk) = (
+                                i as i64 + off[0] as i64,
+                                j as i64 + off[1] as i64,
+                                k as i64 + off[2] as i64,
+                            );
+                            if ti < 0
+                                || tj < 0
+                                || tk < 0
+                                || ti >= n[0] as i64
+                                || tj >= n[1] as i64
+                                || tk >= n[2] as i64
+                            {
                                 continue;
                             }
                             let a = base + index(i, j, k);
                             let b = base + index(ti as u32, tj as u32, tk as u32);
                             let rest = mb.x[a as usize].distance(mb.x[b as usize]);
-                            mb.spring_with_rest(a, b, rest, params.stiffness_n_per_m, params.damping_n_s_per_m, tag);
+                            mb.spring_with_rest(
+                                a,
+                                b,
+                                rest,
+                                params.stiffness_n_per_m,
+                                params.damping_n_s_per_m,
+                                tag,
+                            );
                         }
                     }
                 }
@@ -440,8 +483,44 @@ mod tests {
         mb.spring(b, c, 1.0, 0.0);
         mb.spring(a, c, 1.0, 0.0);
         let m = mb.build();
-        assert_eq!(m.adjacency.of(0), &[Neighbor { spring: 0, other: 1 }, Neighbor { spring: 2, other: 2 }]);
-        assert_eq!(m.adjacency.of(1), &[Neighbor { spring: 0, other: 0 }, Neighbor { spring: 1, other: 2 }]);
-        assert_eq!(m.adjacency.of(2), &[Neighbor { spring: 1, other: 1 }, Neighbor { spring: 2, other: 0 }]);
+        assert_eq!(
+            m.adjacency.of(0),
+            &[
+                Neighbor {
+                    spring: 0,
+                    other: 1
+                },
+                Neighbor {
+                    spring: 2,
+                    other: 2
+                }
+            ]
+        );
+        assert_eq!(
+            m.adjacency.of(1),
+            &[
+                Neighbor {
+                    spring: 0,
+                    other: 0
+                },
+                Neighbor {
+                    spring: 1,
+                    other: 2
+                }
+            ]
+        );
+        assert_eq!(
+            m.adjacency.of(2),
+            &[
+                Neighbor {
+                    spring: 1,
+                    other: 1
+                },
+                Neighbor {
+                    spring: 2,
+                    other: 0
+                }
+            ]
+        );
     }
 }

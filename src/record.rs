@@ -19,7 +19,11 @@ pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
     const BLUE: [f32; 3] = [59.0, 76.0, 192.0];
     const GREY: [f32; 3] = [221.0, 221.0, 221.0];
     const RED: [f32; 3] = [180.0, 4.0, 38.0];
-    let t = if strain.is_finite() { (strain / range).clamp(-1.0, 1.0) } else { 1.0 };
+    let t = if strain.is_finite() {
+        (strain / range).clamp(-1.0, 1.0)
+    } else {
+        1.0
+    };
     let (end, w) = if t < 0.0 { (BLUE, -t) } else { (RED, t) };
     let mix = |i: usize| (GREY[i] + (end[i] - GREY[i]) * w).round() as u8;
     [mix(0), mix(1), mix(2)]
@@ -27,14 +31,23 @@ pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
 
 /// The default layout: the 3D view beside the energy and statistics plots.
 pub fn blueprint() -> rerun::blueprint::Blueprint {
-    use rerun::blueprint::{Blueprint, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical};
+    use rerun::blueprint::components::PanelState;
+    use rerun::blueprint::{
+        Blueprint, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical,
+    };
     Blueprint::new(
         Horizontal::new([
             Spatial3DView::new("world").with_origin("/world").into(),
             Vertical::new([
-                TimeSeriesView::new("energy (J)").with_origin("/energy").into(),
-                TimeSeriesView::new("step statistics").with_origin("/stats").into(),
-                TextDocumentView::new("strain colour scale").with_origin("/legend").into(),
+                TimeSeriesView::new("energy (J)")
+                    .with_origin("/energy")
+                    .into(),
+                TimeSeriesView::new("step statistics")
+                    .with_origin("/stats")
+                    .into(),
+                TextDocumentView::new("strain colour scale")
+                    .with_origin("/legend")
+                    .into(),
             ])
             .with_row_shares([0.45, 0.35, 0.2])
             .into(),
@@ -42,6 +55,12 @@ pub fn blueprint() -> rerun::blueprint::Blueprint {
         .with_column_shares([0.62, 0.38]),
     )
     .with_auto_views(false)
+    .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
+        PanelState::Collapsed,
+    ))
+    .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
+        PanelState::Collapsed,
+    ))
 }
 
 /// Entity paths for the energy series, with their display names.
@@ -67,8 +86,16 @@ pub struct Recorder {
 
 impl Recorder {
     pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, strain_range: f32) -> Self {
-        let strips = model.bodies.iter().map(|b| Vec::with_capacity(b.springs.len())).collect();
-        let colors = model.bodies.iter().map(|b| Vec::with_capacity(b.springs.len())).collect();
+        let strips = model
+            .bodies
+            .iter()
+            .map(|b| Vec::with_capacity(b.springs.len()))
+            .collect();
+        let colors = model
+            .bodies
+            .iter()
+            .map(|b| Vec::with_capacity(b.springs.len()))
+            .collect();
         Self {
             rec,
             model,
@@ -79,7 +106,13 @@ impl Recorder {
     }
 
     /// Everything that does not change over the run.
-    pub fn log_static(&self, scene_name: &str, scene_text: &str, settings: &Settings, backend: &str) -> RResult {
+    pub fn log_static(
+        &self,
+        scene_name: &str,
+        scene_text: &str,
+        settings: &Settings,
+        backend: &str,
+    ) -> RResult {
         let rec = &self.rec;
         rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
         rec.log_static(
@@ -90,20 +123,14 @@ impl Recorder {
             )),
         )?;
         let r = self.strain_range;
-        let swatch = |s: f32| {
-            let [cr, cg, cb] = strain_color(s, r);
-            format!("<span style=\"color:#{cr:02x}{cg:02x}{cb:02x}\">■</span>")
-        };
         rec.log_static(
             "legend",
             &rerun::TextDocument::from_markdown(format!(
-                "Springs are coloured by strain (|x| − L) / L:\n\n\
+                "Springs are coloured by strain (|x| − L) / L on a fixed scale:\n\n\
                  | colour | strain |\n|---|---|\n\
-                 | {} blue | ≤ −{r} (compressed) |\n| {} grey | 0 (at rest) |\n| {} red | ≥ +{r} (stretched) |\n\n\
-                 Set the range with `[view] strain_range` in the scene file. Pinned masses are drawn black.",
-                swatch(-r),
-                swatch(0.0),
-                swatch(r)
+                 | blue | −{r} or less (compressed) |\n| light grey | 0 (at rest) |\n| red | +{r} or more (stretched) |\n\n\
+                 Set the range with `[view] strain_range` in the scene file. Pinned masses are black; \
+                 `stats/max_strain` plots the largest |strain| of each frame."
             )),
         )?;
         for (path, name) in ENERGY_SERIES {
@@ -125,14 +152,26 @@ impl Recorder {
                 .clone()
                 .map(|s| m.springs[s as usize].rest_m)
                 .fold(f32::INFINITY, f32::min);
-            let radius = if spacing.is_finite() { 0.12 * spacing } else { 0.02 };
+            let radius = if spacing.is_finite() {
+                0.12 * spacing
+            } else {
+                0.02
+            };
             let colors: Vec<rerun::Color> = m.inv_mass[range]
                 .iter()
-                .map(|&w| if w == 0.0 { rerun::Color::from_rgb(0, 0, 0) } else { rerun::Color::from_rgb(230, 170, 40) })
+                .map(|&w| {
+                    if w == 0.0 {
+                        rerun::Color::from_rgb(0, 0, 0)
+                    } else {
+                        rerun::Color::from_rgb(230, 170, 40)
+                    }
+                })
                 .collect();
             rec.log_static(
                 format!("world/{}/masses", b.name),
-                &rerun::Points3D::update_fields().with_colors(colors).with_radii([radius]),
+                &rerun::Points3D::update_fields()
+                    .with_colors(colors)
+                    .with_radii([radius]),
             )?;
             rec.log_static(
                 format!("world/{}/springs", b.name),
@@ -140,19 +179,43 @@ impl Recorder {
             )?;
         }
         if let Some(g) = &m.effects.ground {
-            // A 10 m grid of lines at the ground height.
+            // A grid of lines at the ground height, a metre beyond the bodies' starting extent,
+            // so that the viewer frames the scene rather than the floor.
+            let (lo, hi) = m.initial.x.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            );
+            let step = 0.25f32;
+            let x0 = ((lo.x - 1.0) / step).floor() as i32;
+            let x1 = ((hi.x + 1.0) / step).ceil() as i32;
+            let z0 = ((lo.z - 1.0) / step).floor() as i32;
+            let z1 = ((hi.z + 1.0) / step).ceil() as i32;
             let h = g.height_m;
-            let lines: Vec<[Vec3; 2]> = (-10..=10)
-                .flat_map(|i| {
-                    let c = i as f32 * 0.5;
-                    [[Vec3::new(c, h, -5.0), Vec3::new(c, h, 5.0)], [Vec3::new(-5.0, h, c), Vec3::new(5.0, h, c)]]
+            let (xa, xb, za, zb) = (
+                x0 as f32 * step,
+                x1 as f32 * step,
+                z0 as f32 * step,
+                z1 as f32 * step,
+            );
+            let lines: Vec<[Vec3; 2]> = (x0..=x1)
+                .map(|i| {
+                    [
+                        Vec3::new(i as f32 * step, h, za),
+                        Vec3::new(i as f32 * step, h, zb),
+                    ]
                 })
+                .chain((z0..=z1).map(|k| {
+                    [
+                        Vec3::new(xa, h, k as f32 * step),
+                        Vec3::new(xb, h, k as f32 * step),
+                    ]
+                }))
                 .collect();
             rec.log_static(
                 "world/ground",
                 &rerun::LineStrips3D::new(lines)
                     .with_colors([rerun::Color::from_rgb(120, 120, 120)])
-                    .with_radii([0.004]),
+                    .with_radii([0.002]),
             )?;
         }
         for (i, s) in m.effects.spheres.iter().enumerate() {
@@ -182,7 +245,10 @@ impl Recorder {
         let m = &self.model;
         for (bi, b) in m.bodies.iter().enumerate() {
             let pos = &snap.positions[b.masses.start as usize..b.masses.end as usize];
-            rec.log(format!("world/{}/masses", b.name), &rerun::Points3D::update_fields().with_positions(pos.iter().copied()))?;
+            rec.log(
+                format!("world/{}/masses", b.name),
+                &rerun::Points3D::update_fields().with_positions(pos.iter().copied()),
+            )?;
             if b.springs.is_empty() {
                 continue;
             }
@@ -202,9 +268,18 @@ impl Recorder {
                     .with_colors(colors.iter().copied()),
             )?;
         }
-        for (i, (s, c)) in m.effects.spheres.iter().zip(&snap.sphere_centers).enumerate() {
+        for (i, (s, c)) in m
+            .effects
+            .spheres
+            .iter()
+            .zip(&snap.sphere_centers)
+            .enumerate()
+        {
             if s.velocity_m_per_s != Vec3::ZERO {
-                rec.log(format!("world/colliders/sphere_{i}"), &rerun::Ellipsoids3D::update_fields().with_centers([*c]))?;
+                rec.log(
+                    format!("world/colliders/sphere_{i}"),
+                    &rerun::Ellipsoids3D::update_fields().with_centers([*c]),
+                )?;
             }
         }
         let e = &snap.energies;
@@ -222,10 +297,19 @@ impl Recorder {
             rec.log(*path, &rerun::Scalars::single(v))?;
         }
         let st = &snap.stats;
-        rec.log("stats/max_strain", &rerun::Scalars::single(f64::from(snap.max_abs_strain())))?;
+        rec.log(
+            "stats/max_strain",
+            &rerun::Scalars::single(f64::from(snap.max_abs_strain())),
+        )?;
         rec.log("stats/step_ms", &rerun::Scalars::single(st.step_ms))?;
-        rec.log("stats/substeps", &rerun::Scalars::single(f64::from(st.substeps)))?;
-        rec.log("stats/projections", &rerun::Scalars::single(f64::from(st.projections)))?;
+        rec.log(
+            "stats/substeps",
+            &rerun::Scalars::single(f64::from(st.substeps)),
+        )?;
+        rec.log(
+            "stats/projections",
+            &rerun::Scalars::single(f64::from(st.projections)),
+        )?;
         Ok(())
     }
 

@@ -44,7 +44,12 @@ pub fn run(
     opts: &RunOptions,
     cancel: Arc<AtomicBool>,
 ) -> Result<RunSummary> {
-    let be = backend::create(opts.backend, model.clone(), settings.integrator, settings.dt_secs);
+    let be = backend::create(
+        opts.backend,
+        model.clone(),
+        settings.integrator,
+        settings.dt_secs,
+    );
     let backend_name = be.describe();
     let mut recorder = Recorder::new(rec.clone(), model.clone(), loaded.scene.view.strain_range);
     recorder
@@ -55,9 +60,11 @@ pub fn run(
     let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
     let progress = if opts.progress {
         indicatif::ProgressBar::new(settings.frames + 1).with_style(
-            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} frames, {per_sec}, eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {msg} [{bar:30}] {pos}/{len} frames, {per_sec}, eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
         )
     } else {
         indicatif::ProgressBar::hidden()
@@ -65,30 +72,39 @@ pub fn run(
     progress.set_message(loaded.scene.name.clone());
 
     let (outcome, recorded, log_error) = std::thread::scope(|scope| {
-        let sim = std::thread::Builder::new().name("hooke-sim".into()).spawn_scoped(scope, {
-            let cancel = cancel.clone();
-            let (frames, substeps, delivery) = (settings.frames, settings.substeps, opts.delivery);
-            move || {
-                let mut be = be;
-                sim::simulate(be.as_mut(), frames, substeps, &tx, delivery, &cancel)
-            }
-        });
-        let rec_thread = std::thread::Builder::new().name("hooke-record".into()).spawn_scoped(scope, || {
-            let mut recorded = 0u64;
-            for snap in rx.iter() {
-                if let Err(e) = recorder.log_snapshot(&snap) {
-                    // Dropping the receiver tells the simulation to stop.
-                    return (recorded, Some(e.to_string()));
+        let sim = std::thread::Builder::new()
+            .name("hooke-sim".into())
+            .spawn_scoped(scope, {
+                let cancel = cancel.clone();
+                let (frames, substeps, delivery) =
+                    (settings.frames, settings.substeps, opts.delivery);
+                move || {
+                    let mut be = be;
+                    sim::simulate(be.as_mut(), frames, substeps, &tx, delivery, &cancel)
                 }
-                recorded += 1;
-                progress.inc(1);
-            }
-            (recorded, None)
-        });
+            });
+        let rec_thread = std::thread::Builder::new()
+            .name("hooke-record".into())
+            .spawn_scoped(scope, || {
+                let mut recorded = 0u64;
+                for snap in rx.iter() {
+                    if let Err(e) = recorder.log_snapshot(&snap) {
+                        // Dropping the receiver tells the simulation to stop.
+                        return (recorded, Some(e.to_string()));
+                    }
+                    recorded += 1;
+                    progress.inc(1);
+                }
+                (recorded, None)
+            });
         match (sim, rec_thread) {
             (Ok(s), Ok(r)) => {
-                let outcome = s.join().map_err(|_| "the simulation thread panicked".to_owned());
-                let rec_out = r.join().map_err(|_| "the recorder thread panicked".to_owned());
+                let outcome = s
+                    .join()
+                    .map_err(|_| "the simulation thread panicked".to_owned());
+                let rec_out = r
+                    .join()
+                    .map_err(|_| "the recorder thread panicked".to_owned());
                 match (outcome, rec_out) {
                     (Ok(o), Ok((n, err))) => (Ok(o), n, err),
                     (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
@@ -99,7 +115,8 @@ pub fn run(
     });
     progress.finish_and_clear();
     // Whatever happened, what was logged reaches the sink before we report.
-    rec.flush_blocking().map_err(|e| Error::Rerun(format!("flushing the recording failed: {e}")))?;
+    rec.flush_blocking()
+        .map_err(|e| Error::Rerun(format!("flushing the recording failed: {e}")))?;
     let outcome = outcome.map_err(Error::Rerun)?;
     if let Some(e) = log_error {
         return Err(Error::RecorderGone(e));
@@ -111,7 +128,8 @@ pub fn run(
         backend: backend_name,
         frames_recorded: recorded,
         frames_dropped: outcome.frames_dropped,
-        sim_time_secs: settings.frames.min(outcome.frames_sent.saturating_sub(1)) as f64 / settings.frame_rate_hz,
+        sim_time_secs: settings.frames.min(outcome.frames_sent.saturating_sub(1)) as f64
+            / settings.frame_rate_hz,
         wall_secs: start.elapsed().as_secs_f64(),
         cancelled: outcome.cancelled,
     })

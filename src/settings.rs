@@ -37,7 +37,9 @@ impl Settings {
         let mut notes = Vec::new();
         if let Some(dt) = o.dt_secs {
             if !(dt.is_finite() && dt > 0.0) {
-                return Err(Error::Settings(format!("--dt must be a positive number of seconds, got {dt}")));
+                return Err(Error::Settings(format!(
+                    "--dt must be a positive number of seconds, got {dt}"
+                )));
             }
         }
         if o.substeps == Some(0) {
@@ -63,7 +65,9 @@ impl Settings {
                 let exact = frame_secs / dt;
                 let n = (exact - 1e-9).ceil().max(1.0);
                 if n > f64::from(u32::MAX) {
-                    return Err(Error::Settings(format!("dt = {dt} s would need {n} substeps per frame")));
+                    return Err(Error::Settings(format!(
+                        "dt = {dt} s would need {n} substeps per frame"
+                    )));
                 }
                 let n = n as u32;
                 if (exact - f64::from(n)).abs() > 1e-6 * exact {
@@ -103,7 +107,9 @@ impl Settings {
 
 fn duration_frames(d: f64, fps: f64) -> Result<u64> {
     if !(d.is_finite() && d > 0.0) {
-        return Err(Error::Settings(format!("--duration must be a positive number of seconds, got {d}")));
+        return Err(Error::Settings(format!(
+            "--duration must be a positive number of seconds, got {d}"
+        )));
     }
     Ok((d * fps).round().max(1.0) as u64)
 }

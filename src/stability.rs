@@ -42,7 +42,11 @@ pub fn stiffest_mode(model: &Model) -> StiffestMode {
             k += f64::from(s.stiffness_n_per_m) * w;
             c += f64::from(s.damping_n_s_per_m) * w;
         }
-        let contacts = fx.ground.iter().map(|g| g.contact).chain(fx.spheres.iter().map(|s| s.contact));
+        let contacts = fx
+            .ground
+            .iter()
+            .map(|g| g.contact)
+            .chain(fx.spheres.iter().map(|s| s.contact));
         for ct in contacts {
             let kc = f64::from(ct.stiffness_n_per_m);
             k += kc / mi;
@@ -68,6 +72,11 @@ pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
     let mode = stiffest_mode(model);
     Integrator::ALL
         .iter()
-        .map(|&i| (i, i.stable_dt(mode.omega_rad_per_s, mode.damping_ratio.min(1.0))))
+        .map(|&i| {
+            (
+                i,
+                i.stable_dt(mode.omega_rad_per_s, mode.damping_ratio.min(1.0)),
+            )
+        })
         .collect()
 }

@@ -35,7 +35,15 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
             let r = *x - c;
             let dist = r.length();
             if dist > 0.0 {
-                if let Some(r) = project(x, v, m, r / dist, s.radius_m - dist, s.max_depth_m, s.velocity_m_per_s) {
+                if let Some(r) = project(
+                    x,
+                    v,
+                    m,
+                    r / dist,
+                    s.radius_m - dist,
+                    s.max_depth_m,
+                    s.velocity_m_per_s,
+                ) {
                     removed_j += r;
                     count += 1;
                 }
@@ -48,7 +56,15 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
 
 /// Move a mass deeper than `max_depth` back to that depth along `n` and remove its approach speed
 /// relative to the collider. Returns the kinetic energy removed, or `None` if it was not too deep.
-fn project(x: &mut Vec3, v: &mut Vec3, m: f32, n: Vec3, depth: f32, max_depth: f32, collider_v: Vec3) -> Option<f64> {
+fn project(
+    x: &mut Vec3,
+    v: &mut Vec3,
+    m: f32,
+    n: Vec3,
+    depth: f32,
+    max_depth: f32,
+    collider_v: Vec3,
+) -> Option<f64> {
     if depth <= max_depth {
         return None;
     }

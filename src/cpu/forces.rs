@@ -35,7 +35,14 @@ pub fn spring_force(s: &Spring, xi: Vec3, xj: Vec3, vi: Vec3, vj: Vec3) -> (Vec3
 /// friction parts (≥ 0). Friction is Coulomb, `|F_t| ≤ μ F_n`, never more than stops the sliding
 /// within one step (so it cannot reverse the motion).
 #[inline(always)]
-pub fn contact_force(c: &ContactModel, depth: f32, n: Vec3, v_rel: Vec3, mass: f32, dt: f32) -> (Vec3, f32) {
+pub fn contact_force(
+    c: &ContactModel,
+    depth: f32,
+    n: Vec3,
+    v_rel: Vec3,
+    mass: f32,
+    dt: f32,
+) -> (Vec3, f32) {
     let vn = v_rel.dot(n);
     let spring = c.stiffness_n_per_m * depth;
     let damper = -2.0 * c.damping_ratio * (c.stiffness_n_per_m * mass).sqrt() * vn;
@@ -64,14 +71,26 @@ pub struct CollidersAt {
 impl CollidersAt {
     pub fn new(model: &Model, t: f64) -> Self {
         Self {
-            sphere_centers: model.effects.spheres.iter().map(|s| s.center_at(t)).collect(),
+            sphere_centers: model
+                .effects
+                .spheres
+                .iter()
+                .map(|s| s.center_at(t))
+                .collect(),
         }
     }
 }
 
 /// Force on mass `i` and its contributions to the ledger's rates.
 #[inline(always)]
-fn force_on_mass(model: &Model, col: &CollidersAt, x: &[Vec3], v: &[Vec3], i: usize, dt: f32) -> (Vec3, [f32; 4]) {
+fn force_on_mass(
+    model: &Model,
+    col: &CollidersAt,
+    x: &[Vec3],
+    v: &[Vec3],
+    i: usize,
+    dt: f32,
+) -> (Vec3, [f32; 4]) {
     let xi = x[i];
     let vi = v[i];
     let m = model.mass_kg[i];
@@ -108,7 +127,8 @@ fn force_on_mass(model: &Model, col: &CollidersAt, x: &[Vec3], v: &[Vec3], i: us
         let dist = r.length();
         let depth = s.radius_m - dist;
         if depth > 0.0 && dist > 0.0 {
-            let (fc, diss) = contact_force(&s.contact, depth, r / dist, vi - s.velocity_m_per_s, m, dt);
+            let (fc, diss) =
+                contact_force(&s.contact, depth, r / dist, vi - s.velocity_m_per_s, m, dt);
             f += fc;
             contact_w += diss;
             collider_w += fc.dot(s.velocity_m_per_s);
@@ -119,11 +139,21 @@ fn force_on_mass(model: &Model, col: &CollidersAt, x: &[Vec3], v: &[Vec3], i: us
     if model.inv_mass[i] == 0.0 {
         return (Vec3::ZERO, [0.0; 4]);
     }
-    (f * model.inv_mass[i], [-damping_w, -drag_w, contact_w, collider_w])
+    (
+        f * model.inv_mass[i],
+        [-damping_w, -drag_w, contact_w, collider_w],
+    )
 }
 
 /// Accelerations of every mass at state (x, v, t) into `acc`; returns the ledger rates.
-pub fn compute_forces(model: &Model, x: &[Vec3], v: &[Vec3], t: f64, dt: f32, acc: &mut [Vec3]) -> Power {
+pub fn compute_forces(
+    model: &Model,
+    x: &[Vec3],
+    v: &[Vec3],
+    t: f64,
+    dt: f32,
+    acc: &mut [Vec3],
+) -> Power {
     let col = CollidersAt::new(model, t);
     let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
         let mut sum = [0.0f64; 4];
@@ -137,7 +167,10 @@ pub fn compute_forces(model: &Model, x: &[Vec3], v: &[Vec3], t: f64, dt: f32, ac
         sum
     };
     let partials: Vec<[f64; 4]> = if acc.len() >= PARALLEL_MIN_MASSES {
-        acc.par_chunks_mut(CHUNK).enumerate().map(chunk_sum).collect()
+        acc.par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(chunk_sum)
+            .collect()
     } else {
         acc.chunks_mut(CHUNK).enumerate().map(chunk_sum).collect()
     };

@@ -112,7 +112,12 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             power.add_scaled(&p, 1.0);
             {
                 let (x, v, acc) = (&*x, &*v, &s.acc);
-                let (xt, vt, sv, sa) = (&mut s.xt[..], &mut s.vt[..], &mut s.sum_v[..], &mut s.sum_a[..]);
+                let (xt, vt, sv, sa) = (
+                    &mut s.xt[..],
+                    &mut s.vt[..],
+                    &mut s.sum_v[..],
+                    &mut s.sum_a[..],
+                );
                 for_each_mass!(n, |i| (xt, vt, sv, sa) {
                     *sv = v[i];
                     *sa = acc[i];
@@ -125,7 +130,12 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
                 let p = compute_forces(model, &s.xt, &s.vt, t + stage_t * h, dt, &mut s.acc);
                 power.add_scaled(&p, f64::from(weight));
                 let (x, v, acc) = (&*x, &*v, &s.acc);
-                let (xt, vt, sv, sa) = (&mut s.xt[..], &mut s.vt[..], &mut s.sum_v[..], &mut s.sum_a[..]);
+                let (xt, vt, sv, sa) = (
+                    &mut s.xt[..],
+                    &mut s.vt[..],
+                    &mut s.sum_v[..],
+                    &mut s.sum_a[..],
+                );
                 for_each_mass!(n, |i| (xt, vt, sv, sa) {
                     *sv += weight * *vt;
                     *sa += weight * acc[i];

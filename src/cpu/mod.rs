@@ -45,13 +45,24 @@ impl Backend for CpuBackend {
         let start = std::time::Instant::now();
         let mut projections = 0;
         for _ in 0..substeps {
-            integrate::step(&self.model, self.integrator, &mut self.state, &mut self.scratch, self.dt);
+            integrate::step(
+                &self.model,
+                self.integrator,
+                &mut self.state,
+                &mut self.scratch,
+                self.dt,
+            );
             let p = project_contacts(&self.model, &mut self.state);
             if p > 0 {
                 self.scratch.invalidate();
                 projections += p;
             }
-            if let Some(d) = find_divergence(&self.model, &self.state, self.integrator, f64::from(self.dt)) {
+            if let Some(d) = find_divergence(
+                &self.model,
+                &self.state,
+                self.integrator,
+                f64::from(self.dt),
+            ) {
                 return Err(d);
             }
         }

@@ -35,7 +35,11 @@ pub fn compute_energies(model: &Model, state: &State) -> Energies {
         e.elastic_j += 0.5 * f64::from(s.stiffness_n_per_m) * stretch * stretch;
     }
     let fx = &model.effects;
-    let centers: Vec<Vec3> = fx.spheres.iter().map(|s| s.center_at(state.time_secs)).collect();
+    let centers: Vec<Vec3> = fx
+        .spheres
+        .iter()
+        .map(|s| s.center_at(state.time_secs))
+        .collect();
     for (i, xi) in x.iter().enumerate() {
         if model.inv_mass[i] == 0.0 {
             continue;

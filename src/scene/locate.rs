@@ -83,7 +83,8 @@ mod tests {
 
     #[test]
     fn finds_nested_array_values() {
-        let text = "name = \"x\"\n[[bodies]]\nname = \"a\"\n[[bodies]]\nname = \"b\"\nmass_kg = -1\n";
+        let text =
+            "name = \"x\"\n[[bodies]]\nname = \"a\"\n[[bodies]]\nname = \"b\"\nmass_kg = -1\n";
         assert_eq!(position_of(text, "bodies[1].mass_kg"), Some((6, 11)));
         // A missing field points at its table.
         assert_eq!(position_of(text, "bodies[0].mass_kg").map(|p| p.0), Some(2));

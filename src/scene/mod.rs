@@ -241,7 +241,8 @@ pub struct LoadedScene {
 
 /// Parse and validate scene text.
 pub fn from_toml(text: &str, origin: SceneOrigin) -> Result<Scene, SceneError> {
-    let scene: Scene = toml::from_str(text).map_err(|e| locate::from_toml_error(&e, text, &origin))?;
+    let scene: Scene =
+        toml::from_str(text).map_err(|e| locate::from_toml_error(&e, text, &origin))?;
     validate::validate(&scene).map_err(|(field, message)| SceneError {
         position: locate::position_of(text, &field),
         origin: origin.clone(),

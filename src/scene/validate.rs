@@ -96,7 +96,12 @@ pub fn validate(scene: &Scene) -> Check {
     }
     if let Some(g) = &e.ground {
         finite("effects.ground.height_m", f64::from(g.height_m))?;
-        contact("effects.ground", g.stiffness_n_per_m, g.friction, g.restitution)?;
+        contact(
+            "effects.ground",
+            g.stiffness_n_per_m,
+            g.friction,
+            g.restitution,
+        )?;
     }
     for (i, sp) in e.spheres.iter().enumerate() {
         let f = format!("effects.spheres[{i}]");
@@ -114,7 +119,10 @@ pub fn validate(scene: &Scene) -> Check {
         let f = format!("bodies[{i}]");
         body(&f, b)?;
         if scene.bodies[..i].iter().any(|o| o.name == b.name) {
-            return fail(format!("{f}.name"), format!("another body is already named '{}'", b.name));
+            return fail(
+                format!("{f}.name"),
+                format!("another body is already named '{}'", b.name),
+            );
         }
         total += b.grid.iter().map(|&n| u64::from(n)).product::<u64>();
         if total > MAX_MASSES {
@@ -141,7 +149,10 @@ fn body(f: &str, b: &Body) -> Check {
     }
     for (a, &n) in b.grid.iter().enumerate() {
         if n == 0 {
-            return fail(format!("{f}.grid[{a}]"), "the grid is empty: every count must be at least 1");
+            return fail(
+                format!("{f}.grid[{a}]"),
+                "the grid is empty: every count must be at least 1",
+            );
         }
     }
     let count: u64 = b.grid.iter().map(|&n| u64::from(n)).product();
@@ -159,7 +170,10 @@ fn body(f: &str, b: &Body) -> Check {
         if axes.len() != dim {
             return fail(
                 format!("{f}.axes"),
-                format!("needs one direction per grid axis ({dim}), got {}", axes.len()),
+                format!(
+                    "needs one direction per grid axis ({dim}), got {}",
+                    axes.len()
+                ),
             );
         }
         for (a, v) in axes.iter().enumerate() {
@@ -175,22 +189,34 @@ fn body(f: &str, b: &Body) -> Check {
         if pin.len() != dim {
             return fail(
                 fp,
-                format!("a pin is a grid index with {dim} entries, like the grid; got {}", pin.len()),
+                format!(
+                    "a pin is a grid index with {dim} entries, like the grid; got {}",
+                    pin.len()
+                ),
             );
         }
         for (a, (&idx, &n)) in pin.iter().zip(&b.grid).enumerate() {
             if idx >= n {
                 return fail(
                     format!("{fp}[{a}]"),
-                    format!("pin index {idx} is outside the grid: axis {a} has indices 0 to {}", n - 1),
+                    format!(
+                        "pin index {idx} is outside the grid: axis {a} has indices 0 to {}",
+                        n - 1
+                    ),
                 );
             }
         }
     }
     let kind = |name: &str, k: &Option<SpringKind>| -> Check {
         if let Some(k) = k {
-            positive(&format!("{f}.springs.{name}.stiffness_n_per_m"), f64::from(k.stiffness_n_per_m))?;
-            non_negative(&format!("{f}.springs.{name}.damping_n_s_per_m"), f64::from(k.damping_n_s_per_m))?;
+            positive(
+                &format!("{f}.springs.{name}.stiffness_n_per_m"),
+                f64::from(k.stiffness_n_per_m),
+            )?;
+            non_negative(
+                &format!("{f}.springs.{name}.damping_n_s_per_m"),
+                f64::from(k.damping_n_s_per_m),
+            )?;
         }
         Ok(())
     };

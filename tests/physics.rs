@@ -1,0 +1,454 @@
+//! Analytic checks of the CPU reference physics: free fall, a two-mass spring's period, a
+//! pendulum's period, each integrator's convergence order, energy conservation and balance, and
+//! Coulomb friction's stopping distance.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use hooke::backend::Backend as _;
+use hooke::cpu::CpuBackend;
+use hooke::integrator::Integrator;
+use hooke::model::{ContactModel, Effects, GroundCollider, Model, ModelBuilder, SpringKindTag};
+use hooke::state::State;
+
+const G: f32 = 9.81;
+
+fn run(model: &Arc<Model>, integrator: Integrator, dt: f64, steps: u64) -> State {
+    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut left = steps;
+    while left > 0 {
+        let n = left.min(10_000) as u32;
+        if let Err(d) = be.advance(n) {
+            panic!("{d}");
+        }
+        left -= u64::from(n);
+    }
+    be.state()
+}
+
+fn gravity() -> Effects {
+    Effects {
+        gravity_m_per_s2: Some(Vec3::new(0.0, -G, 0.0)),
+        ..Effects::default()
+    }
+}
+
+#[test]
+fn free_fall_matches_each_schemes_exact_discrete_solution() {
+    let mut mb = ModelBuilder::new();
+    mb.mass(
+        Vec3::new(0.0, 10.0, 0.0),
+        Vec3::new(1.0, 2.0, 0.0),
+        0.5,
+        false,
+    );
+    mb.effects(gravity());
+    let model = Arc::new(mb.build());
+    let (dt, steps) = (0.01f64, 100u64);
+    let t = dt * steps as f64;
+    let g = f64::from(G);
+    // Exact: y = 10 + 2t − g t²/2. Forward Euler lags by g·dt·t/2, semi-implicit Euler leads by
+    // the same; the second- and fourth-order schemes are exact for constant acceleration.
+    let exact_y = 10.0 + 2.0 * t - 0.5 * g * t * t;
+    for integrator in Integrator::ALL {
+        let s = run(&model, integrator, dt, steps);
+        let bias = match integrator {
+            Integrator::Euler => 0.5 * g * dt * t,
+            Integrator::SemiImplicit => -0.5 * g * dt * t,
+            _ => 0.0,
+        };
+        let y = f64::from(s.x[0].y);
+        assert!(
+            (y - (exact_y + bias)).abs() < 2e-5,
+            "{integrator}: y = {y}, expected {}",
+            exact_y + bias
+        );
+        assert!(
+            (f64::from(s.x[0].x) - t).abs() < 1e-5,
+            "{integrator}: x drifted"
+        );
+        assert!(
+            (f64::from(s.v[0].y) - (2.0 - g * t)).abs() < 2e-5,
+            "{integrator}: vy = {}",
+            s.v[0].y
+        );
+    }
+}
+
+/// Times at which `f` crosses zero upwards, linearly interpolated.
+fn upward_crossings(samples: &[(f64, f64)]) -> Vec<f64> {
+    samples
+        .windows(2)
+        .filter(|w| w[0].1 < 0.0 && w[1].1 >= 0.0)
+        .map(|w| w[0].0 + (w[1].0 - w[0].0) * (-w[0].1) / (w[1].1 - w[0].1))
+        .collect()
+}
+
+/// Step and record `observe(state)` after every step.
+fn trace(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    steps: u64,
+    observe: impl Fn(&State) -> f64,
+) -> Vec<(f64, f64)> {
+    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut out = Vec::with_capacity(steps as usize);
+    for _ in 0..steps {
+        be.advance(1).unwrap_or_else(|d| panic!("{d}"));
+        let s = be.state();
+        out.push((s.time_secs, observe(&s)));
+    }
+    out
+}
+
+fn mean_period(crossings: &[f64]) -> f64 {
+    (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64
+}
+
+#[test]
+fn two_mass_spring_oscillates_at_the_reduced_mass_frequency_and_conserves_momentum() {
+    let (m1, m2, k) = (1.0f32, 3.0f32, 50.0f32);
+    let mut mb = ModelBuilder::new();
+    // Both drift together (no rotation), so the separation is a pure oscillation.
+    let drift = Vec3::new(0.0, 0.2, 0.1);
+    let a = mb.mass(Vec3::ZERO, drift, m1, false);
+    let b = mb.mass(Vec3::new(1.1, 0.0, 0.0), drift, m2, false);
+    mb.spring_with_rest(a, b, 1.0, k, 0.0, SpringKindTag::Custom);
+    let model = Arc::new(mb.build());
+    let mu = f64::from(m1 * m2 / (m1 + m2));
+    let expected = 2.0 * std::f64::consts::PI * (mu / f64::from(k)).sqrt();
+    let dt = 1e-3;
+    let samples = trace(&model, Integrator::Rk4, dt, 4000, |s| {
+        f64::from(s.x[1].x - s.x[0].x) - 1.0
+    });
+    let period = mean_period(&upward_crossings(&samples));
+    assert!(
+        (period / expected - 1.0).abs() < 1e-3,
+        "period {period} s, expected {expected} s"
+    );
+    // Momentum is conserved exactly by the pairwise gather (equal and opposite forces).
+    let s = run(&model, Integrator::SemiImplicit, dt, 4000);
+    let p = m1 * s.v[0] + m2 * s.v[1];
+    assert!(p.abs_diff_eq((m1 + m2) * drift, 1e-5), "momentum {p}");
+}
+
+#[test]
+fn pendulum_small_angle_period() {
+    // A 1 kg bob on a stiff 1 m spring from a pin, released at 5°.
+    let (len, theta0) = (1.0f32, 5f32.to_radians());
+    let mut mb = ModelBuilder::new();
+    let pin = mb.mass(Vec3::ZERO, Vec3::ZERO, 1.0, true);
+    let bob = mb.mass(
+        Vec3::new(len * theta0.sin(), -len * theta0.cos(), 0.0),
+        Vec3::ZERO,
+        1.0,
+        false,
+    );
+    mb.spring(pin, bob, 1.0e5, 0.0);
+    mb.effects(gravity());
+    let model = Arc::new(mb.build());
+    // Small-angle period with the first amplitude correction, for the stretched length L + mg/k.
+    let l_eff = f64::from(len) + f64::from(G) / 1.0e5;
+    let t0 = 2.0 * std::f64::consts::PI * (l_eff / f64::from(G)).sqrt();
+    let expected = t0 * (1.0 + f64::from(theta0).powi(2) / 16.0);
+    for integrator in [
+        Integrator::SemiImplicit,
+        Integrator::Verlet,
+        Integrator::Rk4,
+    ] {
+        let samples = trace(&model, integrator, 1e-3, 8000, |s| f64::from(s.x[1].x));
+        let period = mean_period(&upward_crossings(&samples));
+        assert!(
+            (period / expected - 1.0).abs() < 1e-3,
+            "{integrator}: period {period} s, expected {expected} s"
+        );
+    }
+}
+
+/// A 1 kg mass on a spring of 4π² N/m (period 1 s) from a pin, released 0.1 m from rest.
+fn oscillator() -> Arc<Model> {
+    let k = 4.0 * std::f32::consts::PI * std::f32::consts::PI;
+    let mut mb = ModelBuilder::new();
+    let pin = mb.mass(Vec3::ZERO, Vec3::ZERO, 1.0, true);
+    let m = mb.mass(Vec3::new(1.1, 0.0, 0.0), Vec3::ZERO, 1.0, false);
+    mb.spring_with_rest(pin, m, 1.0, k, 0.0, SpringKindTag::Custom);
+    Arc::new(mb.build())
+}
+
+/// Error in phase space at t = 0.3 s against x = 1 + 0.1 cos(2πt). (Not at a whole period:
+/// there the first-order error of semi-implicit Euler happens to cancel.)
+fn oscillator_error(model: &Arc<Model>, integrator: Integrator, dt: f64) -> f64 {
+    let steps = (0.3 / dt).round() as u64;
+    let s = run(model, integrator, dt, steps);
+    let w = 2.0 * std::f64::consts::PI;
+    let t = s.time_secs;
+    let (x, v) = (1.0 + 0.1 * (w * t).cos(), -0.1 * w * (w * t).sin());
+    let ex = f64::from(s.x[1].x) - x;
+    let ev = (f64::from(s.v[1].x) - v) / w;
+    (ex * ex + ev * ev).sqrt()
+}
+
+#[test]
+fn each_integrator_converges_at_its_order() {
+    let model = oscillator();
+    // Ladders chosen so the error is asymptotic yet far above f32 round-off.
+    let cases = [
+        (Integrator::Euler, 1.0 / 2000.0),
+        (Integrator::SemiImplicit, 1.0 / 2000.0),
+        (Integrator::Rk2, 1.0 / 200.0),
+        (Integrator::Rk4, 1.0 / 10.0),
+        (Integrator::Verlet, 1.0 / 50.0),
+    ];
+    for (integrator, dt) in cases {
+        let e: Vec<f64> = (0..3)
+            .map(|i| oscillator_error(&model, integrator, dt / f64::from(1 << i)))
+            .collect();
+        let expected = f64::from(1u32 << integrator.order());
+        for w in e.windows(2) {
+            let ratio = w[0] / w[1];
+            assert!(
+                (ratio / expected - 1.0).abs() < 0.12,
+                "{integrator}: halving dt divided the error by {ratio:.3}, expected {expected} (errors {e:?})"
+            );
+        }
+    }
+}
+
+/// An 8 × 8 cloth patch hanging from two corners under gravity.
+fn patch(damping: f32, drag: Option<f32>) -> Arc<Model> {
+    let n = 8u32;
+    let (h, m) = (0.1f32, 0.01f32);
+    let mut mb = ModelBuilder::new();
+    for j in 0..n {
+        for i in 0..n {
+            let pinned = j == 0 && (i == 0 || i == n - 1);
+            mb.mass(
+                Vec3::new(i as f32 * h, 1.0, j as f32 * h),
+                Vec3::ZERO,
+                m,
+                pinned,
+            );
+        }
+    }
+    let id = |i: u32, j: u32| i + n * j;
+    for j in 0..n {
+        for i in 0..n {
+            if i + 1 < n {
+                mb.spring(id(i, j), id(i + 1, j), 20.0, damping);
+            }
+            if j + 1 < n {
+                mb.spring(id(i, j), id(i, j + 1), 20.0, damping);
+            }
+            if i + 1 < n && j + 1 < n {
+                mb.spring(id(i, j), id(i + 1, j + 1), 5.0, damping);
+                mb.spring(id(i + 1, j), id(i, j + 1), 5.0, damping);
+            }
+        }
+    }
+    let mut fx = gravity();
+    fx.air_drag_per_s = drag;
+    mb.effects(fx);
+    Arc::new(mb.build())
+}
+
+fn energies_over(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    steps: u64,
+    every: u64,
+) -> Vec<hooke::state::Energies> {
+    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut out = vec![be.snapshot(0, Default::default()).energies];
+    for _ in 0..steps / every {
+        be.advance(every as u32).unwrap_or_else(|d| panic!("{d}"));
+        out.push(be.snapshot(0, Default::default()).energies);
+    }
+    out
+}
+
+#[test]
+fn undamped_energy_stays_bounded_over_100k_steps_for_symplectic_schemes() {
+    let model = patch(0.0, None);
+    let dt = 1e-3; // a third of the estimated limit
+    let limit = hooke::stability::stable_dts(&model);
+    let se_limit = limit
+        .iter()
+        .find(|(i, _)| *i == Integrator::SemiImplicit)
+        .and_then(|l| l.1)
+        .unwrap_or(0.0);
+    assert!(
+        dt < 0.5 * se_limit,
+        "test dt {dt} must be well inside the stable limit {se_limit}"
+    );
+    for (integrator, bound) in [
+        (Integrator::SemiImplicit, 0.02),
+        (Integrator::Verlet, 0.005),
+    ] {
+        let e = energies_over(&model, integrator, dt, 100_000, 100);
+        let e0 = e[0].total_j();
+        // The scale of the motion: the largest kinetic energy reached.
+        let scale = e.iter().map(|e| e.kinetic_j).fold(0.0, f64::max);
+        let worst = e
+            .iter()
+            .map(|e| (e.total_j() - e0).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            scale > 0.01,
+            "the patch should swing (max kinetic {scale} J)"
+        );
+        assert!(
+            worst / scale < bound,
+            "{integrator}: energy strayed by {worst:.3e} J, {:.2}% of the kinetic scale {scale:.3} J",
+            100.0 * worst / scale
+        );
+        // No secular drift: the last tenth averages where the first tenth did.
+        let tenth = e.len() / 10;
+        let mean = |s: &[hooke::state::Energies]| {
+            s.iter().map(|e| e.total_j()).sum::<f64>() / s.len() as f64
+        };
+        let drift = (mean(&e[e.len() - tenth..]) - mean(&e[..tenth])).abs();
+        assert!(
+            drift / scale < bound / 2.0,
+            "{integrator}: energy drifted by {drift:.3e} J"
+        );
+    }
+}
+
+#[test]
+fn damped_energy_plus_dissipated_is_constant() {
+    let model = patch(0.02, Some(0.3));
+    for (integrator, bound) in [
+        (Integrator::Rk4, 1e-4),
+        (Integrator::Verlet, 2e-3),
+        (Integrator::SemiImplicit, 1e-2),
+    ] {
+        let e = energies_over(&model, integrator, 1e-3, 20_000, 100);
+        let b0 = e[0].balance_j();
+        // The scale: the most potential energy the fall released at any time.
+        let released = e
+            .iter()
+            .map(|x| potential(&e[0]) - potential(x))
+            .fold(0.0, f64::max);
+        let dissipated = e.last().map_or(0.0, |e| e.ledger.dissipated_j());
+        assert!(
+            dissipated > 0.3 * released,
+            "{integrator}: damping should take a good share of {released} J, took {dissipated} J"
+        );
+        let worst = e
+            .iter()
+            .map(|e| (e.balance_j() - b0).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst / released < bound,
+            "{integrator}: total + dissipated strayed by {worst:.3e} J ({:.3}% of {released:.3} J)",
+            100.0 * worst / released
+        );
+    }
+}
+
+fn potential(e: &hooke::state::Energies) -> f64 {
+    e.gravity_j + e.elastic_j
+}
+
+#[test]
+fn sliding_block_stops_at_the_coulomb_distance() {
+    let (mu, v0, k) = (0.5f32, 2.0f32, 1.0e4f32);
+    let contact = ContactModel {
+        stiffness_n_per_m: k,
+        friction: mu,
+        damping_ratio: 1.0,
+    };
+    let mut mb = ModelBuilder::new();
+    // Start at the resting depth so the normal force is m g from the first step.
+    mb.mass(
+        Vec3::new(0.0, -G / k, 0.0),
+        Vec3::new(v0, 0.0, 0.0),
+        1.0,
+        false,
+    );
+    mb.effects(Effects {
+        ground: Some(GroundCollider {
+            height_m: 0.0,
+            contact,
+            max_depth_m: 0.1,
+        }),
+        ..gravity()
+    });
+    let model = Arc::new(mb.build());
+    let expected = f64::from(v0 * v0 / (2.0 * mu * G));
+    for integrator in [
+        Integrator::SemiImplicit,
+        Integrator::Verlet,
+        Integrator::Rk4,
+    ] {
+        let s = run(&model, integrator, 1e-3, 1000);
+        let d = f64::from(s.x[0].x);
+        assert!(
+            (d / expected - 1.0).abs() < 5e-3,
+            "{integrator}: stopped after {d} m, expected {expected} m"
+        );
+        assert!(
+            s.v[0].length() < 1e-3,
+            "{integrator}: still moving at {} m/s",
+            s.v[0].length()
+        );
+        // All the kinetic energy went into the contact ledger.
+        let ke0 = 0.5 * f64::from(v0 * v0);
+        assert!(
+            (s.ledger.contact_j / ke0 - 1.0).abs() < 0.02,
+            "{integrator}: contact dissipated {} J of {ke0} J",
+            s.ledger.contact_j
+        );
+    }
+}
+
+#[test]
+fn cpu_backend_is_deterministic_whatever_the_thread_count() {
+    // Large enough (64 × 64 = 4096 masses) that the force pass runs on the thread pool.
+    let loaded = hooke::scene::from_toml(
+        r#"
+name = "det"
+[effects]
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+air_drag_per_s = 0.1
+[effects.ground]
+friction = 0.4
+[[bodies]]
+name = "cloth"
+grid = [64, 64]
+spacing_m = 0.02
+mass_kg = 1.0
+origin_m = [0.0, 0.05, 0.0]
+axes = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+pins = [[0, 0]]
+springs.structural = { stiffness_n_per_m = 300.0, damping_n_s_per_m = 0.01 }
+springs.shear = { stiffness_n_per_m = 100.0 }
+"#,
+        hooke::error::SceneOrigin::Text,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded));
+    let in_pool = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap_or_else(|e| panic!("{e}"))
+            .install(|| run(&model, Integrator::Rk4, 2e-4, 50))
+    };
+    let (a, b, c) = (in_pool(1), in_pool(2), in_pool(2));
+    for other in [&b, &c] {
+        assert!(
+            bytemuck::cast_slice::<Vec3, u8>(&a.x) == bytemuck::cast_slice::<Vec3, u8>(&other.x)
+        );
+        assert!(
+            bytemuck::cast_slice::<Vec3, u8>(&a.v) == bytemuck::cast_slice::<Vec3, u8>(&other.v)
+        );
+        assert_eq!(a.ledger, other.ledger);
+    }
+    assert!(
+        a.x.iter().zip(&model.initial.x).any(|(p, q)| p != q),
+        "the cloth should have moved"
+    );
+}

@@ -20,7 +20,7 @@ pub trait Backend: Send {
     fn describe(&self) -> String;
     /// Advance `substeps` steps of the backend's dt. Stops at the first step whose state is not
     /// finite or runs away, leaving the last good snapshot intact for the caller.
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, Divergence>;
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, Box<Divergence>>;
     /// What the recorder logs for the current state.
     fn snapshot(&mut self, frame: u64, stats: StepStats) -> Snapshot;
     /// The full state (tests and benchmarks).
@@ -48,7 +48,7 @@ pub fn find_divergence(
     state: &State,
     integrator: Integrator,
     dt_secs: f64,
-) -> Option<Divergence> {
+) -> Option<Box<Divergence>> {
     let bad = |i: usize| {
         let (x, v) = (state.x[i], state.v[i]);
         if !x.is_finite() || !v.is_finite() {
@@ -91,7 +91,7 @@ pub fn find_divergence(
             )
         })
         .unwrap_or_default();
-    Some(Divergence {
+    Some(Box::new(Divergence {
         step: state.steps,
         time_secs: state.time_secs,
         mass: i as u32,
@@ -100,5 +100,5 @@ pub fn find_divergence(
         what,
         dt_secs,
         integrator: integrator.name().to_owned(),
-    })
+    }))
 }

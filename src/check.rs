@@ -146,7 +146,7 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             None => {
                 let _ = writeln!(
                     s,
-                    "    {:<14} unstable at any dt (needs damping){mark}",
+                    "    {:<14} unstable even at ωdt = 0.01 (needs damping){mark}",
                     i.name()
                 );
             }

@@ -49,7 +49,7 @@ pub struct SolverArgs {
     #[arg(long, value_enum)]
     pub integrator: Option<Integrator>,
     /// Step size in seconds (the substeps per frame follow from it).
-    #[arg(long, conflicts_with = "substeps")]
+    #[arg(long, conflicts_with = "substeps", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Steps per frame (dt = 1 / (frame rate × substeps)).
     #[arg(long)]
@@ -58,7 +58,7 @@ pub struct SolverArgs {
     #[arg(long, conflicts_with = "duration")]
     pub frames: Option<u64>,
     /// Simulated time in seconds.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub duration: Option<f64>,
 }
 

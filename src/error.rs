@@ -53,7 +53,7 @@ impl std::error::Error for SceneError {}
 /// Everything the library can report.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("{0}")]
+    #[error(transparent)]
     Scene(#[from] SceneError),
 
     #[error("cannot read scene file {path}: {source}")]
@@ -71,8 +71,8 @@ pub enum Error {
     #[error("invalid setting: {0}")]
     Settings(String),
 
-    #[error("{0}")]
-    Diverged(#[from] crate::state::Divergence),
+    #[error(transparent)]
+    Diverged(#[from] Box<crate::state::Divergence>),
 
     #[error("the recorder stopped before the simulation finished: {0}")]
     RecorderGone(String),

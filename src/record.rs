@@ -179,17 +179,17 @@ impl Recorder {
             )?;
         }
         if let Some(g) = &m.effects.ground {
-            // A grid of lines at the ground height, a metre beyond the bodies' starting extent,
+            // A grid of lines at the ground height, half a metre beyond the bodies' starting extent,
             // so that the viewer frames the scene rather than the floor.
             let (lo, hi) = m.initial.x.iter().fold(
                 (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
             );
             let step = 0.25f32;
-            let x0 = ((lo.x - 1.0) / step).floor() as i32;
-            let x1 = ((hi.x + 1.0) / step).ceil() as i32;
-            let z0 = ((lo.z - 1.0) / step).floor() as i32;
-            let z1 = ((hi.z + 1.0) / step).ceil() as i32;
+            let x0 = ((lo.x - 0.5) / step).floor() as i32;
+            let x1 = ((hi.x + 0.5) / step).ceil() as i32;
+            let z0 = ((lo.z - 0.5) / step).floor() as i32;
+            let z1 = ((hi.z + 0.5) / step).ceil() as i32;
             let h = g.height_m;
             let (xa, xb, za, zb) = (
                 x0 as f32 * step,

@@ -35,12 +35,12 @@ impl Settings {
         let fps = s.frame_rate_hz;
         let frame_secs = 1.0 / fps;
         let mut notes = Vec::new();
-        if let Some(dt) = o.dt_secs {
-            if !(dt.is_finite() && dt > 0.0) {
-                return Err(Error::Settings(format!(
-                    "--dt must be a positive number of seconds, got {dt}"
-                )));
-            }
+        if let Some(dt) = o.dt_secs
+            && !(dt.is_finite() && dt > 0.0)
+        {
+            return Err(Error::Settings(format!(
+                "--dt must be a positive number of seconds, got {dt}"
+            )));
         }
         if o.substeps == Some(0) {
             return Err(Error::Settings("--substeps must be at least 1".into()));

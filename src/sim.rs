@@ -26,7 +26,7 @@ pub struct SimOutcome {
     pub frames_dropped: u64,
     pub cancelled: bool,
     /// Set when the state went bad; every frame before it was sent.
-    pub diverged: Option<Divergence>,
+    pub diverged: Option<Box<Divergence>>,
     pub recorder_gone: bool,
 }
 

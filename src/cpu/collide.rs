@@ -34,8 +34,8 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
         for (s, &c) in e.spheres.iter().zip(&centers) {
             let r = *x - c;
             let dist = r.length();
-            if dist > 0.0 {
-                if let Some(r) = project(
+            if dist > 0.0
+                && let Some(r) = project(
                     x,
                     v,
                     m,
@@ -43,10 +43,10 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
                     s.radius_m - dist,
                     s.max_depth_m,
                     s.velocity_m_per_s,
-                ) {
-                    removed_j += r;
-                    count += 1;
-                }
+                )
+            {
+                removed_j += r;
+                count += 1;
             }
         }
     }

@@ -41,7 +41,7 @@ impl Backend for CpuBackend {
         format!("cpu ({} threads)", rayon::current_num_threads())
     }
 
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, Divergence> {
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, Box<Divergence>> {
         let start = std::time::Instant::now();
         let mut projections = 0;
         for _ in 0..substeps {

@@ -18,13 +18,58 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 pub fn from_toml_error(err: &toml::de::Error, text: &str, origin: &SceneOrigin) -> SceneError {
     let position = err.span().map(|s| line_col(text, s.start));
     // serde's messages are already specific ("unknown field `x`, expected one of …",
-    // "invalid type: string \"a\", expected f32"); keep them on one line.
+    // "invalid type: string \"a\", expected f32"); keep them on one line and add the field.
     let message = err.message().trim().replace('\n', " ");
+    let field = err
+        .span()
+        .and_then(|s| path_at(text, s.start))
+        .unwrap_or_default();
     SceneError {
         origin: origin.clone(),
         position,
-        field: String::new(),
+        field,
         message,
+    }
+}
+
+/// The field path of the deepest key or value whose text contains byte `offset`.
+pub fn path_at(text: &str, offset: usize) -> Option<String> {
+    let root: Spanned<DeTable<'_>> = DeTable::parse(text).ok()?;
+    let mut best = None;
+    walk_table(root.get_ref(), "", offset, &mut best);
+    best
+}
+
+fn join(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_owned()
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+fn walk_table(t: &DeTable<'_>, prefix: &str, offset: usize, best: &mut Option<String>) {
+    for (k, v) in t.iter() {
+        let path = join(prefix, k.get_ref());
+        if k.span().contains(&offset) {
+            *best = Some(path.clone());
+        }
+        walk_value(v, &path, offset, best);
+    }
+}
+
+fn walk_value(v: &Spanned<DeValue<'_>>, path: &str, offset: usize, best: &mut Option<String>) {
+    if v.span().contains(&offset) {
+        *best = Some(path.to_owned());
+    }
+    match v.get_ref() {
+        DeValue::Table(t) => walk_table(t, path, offset, best),
+        DeValue::Array(a) => {
+            for (i, item) in a.iter().enumerate() {
+                walk_value(item, &format!("{path}[{i}]"), offset, best);
+            }
+        }
+        _ => {}
     }
 }
 
@@ -88,5 +133,7 @@ mod tests {
         assert_eq!(position_of(text, "bodies[1].mass_kg"), Some((6, 11)));
         // A missing field points at its table.
         assert_eq!(position_of(text, "bodies[0].mass_kg").map(|p| p.0), Some(2));
+        let at = text.find("-1").unwrap_or(0);
+        assert_eq!(path_at(text, at).as_deref(), Some("bodies[1].mass_kg"));
     }
 }

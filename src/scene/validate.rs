@@ -66,10 +66,10 @@ pub fn validate(scene: &Scene) -> Check {
     }
     let s = &scene.solver;
     positive("solver.frame_rate_hz", s.frame_rate_hz)?;
-    if let Some(n) = s.substeps {
-        if n == 0 {
-            return fail("solver.substeps", "must be at least 1");
-        }
+    if let Some(n) = s.substeps
+        && n == 0
+    {
+        return fail("solver.substeps", "must be at least 1");
     }
     if let Some(dt) = s.dt_secs {
         positive("solver.dt_secs", dt)?;

@@ -1,0 +1,375 @@
+//! The `hooke` binary end to end: scene listing, `check`, a recording read back with Rerun's own
+//! decoder, and bad input that must end in one clear error.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use rerun::log::{Chunk, LogMsg};
+
+fn hooke(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(args)
+        // Never spawn a real viewer from a test.
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run hooke: {e}"))
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hooke-test-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
+    d
+}
+
+#[test]
+fn scenes_lists_every_built_in_with_a_description() {
+    let out = hooke(&["scenes"]);
+    assert!(out.status.success());
+    let s = text(&out.stdout);
+    for name in ["hair", "cloth", "jello", "jello-sphere"] {
+        let line = s
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name));
+        let line = line.unwrap_or_else(|| panic!("`{name}` missing from:\n{s}"));
+        assert!(
+            line.len() > name.len() + 10,
+            "no description for {name}: {line}"
+        );
+    }
+}
+
+#[test]
+fn built_in_names_and_their_files_are_the_same_scene() {
+    for b in hooke::scene::BUILT_IN {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("examples/scenes/{}.toml", b.name));
+        let from_file =
+            hooke::scene::load(&path.to_string_lossy()).unwrap_or_else(|e| panic!("{e}"));
+        let by_name = hooke::scene::load(b.name).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(from_file.scene, by_name.scene);
+    }
+}
+
+#[test]
+fn check_prints_the_model_and_stable_steps() {
+    let out = hooke(&["check", "jello"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    // 10³ masses; structural 3·10·10·9, shear 6·9·9·10 + 4·9³, bending 3·10·10·8.
+    assert!(s.contains("masses: 1000 (0 pinned), springs: 12876"), "{s}");
+    assert!(
+        s.contains("structural 2700")
+            && s.contains("shear      7776")
+            && s.contains("bending    2400"),
+        "{s}"
+    );
+    for i in ["euler", "semi-implicit", "rk2", "rk4", "verlet"] {
+        assert!(
+            s.lines().any(|l| l.trim_start().starts_with(i)),
+            "no stable dt for {i}:\n{s}"
+        );
+    }
+    // Far above the limit: a warning that says what to do.
+    let out = hooke(&["check", "jello", "--substeps", "2"]);
+    let s = text(&out.stdout);
+    assert!(
+        s.contains("warning: dt = ") && s.contains("substeps per frame"),
+        "{s}"
+    );
+}
+
+/// Decode an .rrd with Rerun's own decoder: per entity, the set of `frame` values and whether it
+/// has `sim_time`.
+fn read_rrd(path: &Path) -> BTreeMap<String, (BTreeSet<i64>, BTreeSet<i64>)> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut entities: BTreeMap<String, (BTreeSet<i64>, BTreeSet<i64>)> = BTreeMap::new();
+    for msg in re_log_encoding::DecoderApp::decode_lazy(std::io::BufReader::new(file)) {
+        let msg = msg.unwrap_or_else(|e| panic!("decoding {}: {e}", path.display()));
+        let LogMsg::ArrowMsg(_, arrow) = msg else {
+            continue;
+        };
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap_or_else(|e| panic!("{e}"));
+        let entry = entities.entry(chunk.entity_path().to_string()).or_default();
+        for (name, col) in chunk.timelines() {
+            let set = match name.as_str() {
+                "frame" => &mut entry.0,
+                "sim_time" => &mut entry.1,
+                _ => continue, // log_time, added by the SDK
+            };
+            set.extend(col.times_raw().iter().copied());
+        }
+    }
+    entities
+}
+
+#[test]
+fn a_saved_recording_has_every_frame_on_both_timelines() {
+    let dir = temp_dir("rec");
+    let path = dir.join("jello-sphere.rrd");
+    let frames = 12u64;
+    let out = hooke(&[
+        "run",
+        "jello-sphere",
+        "--frames",
+        &frames.to_string(),
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let e = read_rrd(&path);
+    let want_frames: BTreeSet<i64> = (0..=frames as i64).collect();
+    for entity in [
+        "/world/jello/masses",
+        "/world/jello/springs",
+        "/world/colliders/sphere_0",
+        "/energy/kinetic",
+        "/energy/total",
+        "/energy/dissipated",
+        "/stats/max_strain",
+    ] {
+        let (f, t) = e
+            .get(entity)
+            .unwrap_or_else(|| panic!("{entity} missing; have {:?}", e.keys()));
+        assert_eq!(f, &want_frames, "{entity}: frames");
+        assert_eq!(t.len(), want_frames.len(), "{entity}: sim_time values");
+        // 40 substeps of 1/2400 s per frame: frame 12 is at 0.2 s = 2e8 ns.
+        let last = *t.iter().max().unwrap_or(&0);
+        assert!(
+            (last - 200_000_000).abs() < 1_000,
+            "{entity}: last sim_time {last} ns"
+        );
+    }
+    for static_entity in ["/world/ground", "/scene", "/legend", "/world"] {
+        assert!(e.contains_key(static_entity), "{static_entity} missing");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn with_no_viewer_the_run_records_to_a_file_and_says_so() {
+    let dir = temp_dir("fallback");
+    let out = Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(["run", "hair", "--frames", "3"])
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("recording to hair.rrd instead") && err.contains("rerun hair.rrd"),
+        "{err}"
+    );
+    let frames = &read_rrd(&dir.join("hair.rrd"))["/world/strand_0/masses"].0;
+    assert_eq!(frames.len(), 4);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Run `check` on scene text; expect failure with one line naming the field and position.
+fn expect_scene_error(name: &str, toml: &str, field: &str, position: &str, says: &str) {
+    let dir = temp_dir("bad");
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, toml).unwrap_or_else(|e| panic!("{e}"));
+    let out = hooke(&["check", &path.to_string_lossy()]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success(), "{name}: accepted bad input");
+    assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+    assert!(!err.contains("panicked"), "{name}: panicked: {err}");
+    assert_eq!(
+        err.trim().lines().count(),
+        1,
+        "{name}: want one line, got:\n{err}"
+    );
+    let want_pos = format!("{}:{position}", path.display());
+    assert!(
+        err.contains(&want_pos),
+        "{name}: no position {want_pos} in: {err}"
+    );
+    assert!(
+        err.contains(field),
+        "{name}: field `{field}` not named in: {err}"
+    );
+    assert!(err.contains(says), "{name}: `{says}` not in: {err}");
+    let _ = std::fs::remove_file(path);
+}
+
+const BODY: &str = "name = \"t\"\n[[bodies]]\nname = \"b\"\ngrid = [4, 4]\nspacing_m = 0.1\n";
+/// The same scene with a table before the body, so the table's lines come first.
+fn with_table(table: &str) -> String {
+    format!(
+        "name = \"t\"\n{table}[[bodies]]\nname = \"b\"\ngrid = [4, 4]\nspacing_m = 0.1\nmass_kg = 1.0\n"
+    )
+}
+
+#[test]
+fn bad_scene_files_give_one_clear_error_with_field_and_position() {
+    expect_scene_error(
+        "unknown-key",
+        &format!("{BODY}mass_kg = 1.0\nmas_kg = 2.0\n"),
+        "mas_kg",
+        "7:1",
+        "unknown field",
+    );
+    expect_scene_error(
+        "negative-mass",
+        &format!("{BODY}mass_kg = -1.0\n"),
+        "bodies[0].mass_kg",
+        "6:11",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "zero-mass",
+        &format!("{BODY}mass_kg = 0.0\n"),
+        "bodies[0].mass_kg",
+        "6:11",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "zero-stiffness",
+        &format!("{BODY}mass_kg = 1.0\nsprings.structural = {{ stiffness_n_per_m = 0.0 }}\n"),
+        "bodies[0].springs.structural.stiffness_n_per_m",
+        "7:44",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "negative-stiffness",
+        &format!("{BODY}mass_kg = 1.0\nsprings.bending = {{ stiffness_n_per_m = -5.0 }}\n"),
+        "bodies[0].springs.bending.stiffness_n_per_m",
+        "7:41",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "dt-zero",
+        &with_table("[solver]\ndt_secs = 0.0\n"),
+        "solver.dt_secs",
+        "3:11",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "dt-negative",
+        &with_table("[solver]\ndt_secs = -0.001\n"),
+        "solver.dt_secs",
+        "3:11",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "nan",
+        &format!("{BODY}mass_kg = nan\n"),
+        "bodies[0].mass_kg",
+        "6:11",
+        "finite",
+    );
+    expect_scene_error(
+        "nan-gravity",
+        &with_table("[effects]\ngravity_m_per_s2 = [0.0, nan, 0.0]\n"),
+        "effects.gravity_m_per_s2[1]",
+        "3:26",
+        "finite",
+    );
+    expect_scene_error(
+        "empty-grid",
+        "name = \"t\"\n[[bodies]]\nname = \"b\"\ngrid = [4, 0]\nspacing_m = 0.1\nmass_kg = 1.0\n",
+        "bodies[0].grid[1]",
+        "4:12",
+        "empty",
+    );
+    expect_scene_error(
+        "no-grid-axes",
+        "name = \"t\"\n[[bodies]]\nname = \"b\"\ngrid = []\nspacing_m = 0.1\nmass_kg = 1.0\n",
+        "bodies[0].grid",
+        "4:8",
+        "1, 2 or 3",
+    );
+    expect_scene_error(
+        "pin-outside",
+        &format!("{BODY}mass_kg = 1.0\npins = [[0, 0], [2, 4]]\n"),
+        "bodies[0].pins[1][1]",
+        "7:21",
+        "outside the grid",
+    );
+    expect_scene_error(
+        "pin-wrong-dim",
+        &format!("{BODY}mass_kg = 1.0\npins = [[1]]\n"),
+        "bodies[0].pins[0]",
+        "7:9",
+        "2 entries",
+    );
+    expect_scene_error(
+        "wrong-type",
+        &format!("{BODY}mass_kg = \"heavy\"\n"),
+        "mass_kg",
+        "6:11",
+        "invalid type",
+    );
+    expect_scene_error(
+        "restitution",
+        &with_table("[effects.ground]\nrestitution = 1.5\n"),
+        "effects.ground.restitution",
+        "3:15",
+        "between 0",
+    );
+    expect_scene_error(
+        "huge-grid",
+        "name = \"t\"\n[[bodies]]\nname = \"b\"\ngrid = [100000, 100000, 100000]\nspacing_m = 0.1\nmass_kg = 1.0\n",
+        "bodies[0].grid",
+        "4:8",
+        "limit",
+    );
+    expect_scene_error("syntax", "name = \"t\"\n[[bodies]\n", "", "2:", "");
+}
+
+#[test]
+fn bad_command_line_values_are_clear_errors() {
+    for (args, says) in [
+        (
+            vec!["check", "hair", "--dt", "0"],
+            "--dt must be a positive",
+        ),
+        (
+            vec!["check", "hair", "--dt", "NaN"],
+            "--dt must be a positive",
+        ),
+        (
+            vec!["check", "hair", "--duration", "-1"],
+            "--duration must be a positive",
+        ),
+        (
+            vec!["check", "nonexistent-scene"],
+            "unknown scene 'nonexistent-scene'",
+        ),
+    ] {
+        let out = hooke(&args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(says) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn the_readme_scene_example_is_a_valid_scene() {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let start = readme
+        .find("```toml\n")
+        .unwrap_or_else(|| panic!("no toml block in README"))
+        + 8;
+    let len = readme[start..]
+        .find("```")
+        .unwrap_or_else(|| panic!("unterminated toml block"));
+    let scene =
+        hooke::scene::from_toml(&readme[start..start + len], hooke::error::SceneOrigin::Text)
+            .unwrap_or_else(|e| panic!("{e}"));
+    let model = hooke::model::build(&scene);
+    assert_eq!(model.mass_count(), 1000);
+    assert_eq!(model.pinned_count(), 1);
+}

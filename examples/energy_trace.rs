@@ -20,7 +20,8 @@ fn main() -> anyhow::Result<()> {
         model.clone(),
         settings.integrator,
         settings.dt_secs,
-    );
+        None,
+    )?;
     println!(
         "{:>6} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11} {:>9} {:>6}",
         "frame",
@@ -41,7 +42,7 @@ fn main() -> anyhow::Result<()> {
             stats = be.advance(settings.substeps)?;
         }
         if frame % every == 0 || frame == settings.frames {
-            let s = be.snapshot(frame, stats);
+            let s = be.snapshot(frame, stats)?;
             let e = s.energies;
             let min_y = s
                 .positions

@@ -10,9 +10,22 @@ use crate::state::{Divergence, Snapshot, State, StepStats};
 /// Which backend steps the simulation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum BackendKind {
-    /// The multi-threaded CPU reference.
+    /// wgpu compute shaders on the best (or the named) adapter.
     #[default]
+    Gpu,
+    /// The multi-threaded CPU reference.
     Cpu,
+}
+
+/// Why a backend stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    /// The state went bad; every frame before it was delivered.
+    #[error(transparent)]
+    Diverged(Box<Divergence>),
+    /// The device failed (lost, out of memory, no adapter, scene beyond its limits).
+    #[error("{0}")]
+    Device(String),
 }
 
 pub trait Backend: Send {
@@ -20,11 +33,12 @@ pub trait Backend: Send {
     fn describe(&self) -> String;
     /// Advance `substeps` steps of the backend's dt. Stops at the first step whose state is not
     /// finite or runs away, leaving the last good snapshot intact for the caller.
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, Box<Divergence>>;
-    /// What the recorder logs for the current state.
-    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Snapshot;
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError>;
+    /// What the recorder logs for the current state. A backend that can only see the state at
+    /// snapshot time (the GPU) reports divergence here, and never hands out a non-finite frame.
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError>;
     /// The full state (tests and benchmarks).
-    fn state(&mut self) -> State;
+    fn state(&mut self) -> Result<State, BackendError>;
 }
 
 pub fn create(
@@ -32,10 +46,14 @@ pub fn create(
     model: Arc<Model>,
     integrator: Integrator,
     dt_secs: f64,
-) -> Box<dyn Backend> {
-    match kind {
+    adapter: Option<&str>,
+) -> Result<Box<dyn Backend>, BackendError> {
+    Ok(match kind {
         BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
-    }
+        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(
+            model, integrator, dt_secs, adapter,
+        )?),
+    })
 }
 
 /// Speed beyond which a state counts as runaway: nothing in a mass-spring scene moves at 10 km/s

@@ -27,6 +27,12 @@ pub enum Command {
         scene: String,
         #[command(flatten)]
         solver: SolverArgs,
+        /// Report on this backend (for gpu: the adapter a run would use and whether the scene fits).
+        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
+        backend: BackendKind,
+        /// Use the GPU adapter whose name contains this.
+        #[arg(long)]
+        adapter: Option<String>,
     },
     /// Simulate a scene and stream it to Rerun (spawns the viewer unless told otherwise).
     Run {
@@ -35,8 +41,11 @@ pub enum Command {
         #[command(flatten)]
         solver: SolverArgs,
         /// Which backend steps the simulation.
-        #[arg(long, value_enum, default_value_t = BackendKind::Cpu)]
+        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
         backend: BackendKind,
+        /// Use the GPU adapter whose name contains this (see `hooke check` for the one chosen).
+        #[arg(long)]
+        adapter: Option<String>,
         #[command(flatten)]
         rerun: rerun::clap::RerunArgs,
     },

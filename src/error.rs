@@ -72,7 +72,7 @@ pub enum Error {
     Settings(String),
 
     #[error(transparent)]
-    Diverged(#[from] Box<crate::state::Divergence>),
+    Backend(#[from] crate::backend::BackendError),
 
     #[error("the recorder stopped before the simulation finished: {0}")]
     RecorderGone(String),

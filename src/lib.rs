@@ -7,6 +7,7 @@ pub mod backend;
 pub mod check;
 pub mod cpu;
 pub mod error;
+pub mod gpu;
 pub mod integrator;
 pub mod model;
 pub mod record;

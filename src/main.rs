@@ -3,7 +3,7 @@
 mod cli;
 
 use std::io::IsTerminal as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
@@ -16,6 +16,11 @@ use hooke::settings::Settings;
 use hooke::sim::Delivery;
 
 fn main() -> std::process::ExitCode {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // SAFETY: no other thread exists yet. Mesa's drivers print a misleading "error:" line on
+        // every run without a runtime dir (headless servers, CI); /tmp serves them.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
     let matches = Cli::command().get_matches();
     let result = Cli::from_arg_matches(&matches)
         .map_err(anyhow::Error::from)
@@ -42,7 +47,12 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Check { scene, solver } => {
+        Command::Check {
+            scene,
+            solver,
+            backend,
+            adapter,
+        } => {
             let loaded = scene::load(&scene)?;
             let settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
             for n in &settings.notes {
@@ -53,18 +63,30 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
                 "{}",
                 hooke::check::report(&loaded.scene.name, &model, &settings)
             );
+            match backend {
+                hooke::backend::BackendKind::Cpu => {
+                    println!("backend: cpu ({} threads)", rayon::current_num_threads())
+                }
+                hooke::backend::BackendKind::Gpu => {
+                    match hooke::gpu::adapter_report(adapter.as_deref(), &model) {
+                        Ok(line) => println!("{line}"),
+                        Err(e) => println!("warning: {e}"),
+                    }
+                }
+            }
             Ok(())
         }
         Command::Run {
             scene,
             solver,
             backend,
+            adapter,
             rerun,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
                 .context("parsing `run` arguments")?;
-            run(&scene, &solver, backend, &rerun, run_matches)
+            run(&scene, &solver, (backend, adapter), &rerun, run_matches)
         }
     }
 }
@@ -94,10 +116,78 @@ fn explicit(m: &clap::ArgMatches, id: &str) -> bool {
         && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
 }
 
+/// The sink a run records to, and how it treats a slow consumer.
+struct Sink {
+    rec: rerun::RecordingStream,
+    _guard: rerun::clap::ServeGuard,
+    delivery: Delivery,
+    /// The file being written, when there is one.
+    saved: Option<PathBuf>,
+}
+
+/// With no sink flag Rerun spawns a viewer; where none can be spawned we record to a file instead
+/// and say so, so that a run is never lost.
+fn open_sink(
+    rerun_args: &rerun::clap::RerunArgs,
+    m: &clap::ArgMatches,
+    scene_name: &str,
+) -> anyhow::Result<Sink> {
+    let blueprint = hooke::record::blueprint;
+    let saving = explicit(m, "save");
+    let to_stdout = explicit(m, "stdout");
+    if saving || to_stdout || explicit(m, "connect") || explicit(m, "serve") {
+        let (rec, guard) = rerun_args
+            .init_with_blueprint("hooke", blueprint())
+            .context("starting the Rerun recording")?;
+        return Ok(Sink {
+            rec,
+            _guard: guard,
+            // A file or a pipe keeps every frame; a live viewer may miss some to keep up.
+            delivery: if saving || to_stdout {
+                Delivery::Lossless
+            } else {
+                Delivery::DropWhenBusy
+            },
+            saved: if saving {
+                m.get_one::<PathBuf>("save").cloned()
+            } else {
+                None
+            },
+        });
+    }
+    let why = match viewer_unavailable() {
+        Some(why) => why,
+        None => match rerun_args.init_with_blueprint("hooke", blueprint()) {
+            Ok((rec, guard)) => {
+                eprintln!("streaming to a spawned Rerun viewer");
+                return Ok(Sink {
+                    rec,
+                    _guard: guard,
+                    delivery: Delivery::DropWhenBusy,
+                    saved: None,
+                });
+            }
+            Err(e) => format!("spawning the viewer failed: {e:#}"),
+        },
+    };
+    let path = PathBuf::from(format!("{scene_name}.rrd"));
+    eprintln!("{why}; recording to {} instead", path.display());
+    let rec = rerun::RecordingStreamBuilder::new("hooke")
+        .with_blueprint(blueprint())
+        .save(&path)
+        .with_context(|| format!("creating {}", path.display()))?;
+    Ok(Sink {
+        rec,
+        _guard: Default::default(),
+        delivery: Delivery::Lossless,
+        saved: Some(path),
+    })
+}
+
 fn run(
     scene_arg: &str,
     solver: &cli::SolverArgs,
-    backend: hooke::backend::BackendKind,
+    (kind, adapter): (hooke::backend::BackendKind, Option<String>),
     rerun_args: &rerun::clap::RerunArgs,
     m: &clap::ArgMatches,
 ) -> anyhow::Result<()> {
@@ -110,119 +200,55 @@ fn run(
     if let Some(w) = hooke::check::dt_warning(&model, &settings) {
         eprintln!("warning: {w}");
     }
-
-    let saving = explicit(m, "save");
-    let streaming_elsewhere =
-        explicit(m, "stdout") || explicit(m, "connect") || explicit(m, "serve");
-    let blueprint = hooke::record::blueprint;
-    // With no sink flag Rerun spawns a viewer; where none can be spawned we record to a file
-    // instead and say so, so a run is never lost.
-    let mut fallback: Option<PathBuf> = None;
-    let (rec, _guard) = if saving || streaming_elsewhere {
-        rerun_args
-            .init_with_blueprint("hooke", blueprint())
-            .context("starting the Rerun recording")?
-    } else {
-        let why = match viewer_unavailable() {
-            Some(why) => Some(why),
-            None => match rerun_args.init_with_blueprint("hooke", blueprint()) {
-                Ok(pair) => {
-                    eprintln!("streaming to a spawned Rerun viewer");
-                    return finish(
-                        &loaded,
-                        model,
-                        &settings,
-                        backend,
-                        pair,
-                        Delivery::DropWhenBusy,
-                        None,
-                    );
-                }
-                Err(e) => Some(format!("spawning the viewer failed: {e:#}")),
-            },
-        };
-        let path = PathBuf::from(format!("{}.rrd", loaded.scene.name));
-        eprintln!(
-            "{}; recording to {} instead",
-            why.unwrap_or_default(),
-            path.display()
-        );
-        let rec = rerun::RecordingStreamBuilder::new("hooke")
-            .with_blueprint(blueprint())
-            .save(&path)
-            .with_context(|| format!("creating {}", path.display()))?;
-        fallback = Some(path);
-        (rec, Default::default())
-    };
-    let delivery = if saving || explicit(m, "stdout") || fallback.is_some() {
-        Delivery::Lossless
-    } else {
-        Delivery::DropWhenBusy
-    };
-    let saved = if saving {
-        m.get_one::<PathBuf>("save").cloned()
-    } else {
-        fallback
-    };
-    finish(
-        &loaded,
-        model,
-        &settings,
-        backend,
-        (rec, _guard),
-        delivery,
-        saved.as_deref(),
-    )
-}
-
-fn finish(
-    loaded: &scene::LoadedScene,
-    model: Arc<hooke::model::Model>,
-    settings: &Settings,
-    backend: hooke::backend::BackendKind,
-    (rec, _guard): (rerun::RecordingStream, rerun::clap::ServeGuard),
-    delivery: Delivery,
-    saved: Option<&Path>,
-) -> anyhow::Result<()> {
-    let to_stdout = delivery == Delivery::Lossless && saved.is_none();
-    let say = |s: String| {
-        // With --stdout the data owns stdout; messages go to stderr either way.
-        let _ = to_stdout;
-        eprintln!("{s}");
-    };
-    say(format!(
-        "hooke: '{}' with {} masses and {} springs, {}, dt = {:.3e} s × {} substeps, {} frames",
+    // The backend first: a missing GPU or a scene beyond its limits fails before any file exists.
+    let backend = hooke::backend::create(
+        kind,
+        model.clone(),
+        settings.integrator,
+        settings.dt_secs,
+        adapter.as_deref(),
+    )?;
+    eprintln!(
+        "hooke: '{}' with {} masses and {} springs on {}, {}, dt = {:.3e} s × {} substeps, {} frames",
         loaded.scene.name,
         model.mass_count(),
         model.spring_count(),
+        backend.describe(),
         settings.integrator,
         settings.dt_secs,
         settings.substeps,
         settings.frames
-    ));
+    );
+    let sink = open_sink(rerun_args, m, &loaded.scene.name)?;
     let opts = hooke::run::RunOptions {
-        backend,
-        delivery,
+        delivery: sink.delivery,
         progress: std::io::stderr().is_terminal(),
     };
     let cancel = Arc::new(AtomicBool::new(false));
-    let result = hooke::run::run(loaded, model, settings, rec, &opts, cancel);
-    if let Some(p) = saved {
+    let result = hooke::run::run(
+        &loaded,
+        model,
+        backend,
+        &settings,
+        sink.rec.clone(),
+        &opts,
+        cancel,
+    );
+    if let Some(p) = &sink.saved {
         let open = format!("open it with `rerun {}`", p.display());
         match &result {
-            Ok(_) => say(format!("saved {}; {open}", p.display())),
-            Err(_) => say(format!(
+            Ok(_) => eprintln!("saved {}; {open}", p.display()),
+            Err(_) => eprintln!(
                 "the frames recorded before the error are in {}; {open}",
                 p.display()
-            )),
+            ),
         }
     }
     let summary = result?;
-    say(format!(
-        "done: {} frames ({:.3} s simulated) on {} in {:.2} s wall{}",
+    eprintln!(
+        "done: {} frames ({:.3} s simulated) in {:.2} s wall{}",
         summary.frames_recorded,
         summary.sim_time_secs,
-        summary.backend,
         summary.wall_secs,
         if summary.frames_dropped > 0 {
             format!(
@@ -232,6 +258,6 @@ fn finish(
         } else {
             String::new()
         }
-    ));
+    );
     Ok(())
 }

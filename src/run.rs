@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::backend::{self, BackendKind};
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::record::Recorder;
@@ -18,7 +18,6 @@ pub const CHANNEL_CAPACITY: usize = 4;
 
 #[derive(Debug, Clone)]
 pub struct RunOptions {
-    pub backend: BackendKind,
     pub delivery: Delivery,
     /// Draw a progress bar on a terminal.
     pub progress: bool,
@@ -39,17 +38,12 @@ pub struct RunSummary {
 pub fn run(
     loaded: &LoadedScene,
     model: Arc<Model>,
+    be: Box<dyn Backend>,
     settings: &Settings,
     rec: rerun::RecordingStream,
     opts: &RunOptions,
     cancel: Arc<AtomicBool>,
 ) -> Result<RunSummary> {
-    let be = backend::create(
-        opts.backend,
-        model.clone(),
-        settings.integrator,
-        settings.dt_secs,
-    );
     let backend_name = be.describe();
     let mut recorder = Recorder::new(rec.clone(), model.clone(), loaded.scene.view.strain_range);
     recorder
@@ -115,14 +109,18 @@ pub fn run(
     });
     progress.finish_and_clear();
     // Whatever happened, what was logged reaches the sink before we report.
-    rec.flush_blocking()
-        .map_err(|e| Error::Rerun(format!("flushing the recording failed: {e}")))?;
+    rec.flush_blocking().map_err(|e| {
+        Error::Rerun(format!(
+            "flushing the recording failed: {e}. If streaming, is a Rerun viewer listening there? \
+             Start one with `rerun`, or record to a file with --save FILE"
+        ))
+    })?;
     let outcome = outcome.map_err(Error::Rerun)?;
     if let Some(e) = log_error {
         return Err(Error::RecorderGone(e));
     }
-    if let Some(d) = outcome.diverged {
-        return Err(Error::Diverged(d));
+    if let Some(e) = outcome.failed {
+        return Err(Error::Backend(e));
     }
     Ok(RunSummary {
         backend: backend_name,

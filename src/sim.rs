@@ -5,8 +5,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crossbeam_channel::{Sender, TrySendError};
 
-use crate::backend::Backend;
-use crate::state::{Divergence, Snapshot, StepStats};
+use crate::backend::{Backend, BackendError};
+use crate::state::{Snapshot, StepStats};
 
 /// What happens when the recorder falls behind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -25,8 +25,8 @@ pub struct SimOutcome {
     /// Snapshots dropped because a live viewer could not keep up.
     pub frames_dropped: u64,
     pub cancelled: bool,
-    /// Set when the state went bad; every frame before it was sent.
-    pub diverged: Option<Box<Divergence>>,
+    /// Set when the state went bad or the device failed; every frame before it was sent.
+    pub failed: Option<BackendError>,
     pub recorder_gone: bool,
 }
 
@@ -43,7 +43,7 @@ pub fn simulate(
         frames_sent: 0,
         frames_dropped: 0,
         cancelled: false,
-        diverged: None,
+        failed: None,
         recorder_gone: false,
     };
     let mut stats = StepStats::default();
@@ -55,13 +55,19 @@ pub fn simulate(
             }
             match backend.advance(substeps) {
                 Ok(s) => stats = s,
-                Err(d) => {
-                    out.diverged = Some(d);
+                Err(e) => {
+                    out.failed = Some(e);
                     break;
                 }
             }
         }
-        let snap = backend.snapshot(frame, stats);
+        let snap = match backend.snapshot(frame, stats) {
+            Ok(s) => s,
+            Err(e) => {
+                out.failed = Some(e);
+                break;
+            }
+        };
         let sent = match delivery {
             Delivery::Lossless => tx.send(snap).map_err(|_| ()),
             Delivery::DropWhenBusy => match tx.try_send(snap) {

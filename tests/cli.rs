@@ -155,7 +155,7 @@ fn a_saved_recording_has_every_frame_on_both_timelines() {
 fn with_no_viewer_the_run_records_to_a_file_and_says_so() {
     let dir = temp_dir("fallback");
     let out = Command::new(env!("CARGO_BIN_EXE_hooke"))
-        .args(["run", "hair", "--frames", "3"])
+        .args(["run", "hair", "--backend", "cpu", "--frames", "3"])
         .current_dir(&dir)
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
@@ -372,4 +372,37 @@ fn the_readme_scene_example_is_a_valid_scene() {
     let model = hooke::model::build(&scene);
     assert_eq!(model.mass_count(), 1000);
     assert_eq!(model.pinned_count(), 1);
+}
+
+#[test]
+fn without_any_gpu_adapter_the_run_fails_clearly_before_writing_anything() {
+    let dir = temp_dir("noadapter");
+    let path = dir.join("x.rrd");
+    // No Metal on Linux (nor anywhere here): wgpu finds no adapter at all.
+    let out = Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args([
+            "run",
+            "hair",
+            "--frames",
+            "2",
+            "--save",
+            &path.to_string_lossy(),
+        ])
+        .env("WGPU_BACKEND", "metal")
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no GPU adapter found")
+            && err.contains("--backend cpu")
+            && err.contains("mesa-vulkan-drivers"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        !path.exists(),
+        "a recording was started before the backend failed"
+    );
+    let _ = std::fs::remove_dir_all(dir);
 }

@@ -23,7 +23,7 @@ fn run(model: &Arc<Model>, integrator: Integrator, dt: f64, steps: u64) -> State
         }
         left -= u64::from(n);
     }
-    be.state()
+    be.state().unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn gravity() -> Effects {
@@ -96,7 +96,7 @@ fn trace(
     let mut out = Vec::with_capacity(steps as usize);
     for _ in 0..steps {
         be.advance(1).unwrap_or_else(|d| panic!("{d}"));
-        let s = be.state();
+        let s = be.state().unwrap_or_else(|e| panic!("{e}"));
         out.push((s.time_secs, observe(&s)));
     }
     out
@@ -260,10 +260,18 @@ fn energies_over(
     every: u64,
 ) -> Vec<hooke::state::Energies> {
     let mut be = CpuBackend::new(model.clone(), integrator, dt);
-    let mut out = vec![be.snapshot(0, Default::default()).energies];
+    let mut out = vec![
+        be.snapshot(0, Default::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .energies,
+    ];
     for _ in 0..steps / every {
         be.advance(every as u32).unwrap_or_else(|d| panic!("{d}"));
-        out.push(be.snapshot(0, Default::default()).energies);
+        out.push(
+            be.snapshot(0, Default::default())
+                .unwrap_or_else(|e| panic!("{e}"))
+                .energies,
+        );
     }
     out
 }
@@ -465,7 +473,9 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
             .unwrap_or_else(|e| panic!("{e}"));
         let model = Arc::new(hooke::model::build(&loaded.scene));
         let mut be = CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
-        let first = be.snapshot(0, Default::default());
+        let first = be
+            .snapshot(0, Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
         let b0 = first.energies.balance_j();
         let (mut worst_balance, mut scale, mut deepest) = (0.0f64, 0.0f64, 0.0f32);
         for frame in 1..=settings.frames {
@@ -477,7 +487,7 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
                 "{}: frame {frame}: the safeguard had to push masses out",
                 b.name
             );
-            let s = be.snapshot(frame, stats);
+            let s = be.snapshot(frame, stats).unwrap_or_else(|e| panic!("{e}"));
             let e = &s.energies;
             worst_balance = worst_balance.max((e.balance_j() - b0).abs());
             // Energy that moved: kinetic, or dissipated, or put in by colliders.
@@ -525,7 +535,9 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
         );
         // The struck cube is shoved ahead of the sphere, not passed through.
         if b.name == "jello-sphere" {
-            let s = be.snapshot(0, Default::default());
+            let s = be
+                .snapshot(0, Default::default())
+                .unwrap_or_else(|e| panic!("{e}"));
             let cube_x = s.positions.iter().map(|p| p.x).sum::<f32>() / s.positions.len() as f32;
             let min_x = s
                 .positions

@@ -10,10 +10,10 @@ pub use collide::project_contacts;
 pub use forces::{compute_forces, contact_force, spring_force};
 pub use reduce::{compute_energies, compute_strain};
 
-use crate::backend::{Backend, find_divergence};
+use crate::backend::{Backend, BackendError, find_divergence};
 use crate::integrator::Integrator;
 use crate::model::Model;
-use crate::state::{Divergence, Snapshot, State, StepStats};
+use crate::state::{Snapshot, State, StepStats};
 
 pub struct CpuBackend {
     model: std::sync::Arc<Model>,
@@ -41,7 +41,7 @@ impl Backend for CpuBackend {
         format!("cpu ({} threads)", rayon::current_num_threads())
     }
 
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, Box<Divergence>> {
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         let start = std::time::Instant::now();
         let mut projections = 0;
         for _ in 0..substeps {
@@ -52,18 +52,16 @@ impl Backend for CpuBackend {
                 &mut self.scratch,
                 self.dt,
             );
-            let p = project_contacts(&self.model, &mut self.state);
-            if p > 0 {
-                self.scratch.invalidate();
-                projections += p;
-            }
+            // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
+            // which cannot know that one happened without a read-back.
+            projections += project_contacts(&self.model, &mut self.state);
             if let Some(d) = find_divergence(
                 &self.model,
                 &self.state,
                 self.integrator,
                 f64::from(self.dt),
             ) {
-                return Err(d);
+                return Err(BackendError::Diverged(d));
             }
         }
         Ok(StepStats {
@@ -74,10 +72,10 @@ impl Backend for CpuBackend {
         })
     }
 
-    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Snapshot {
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
         let mut strain = Vec::with_capacity(self.model.spring_count());
         compute_strain(&self.model, &self.state.x, &mut strain);
-        Snapshot {
+        Ok(Snapshot {
             frame,
             time_secs: self.state.time_secs,
             steps: self.state.steps,
@@ -92,10 +90,10 @@ impl Backend for CpuBackend {
                 .iter()
                 .map(|s| s.center_at(self.state.time_secs))
                 .collect(),
-        }
+        })
     }
 
-    fn state(&mut self) -> State {
-        self.state.clone()
+    fn state(&mut self) -> Result<State, BackendError> {
+        Ok(self.state.clone())
     }
 }

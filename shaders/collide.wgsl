@@ -1,0 +1,62 @@
+// project_contacts: the post-step safeguard against tunnelling. Mirrors src/cpu/collide.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(2) var<storage, read> mass: array<vec2<f32>>;
+@group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> v: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> ledger: array<vec4<f32>>;
+// [0] masses projected since the counters were last cleared.
+@group(0) @binding(6) var<storage, read_write> counters: array<atomic<u32>>;
+@group(2) @binding(0) var<uniform> stage: Stage;
+
+struct Body {
+    x: vec3<f32>,
+    v: vec3<f32>,
+    removed: f32,
+    count: u32,
+}
+
+fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: f32, collider_v: vec3<f32>) {
+    if (depth <= max_depth) {
+        return;
+    }
+    (*b).x += n * (depth - max_depth);
+    (*b).count += 1u;
+    let vn = dot((*b).v - collider_v, n);
+    if (vn >= 0.0) {
+        return;
+    }
+    let before = 0.5 * m * dot((*b).v, (*b).v);
+    (*b).v -= vn * n;
+    (*b).removed += before - 0.5 * m * dot((*b).v, (*b).v);
+}
+
+@compute @workgroup_size(64)
+fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count || mass[i].y == 0.0) {
+        return;
+    }
+    let m = mass[i].x;
+    var b = Body(x[i].xyz, v[i].xyz, 0.0, 0u);
+    if (HAS_GROUND) {
+        project(&b, m, vec3<f32>(0.0, 1.0, 0.0), params.ground_height - b.x.y, params.ground_max_depth, vec3<f32>(0.0));
+    }
+    if (HAS_SPHERES) {
+        for (var k = 0u; k < params.sphere_count; k++) {
+            let sp = spheres[k];
+            let r = b.x - (sp.center + sp.velocity * stage.time);
+            let dist = length(r);
+            if (dist > 0.0) {
+                project(&b, m, r / dist, sp.radius - dist, sp.max_depth, sp.velocity);
+            }
+        }
+    }
+    if (b.count > 0u) {
+        x[i] = vec4<f32>(b.x, 0.0);
+        v[i] = vec4<f32>(b.v, 0.0);
+        ledger[i].z += b.removed;
+        atomicAdd(&counters[0], b.count);
+    }
+}

@@ -1,0 +1,68 @@
+// Structs shared by every kernel. Keep in sync with src/gpu/layout.rs (a test checks sizes).
+// Each kernel module is this file followed by one of forces/integrate/collide/reduce.wgsl.
+
+// Effects present in the scene: absent ones are specialised away at pipeline creation.
+override HAS_GRAVITY: bool = false;
+override HAS_DRAG: bool = false;
+override HAS_GROUND: bool = false;
+override HAS_SPHERES: bool = false;
+override HAS_DAMPING: bool = false;
+
+const WORKGROUP: u32 = 64u;
+// A spring shorter than this has no direction and exerts nothing (as src/cpu/forces.rs).
+const MIN_SPRING_LENGTH: f32 = 1.1754944e-32;
+
+struct Params {
+    mass_count: u32,
+    spring_count: u32,
+    sphere_count: u32,
+    runaway_speed: f32,
+    gravity: vec3<f32>,
+    drag_per_s: f32,
+    ground_height: f32,
+    ground_stiffness: f32,
+    ground_friction: f32,
+    ground_damping_ratio: f32,
+    ground_max_depth: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+// One per dispatch that needs it, selected by a dynamic uniform offset.
+struct Stage {
+    time: f32,
+    dt: f32,
+    // RK4: weight of this stage's derivative, and the step fraction of the next stage point.
+    weight: f32,
+    next_scale: f32,
+}
+
+struct Spring {
+    a: u32,
+    b: u32,
+    rest: f32,
+    stiffness: f32,
+    damping: f32,
+}
+
+struct Neighbor {
+    spring: u32,
+    other: u32,
+}
+
+struct Sphere {
+    center: vec3<f32>,
+    radius: f32,
+    velocity: vec3<f32>,
+    stiffness: f32,
+    friction: f32,
+    damping_ratio: f32,
+    max_depth: f32,
+    _pad: f32,
+}
+
+// Linear thread index over a 2D grid of workgroups (large scenes exceed 65535 groups in x).
+fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * WORKGROUP;
+}

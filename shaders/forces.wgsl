@@ -1,0 +1,112 @@
+// compute_forces: the full force on every mass (springs, gravity, drag, contact), gathered per mass
+// through the CSR adjacency. Mirrors src/cpu/forces.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> springs: array<Spring>;
+@group(0) @binding(2) var<storage, read> offsets: array<u32>;
+@group(0) @binding(3) var<storage, read> neighbors: array<Neighbor>;
+@group(0) @binding(4) var<storage, read> spheres: array<Sphere>;
+// (mass, inverse mass; 0 when pinned)
+@group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
+// Per mass: [2i] acceleration, [2i+1] ledger rates (damping, drag, contact, collider work).
+@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
+@group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
+@group(2) @binding(0) var<uniform> stage: Stage;
+
+struct Contact {
+    force: vec3<f32>,
+    dissipated: f32,
+}
+
+fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32) -> Contact {
+    let vn = dot(v_rel, n);
+    let spring = stiffness * depth;
+    let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
+    let fn_total = max(spring + damper, 0.0);
+    let damper_part = fn_total - spring;
+    var out = Contact(n * fn_total, -damper_part * vn);
+    if (friction > 0.0) {
+        let vt = v_rel - vn * n;
+        let speed = length(vt);
+        if (speed > 0.0) {
+            let ft = min(friction * fn_total, m * speed / dt);
+            out.force -= vt * (ft / speed);
+            out.dissipated += ft * speed;
+        }
+    }
+    return out;
+}
+
+@compute @workgroup_size(64)
+fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) {
+        return;
+    }
+    let xi = x_in[i].xyz;
+    let vi = v_in[i].xyz;
+    let m = mass[i].x;
+    var f = vec3<f32>(0.0);
+    var damping_w = 0.0;
+    let end = offsets[i + 1u];
+    for (var e = offsets[i]; e < end; e++) {
+        let nb = neighbors[e];
+        let s = springs[nb.spring];
+        let d = xi - x_in[nb.other].xyz;
+        let len = length(d);
+        if (len <= MIN_SPRING_LENGTH) {
+            continue;
+        }
+        let n = d / len;
+        let elastic = -s.stiffness * (len - s.rest);
+        if (HAS_DAMPING) {
+            let damping = -s.damping * dot(vi - v_in[nb.other].xyz, n);
+            f += n * (elastic + damping);
+            damping_w += damping * dot(n, vi);
+        } else {
+            f += n * elastic;
+        }
+    }
+    if (HAS_GRAVITY) {
+        f += m * params.gravity;
+    }
+    var drag_w = 0.0;
+    if (HAS_DRAG) {
+        let fd = -m * params.drag_per_s * vi;
+        f += fd;
+        drag_w = dot(fd, vi);
+    }
+    var contact_w = 0.0;
+    var collider_w = 0.0;
+    if (HAS_GROUND) {
+        let depth = params.ground_height - xi.y;
+        if (depth > 0.0) {
+            let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, m, stage.dt);
+            f += c.force;
+            contact_w += c.dissipated;
+        }
+    }
+    if (HAS_SPHERES) {
+        for (var k = 0u; k < params.sphere_count; k++) {
+            let sp = spheres[k];
+            let r = xi - (sp.center + sp.velocity * stage.time);
+            let dist = length(r);
+            let depth = sp.radius - dist;
+            if (depth > 0.0 && dist > 0.0) {
+                let c = contact_force(sp.stiffness, sp.friction, sp.damping_ratio, depth, r / dist, vi - sp.velocity, m, stage.dt);
+                f += c.force;
+                contact_w += c.dissipated;
+                collider_w += dot(c.force, sp.velocity);
+            }
+        }
+    }
+    let w = mass[i].y;
+    if (w == 0.0) {
+        deriv[2u * i] = vec4<f32>(0.0);
+        deriv[2u * i + 1u] = vec4<f32>(0.0);
+        return;
+    }
+    deriv[2u * i] = vec4<f32>(f * w, 0.0);
+    deriv[2u * i + 1u] = vec4<f32>(-damping_w, -drag_w, contact_w, collider_w);
+}

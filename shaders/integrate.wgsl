@@ -1,0 +1,133 @@
+// The integrators' update kernels, one per stage of each scheme. Mirrors src/cpu/integrate.rs;
+// every stage's derivative comes from compute_forces (forces.wgsl) on the state named there.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> v: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> xt: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> vt: array<vec4<f32>>;
+// [2i] acceleration, [2i+1] ledger rates, from the last compute_forces.
+@group(0) @binding(5) var<storage, read> deriv: array<vec4<f32>>;
+// [3i] Σ weighted stage velocities, [3i+1] Σ weighted accelerations, [3i+2] Σ weighted rates.
+@group(0) @binding(6) var<storage, read_write> sums: array<vec4<f32>>;
+// Energy that left (damping, drag, contact) or entered (collider work) through this mass.
+@group(0) @binding(7) var<storage, read_write> ledger: array<vec4<f32>>;
+@group(2) @binding(0) var<uniform> stage: Stage;
+
+fn acc(i: u32) -> vec3<f32> {
+    return deriv[2u * i].xyz;
+}
+
+fn rate(i: u32) -> vec4<f32> {
+    return deriv[2u * i + 1u];
+}
+
+@compute @workgroup_size(64)
+fn euler_update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let vi = v[i].xyz;
+    x[i] = vec4<f32>(x[i].xyz + dt * vi, 0.0);
+    v[i] = vec4<f32>(vi + dt * acc(i), 0.0);
+    ledger[i] += dt * rate(i);
+}
+
+@compute @workgroup_size(64)
+fn semi_implicit_update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let vn = v[i].xyz + dt * acc(i);
+    v[i] = vec4<f32>(vn, 0.0);
+    x[i] = vec4<f32>(x[i].xyz + dt * vn, 0.0);
+    ledger[i] += dt * rate(i);
+}
+
+@compute @workgroup_size(64)
+fn rk2_stage(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    xt[i] = vec4<f32>(x[i].xyz + 0.5 * dt * v[i].xyz, 0.0);
+    vt[i] = vec4<f32>(v[i].xyz + 0.5 * dt * acc(i), 0.0);
+}
+
+@compute @workgroup_size(64)
+fn rk2_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    x[i] = vec4<f32>(x[i].xyz + dt * vt[i].xyz, 0.0);
+    v[i] = vec4<f32>(v[i].xyz + dt * acc(i), 0.0);
+    ledger[i] += dt * rate(i);
+}
+
+@compute @workgroup_size(64)
+fn rk4_begin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let xi = x[i].xyz;
+    let vi = v[i].xyz;
+    let ai = acc(i);
+    sums[3u * i] = vec4<f32>(vi, 0.0);
+    sums[3u * i + 1u] = vec4<f32>(ai, 0.0);
+    sums[3u * i + 2u] = rate(i);
+    xt[i] = vec4<f32>(xi + 0.5 * dt * vi, 0.0);
+    vt[i] = vec4<f32>(vi + 0.5 * dt * ai, 0.0);
+}
+
+// Stages 2 and 3: accumulate this stage with `stage.weight`, then form the next stage point at
+// `stage.next_scale` of the step.
+@compute @workgroup_size(64)
+fn rk4_mid(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let w = stage.weight;
+    let vti = vt[i].xyz;
+    let ai = acc(i);
+    sums[3u * i] += vec4<f32>(w * vti, 0.0);
+    sums[3u * i + 1u] += vec4<f32>(w * ai, 0.0);
+    sums[3u * i + 2u] += w * rate(i);
+    xt[i] = vec4<f32>(x[i].xyz + stage.next_scale * dt * vti, 0.0);
+    vt[i] = vec4<f32>(v[i].xyz + stage.next_scale * dt * ai, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn rk4_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let h6 = stage.dt / 6.0;
+    x[i] = vec4<f32>(x[i].xyz + h6 * (sums[3u * i].xyz + vt[i].xyz), 0.0);
+    v[i] = vec4<f32>(v[i].xyz + h6 * (sums[3u * i + 1u].xyz + acc(i)), 0.0);
+    ledger[i] += h6 * (sums[3u * i + 2u] + rate(i));
+}
+
+// Velocity Verlet as kick-drift-kick, first half: half a kick with a(x_n) (kept from the previous
+// step), the drift, a predicted velocity for the velocity-dependent forces, and the half-kicked
+// velocity and a(x_n)'s rates kept for the second half. Every update is p + s·q, as on the CPU.
+@compute @workgroup_size(64)
+fn verlet_drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let vi = v[i].xyz;
+    let ai = acc(i);
+    let half_kick = vi + (0.5 * dt) * ai;
+    x[i] = vec4<f32>(x[i].xyz + dt * half_kick, 0.0);
+    vt[i] = vec4<f32>(vi + dt * ai, 0.0);
+    sums[3u * i] = vec4<f32>(half_kick, 0.0);
+    sums[3u * i + 2u] = rate(i);
+}
+
+// Second half, after compute_forces at (x_{n+1}, predicted v).
+@compute @workgroup_size(64)
+fn verlet_kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    v[i] = vec4<f32>(sums[3u * i].xyz + (0.5 * dt) * acc(i), 0.0);
+    ledger[i] += (0.5 * dt) * (sums[3u * i + 2u] + rate(i));
+}

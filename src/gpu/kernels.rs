@@ -1,0 +1,203 @@
+//! Shader modules, bind group layouts and compute pipelines. Each WGSL file is compiled after
+//! `common.wgsl`; the effects a scene lacks are specialised away through `override` constants.
+
+use crate::model::Model;
+
+pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
+pub const FORCES: &str = include_str!("../../shaders/forces.wgsl");
+pub const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
+pub const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
+pub const REDUCE: &str = include_str!("../../shaders/reduce.wgsl");
+
+/// Every shader program as compiled: (file name, common + file).
+pub fn programs() -> [(&'static str, String); 4] {
+    [
+        ("forces.wgsl", format!("{COMMON}\n{FORCES}")),
+        ("integrate.wgsl", format!("{COMMON}\n{INTEGRATE}")),
+        ("collide.wgsl", format!("{COMMON}\n{COLLIDE}")),
+        ("reduce.wgsl", format!("{COMMON}\n{REDUCE}")),
+    ]
+}
+
+pub const WORKGROUP: u32 = 64;
+
+/// Binding kinds, in binding order.
+#[derive(Clone, Copy)]
+pub enum Slot {
+    Uniform,
+    UniformDynamic,
+    Read,
+    ReadWrite,
+}
+
+pub fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = slots
+        .iter()
+        .enumerate()
+        .map(|(i, s)| wgpu::BindGroupLayoutEntry {
+            binding: i as u32,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: match s {
+                Slot::Uniform | Slot::UniformDynamic => wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: matches!(s, Slot::UniformDynamic),
+                    min_binding_size: None,
+                },
+                Slot::Read | Slot::ReadWrite => wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage {
+                        read_only: matches!(s, Slot::Read),
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+            },
+            count: None,
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+/// The override constants that switch effects on, from the model.
+pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
+    let e = &model.effects;
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    vec![
+        ("HAS_GRAVITY", flag(e.gravity_m_per_s2.is_some())),
+        ("HAS_DRAG", flag(e.air_drag_per_s.is_some())),
+        ("HAS_GROUND", flag(e.ground.is_some())),
+        ("HAS_SPHERES", flag(!e.spheres.is_empty())),
+        (
+            "HAS_DAMPING",
+            flag(model.springs.iter().any(|s| s.damping_n_s_per_m != 0.0)),
+        ),
+    ]
+}
+
+pub struct Layouts {
+    pub forces_model: wgpu::BindGroupLayout,
+    pub forces_state: wgpu::BindGroupLayout,
+    pub stage: wgpu::BindGroupLayout,
+    pub integrate: wgpu::BindGroupLayout,
+    pub collide: wgpu::BindGroupLayout,
+    pub reduce: wgpu::BindGroupLayout,
+}
+
+impl Layouts {
+    pub fn new(device: &wgpu::Device) -> Self {
+        use Slot::*;
+        Self {
+            forces_model: layout(
+                device,
+                "forces model",
+                &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
+            ),
+            forces_state: layout(device, "forces state", &[Read, Read]),
+            stage: layout(device, "stage", &[UniformDynamic]),
+            integrate: layout(
+                device,
+                "integrate",
+                &[
+                    Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite, ReadWrite,
+                ],
+            ),
+            collide: layout(
+                device,
+                "collide",
+                &[
+                    Uniform, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+                ],
+            ),
+            reduce: layout(
+                device,
+                "reduce",
+                &[
+                    Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+                ],
+            ),
+        }
+    }
+}
+
+pub struct Pipelines {
+    pub compute_forces: wgpu::ComputePipeline,
+    pub euler_update: wgpu::ComputePipeline,
+    pub semi_implicit_update: wgpu::ComputePipeline,
+    pub rk2_stage: wgpu::ComputePipeline,
+    pub rk2_final: wgpu::ComputePipeline,
+    pub rk4_begin: wgpu::ComputePipeline,
+    pub rk4_mid: wgpu::ComputePipeline,
+    pub rk4_final: wgpu::ComputePipeline,
+    pub verlet_drift: wgpu::ComputePipeline,
+    pub verlet_kick: wgpu::ComputePipeline,
+    pub project_contacts: wgpu::ComputePipeline,
+    pub compute_strain: wgpu::ComputePipeline,
+    pub compute_energies: wgpu::ComputePipeline,
+}
+
+impl Pipelines {
+    pub fn new(device: &wgpu::Device, l: &Layouts, constants: &[(&str, f64)]) -> Self {
+        let [forces, integrate, collide, reduce] = programs().map(|(name, src)| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(src.into()),
+            })
+        });
+        let pipeline_layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: groups,
+                immediate_size: 0,
+            })
+        };
+        let forces_layout = pipeline_layout(
+            "forces",
+            &[Some(&l.forces_model), Some(&l.forces_state), Some(&l.stage)],
+        );
+        let integrate_layout =
+            pipeline_layout("integrate", &[Some(&l.integrate), None, Some(&l.stage)]);
+        let collide_layout = pipeline_layout("collide", &[Some(&l.collide), None, Some(&l.stage)]);
+        let reduce_layout = pipeline_layout("reduce", &[Some(&l.reduce), None, Some(&l.stage)]);
+        let make = |layout: &wgpu::PipelineLayout, module: &wgpu::ShaderModule, entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            })
+        };
+        Self {
+            compute_forces: make(&forces_layout, &forces, "compute_forces"),
+            euler_update: make(&integrate_layout, &integrate, "euler_update"),
+            semi_implicit_update: make(&integrate_layout, &integrate, "semi_implicit_update"),
+            rk2_stage: make(&integrate_layout, &integrate, "rk2_stage"),
+            rk2_final: make(&integrate_layout, &integrate, "rk2_final"),
+            rk4_begin: make(&integrate_layout, &integrate, "rk4_begin"),
+            rk4_mid: make(&integrate_layout, &integrate, "rk4_mid"),
+            rk4_final: make(&integrate_layout, &integrate, "rk4_final"),
+            verlet_drift: make(&integrate_layout, &integrate, "verlet_drift"),
+            verlet_kick: make(&integrate_layout, &integrate, "verlet_kick"),
+            project_contacts: make(&collide_layout, &collide, "project_contacts"),
+            compute_strain: make(&reduce_layout, &reduce, "compute_strain"),
+            compute_energies: make(&reduce_layout, &reduce, "compute_energies"),
+        }
+    }
+}
+
+/// Workgroup counts for `threads` threads: a 2D grid when x would exceed the adapter's limit.
+pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(WORKGROUP).max(1);
+    if groups <= max_per_dim {
+        (groups, 1)
+    } else {
+        let y = groups.div_ceil(max_per_dim);
+        (groups.div_ceil(y), y)
+    }
+}

@@ -1,0 +1,58 @@
+//! Host-side copies of the structs in `shaders/common.wgsl`. Same field order, sizes and padding;
+//! `tests/shaders.rs` checks each against naga's layout of the WGSL.
+
+use bytemuck::{Pod, Zeroable};
+
+pub use crate::model::{Neighbor, Spring};
+
+/// Scene-wide constants (`Params` in WGSL).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct Params {
+    pub mass_count: u32,
+    pub spring_count: u32,
+    pub sphere_count: u32,
+    pub runaway_speed: f32,
+    pub gravity: [f32; 3],
+    pub drag_per_s: f32,
+    pub ground_height: f32,
+    pub ground_stiffness: f32,
+    pub ground_friction: f32,
+    pub ground_damping_ratio: f32,
+    pub ground_max_depth: f32,
+    pub _pad: [f32; 3],
+}
+
+/// Per-dispatch values (`Stage` in WGSL), one slot per stage of each substep.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct Stage {
+    pub time: f32,
+    pub dt: f32,
+    pub weight: f32,
+    pub next_scale: f32,
+}
+
+/// A sphere collider (`Sphere` in WGSL): centre at t = 0 and constant velocity.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct Sphere {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub velocity: [f32; 3],
+    pub stiffness: f32,
+    pub friction: f32,
+    pub damping_ratio: f32,
+    pub max_depth: f32,
+    pub _pad: f32,
+}
+
+/// The WGSL structs and the size of their host copies, for the layout test.
+pub const SHARED_STRUCTS: [(&str, usize); 6] = [
+    ("Params", std::mem::size_of::<Params>()),
+    ("Stage", std::mem::size_of::<Stage>()),
+    ("Sphere", std::mem::size_of::<Sphere>()),
+    ("Spring", std::mem::size_of::<Spring>()),
+    ("Neighbor", std::mem::size_of::<Neighbor>()),
+    ("vec4<f32>", 16),
+];

@@ -1,0 +1,824 @@
+//! The wgpu compute backend: the same physics as `crate::cpu`, one kernel per CPU function of the
+//! same name. Substeps are encoded into one submission; the host waits on the GPU only when a
+//! snapshot is due, and a snapshot reads back only what the recorder logs (positions, strain and
+//! a few per-workgroup energy sums).
+
+mod context;
+mod kernels;
+pub mod layout;
+
+pub use context::{GpuContext, REQUIRE_ADAPTER_ENV, adapters};
+pub use kernels::programs;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec3;
+use wgpu::util::DeviceExt as _;
+
+use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
+use kernels::{Layouts, Pipelines, groups_for};
+use layout::{Params, Sphere, Stage};
+
+/// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
+const SLOTS_PER_STEP: u32 = 4;
+
+struct Buffers {
+    x: wgpu::Buffer,
+    v: wgpu::Buffer,
+    ledger: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    strain: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    stage: wgpu::Buffer,
+    staging: wgpu::Buffer,
+}
+
+struct BindGroups {
+    forces_model: wgpu::BindGroup,
+    state_xv: wgpu::BindGroup,
+    state_xtvt: wgpu::BindGroup,
+    state_xvt: wgpu::BindGroup,
+    integrate: wgpu::BindGroup,
+    collide: wgpu::BindGroup,
+    reduce: wgpu::BindGroup,
+    stage: wgpu::BindGroup,
+}
+
+pub struct GpuBackend {
+    ctx: GpuContext,
+    model: Arc<Model>,
+    integrator: Integrator,
+    dt: f32,
+    time_secs: f64,
+    steps: u64,
+    /// Energy folded out of the per-mass ledger at each snapshot, summed in f64.
+    ledger: Ledger,
+    verlet_primed: bool,
+    pipelines: Pipelines,
+    layouts: Layouts,
+    buf: Buffers,
+    bg: BindGroups,
+    stage_stride: u64,
+    stage_slots: u32,
+    mass_groups: (u32, u32),
+    spring_groups: (u32, u32),
+    energy_groups: (u32, u32),
+    /// Bytes of GPU memory held by the simulation's buffers.
+    pub memory_bytes: u64,
+    advance_started: Option<Instant>,
+}
+
+fn storage(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    // wgpu rejects zero-sized bindings: give empty arrays one zeroed element.
+    let zeros = [0u8; 64];
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: if contents.is_empty() {
+            &zeros
+        } else {
+            contents
+        },
+        usage: wgpu::BufferUsages::STORAGE | extra,
+    })
+}
+
+fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
+    v.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect()
+}
+
+fn entries<'a>(buffers: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
+    buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect()
+}
+
+impl GpuBackend {
+    pub fn new(
+        model: Arc<Model>,
+        integrator: Integrator,
+        dt_secs: f64,
+        adapter: Option<&str>,
+    ) -> Result<Self, BackendError> {
+        let ctx = GpuContext::open(adapter).map_err(BackendError::Device)?;
+        let n = model.mass_count();
+        let ns = model.spring_count();
+        check_fits(&ctx, &model)?;
+        let device = &ctx.device;
+        let e = &model.effects;
+        let ground = e.ground;
+        let params = Params {
+            mass_count: n as u32,
+            spring_count: ns as u32,
+            sphere_count: e.spheres.len() as u32,
+            runaway_speed: RUNAWAY_SPEED_M_PER_S,
+            gravity: e.gravity_m_per_s2.unwrap_or(Vec3::ZERO).to_array(),
+            drag_per_s: e.air_drag_per_s.unwrap_or(0.0),
+            ground_height: ground.map_or(0.0, |g| g.height_m),
+            ground_stiffness: ground.map_or(0.0, |g| g.contact.stiffness_n_per_m),
+            ground_friction: ground.map_or(0.0, |g| g.contact.friction),
+            ground_damping_ratio: ground.map_or(0.0, |g| g.contact.damping_ratio),
+            ground_max_depth: ground.map_or(0.0, |g| g.max_depth_m),
+            _pad: [0.0; 3],
+        };
+        let spheres: Vec<Sphere> = e
+            .spheres
+            .iter()
+            .map(|s| Sphere {
+                center: s.center_m.to_array(),
+                radius: s.radius_m,
+                velocity: s.velocity_m_per_s.to_array(),
+                stiffness: s.contact.stiffness_n_per_m,
+                friction: s.contact.friction,
+                damping_ratio: s.contact.damping_ratio,
+                max_depth: s.max_depth_m,
+                _pad: 0.0,
+            })
+            .collect();
+        let mass: Vec<[f32; 2]> = model
+            .mass_kg
+            .iter()
+            .zip(&model.inv_mass)
+            .map(|(&m, &w)| [m, w])
+            .collect();
+        let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let springs = storage(
+            device,
+            "springs",
+            bytemuck::cast_slice(&model.springs),
+            wgpu::BufferUsages::empty(),
+        );
+        let offsets = storage(
+            device,
+            "offsets",
+            bytemuck::cast_slice(&model.adjacency.offsets),
+            wgpu::BufferUsages::empty(),
+        );
+        let neighbors = storage(
+            device,
+            "neighbors",
+            bytemuck::cast_slice(&model.adjacency.entries),
+            wgpu::BufferUsages::empty(),
+        );
+        let spheres_buf = storage(
+            device,
+            "spheres",
+            bytemuck::cast_slice(&spheres),
+            wgpu::BufferUsages::empty(),
+        );
+        let mass_buf = storage(
+            device,
+            "mass",
+            bytemuck::cast_slice(&mass),
+            wgpu::BufferUsages::empty(),
+        );
+        let x = storage(
+            device,
+            "x",
+            bytemuck::cast_slice(&vec4s(&model.initial.x)),
+            copy,
+        );
+        let v = storage(
+            device,
+            "v",
+            bytemuck::cast_slice(&vec4s(&model.initial.v)),
+            copy,
+        );
+        let zeros = |label: &str, bytes: usize| storage(device, label, &vec![0u8; bytes], copy);
+        let xt = zeros("xt", 16 * n);
+        let vt = zeros("vt", 16 * n);
+        let deriv = zeros("deriv", 32 * n);
+        let sums = zeros("sums", 48 * n);
+        let ledger = zeros("ledger", 16 * n);
+        let counters = zeros("counters", 16);
+        let strain = zeros("strain", 4 * ns);
+        let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
+        let mass_groups = groups_for(n as u32, max_dim);
+        let spring_groups = groups_for(ns as u32, max_dim);
+        let energy_groups = groups_for(n.max(ns) as u32, max_dim);
+        let partial_count = (energy_groups.0 * energy_groups.1) as usize;
+        let partials = zeros("partials", 48 * partial_count);
+        let stage_stride = u64::from(ctx.limits.min_uniform_buffer_offset_alignment).max(16);
+        let stage_slots = 1;
+        let stage = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stage"),
+            size: stage_stride * u64::from(stage_slots),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let staging_size = (16 * n + 16 * n + 4 * ns.max(1) + 48 * partial_count + 16) as u64;
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("staging"),
+            size: staging_size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layouts = Layouts::new(device);
+        let pipelines = Pipelines::new(device, &layouts, &kernels::effect_constants(&model));
+        let bg_of = |layout: &wgpu::BindGroupLayout, label: &str, bufs: &[&wgpu::Buffer]| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout,
+                entries: &entries(bufs),
+            })
+        };
+        let stage_bg = Self::stage_bind_group(device, &layouts, &stage);
+        let bg = BindGroups {
+            forces_model: bg_of(
+                &layouts.forces_model,
+                "forces model",
+                &[
+                    &params_buf,
+                    &springs,
+                    &offsets,
+                    &neighbors,
+                    &spheres_buf,
+                    &mass_buf,
+                    &deriv,
+                ],
+            ),
+            state_xv: bg_of(&layouts.forces_state, "x v", &[&x, &v]),
+            state_xtvt: bg_of(&layouts.forces_state, "xt vt", &[&xt, &vt]),
+            state_xvt: bg_of(&layouts.forces_state, "x vt", &[&x, &vt]),
+            integrate: bg_of(
+                &layouts.integrate,
+                "integrate",
+                &[&params_buf, &x, &v, &xt, &vt, &deriv, &sums, &ledger],
+            ),
+            collide: bg_of(
+                &layouts.collide,
+                "collide",
+                &[
+                    &params_buf,
+                    &spheres_buf,
+                    &mass_buf,
+                    &x,
+                    &v,
+                    &ledger,
+                    &counters,
+                ],
+            ),
+            reduce: bg_of(
+                &layouts.reduce,
+                "reduce",
+                &[
+                    &params_buf,
+                    &springs,
+                    &spheres_buf,
+                    &mass_buf,
+                    &x,
+                    &v,
+                    &ledger,
+                    &strain,
+                    &partials,
+                ],
+            ),
+            stage: stage_bg,
+        };
+        let memory_bytes = [
+            &params_buf,
+            &springs,
+            &offsets,
+            &neighbors,
+            &spheres_buf,
+            &mass_buf,
+            &x,
+            &v,
+            &xt,
+            &vt,
+            &deriv,
+            &sums,
+            &ledger,
+            &counters,
+            &strain,
+            &partials,
+            &staging,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum();
+        let backend = Self {
+            ctx,
+            model,
+            integrator,
+            dt: dt_secs as f32,
+            time_secs: 0.0,
+            steps: 0,
+            ledger: Ledger::default(),
+            verlet_primed: false,
+            pipelines,
+            layouts,
+            buf: Buffers {
+                x,
+                v,
+                ledger,
+                counters,
+                strain,
+                partials,
+                stage,
+                staging,
+            },
+            bg,
+            stage_stride,
+            stage_slots,
+            mass_groups,
+            spring_groups,
+            energy_groups,
+            memory_bytes,
+            advance_started: None,
+        };
+        backend.check_device()?;
+        Ok(backend)
+    }
+
+    fn stage_bind_group(
+        device: &wgpu::Device,
+        layouts: &Layouts,
+        stage: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("stage"),
+            layout: &layouts.stage,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: stage,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<Stage>() as u64),
+                }),
+            }],
+        })
+    }
+
+    fn check_device(&self) -> Result<(), BackendError> {
+        match self.ctx.take_error() {
+            Some(e) => Err(BackendError::Device(format!(
+                "the GPU reported an error on {}: {e}",
+                self.ctx.describe()
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Make room for `slots` stage slots (grows, never shrinks).
+    fn reserve_stage_slots(&mut self, slots: u32) {
+        if slots <= self.stage_slots {
+            return;
+        }
+        let slots = slots.next_power_of_two();
+        self.buf.stage = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stage"),
+            size: self.stage_stride * u64::from(slots),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.bg.stage = Self::stage_bind_group(&self.ctx.device, &self.layouts, &self.buf.stage);
+        self.stage_slots = slots;
+    }
+
+    fn write_slots(&self, first: u32, stages: &[Stage]) {
+        let stride = self.stage_stride as usize;
+        let mut bytes = vec![0u8; stride * stages.len()];
+        for (k, s) in stages.iter().enumerate() {
+            bytes[k * stride..k * stride + 16].copy_from_slice(bytemuck::bytes_of(s));
+        }
+        self.ctx.queue.write_buffer(
+            &self.buf.stage,
+            u64::from(first) * self.stage_stride,
+            &bytes,
+        );
+    }
+
+    fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &wgpu::ComputePipeline,
+        group0: &wgpu::BindGroup,
+        state: Option<&wgpu::BindGroup>,
+        slot: u32,
+        groups: (u32, u32),
+    ) {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group0, &[]);
+        if let Some(s) = state {
+            pass.set_bind_group(1, s, &[]);
+        }
+        pass.set_bind_group(
+            2,
+            &self.bg.stage,
+            &[(u64::from(slot) * self.stage_stride) as u32],
+        );
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+    }
+
+    /// Encode `substeps` steps; slot `4k + j` holds stage j of step k.
+    fn encode_steps(&mut self, pass: &mut wgpu::ComputePass<'_>, substeps: u32) {
+        let p = &self.pipelines;
+        let g = self.mass_groups;
+        let (bg, forces) = (&self.bg, &p.compute_forces);
+        let has_contact = self.model.effects.has_contact();
+        let mut primed = self.verlet_primed;
+        for k in 0..substeps {
+            let base = SLOTS_PER_STEP * k;
+            match self.integrator {
+                Integrator::Euler => {
+                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
+                    self.dispatch(pass, &p.euler_update, &bg.integrate, None, base, g);
+                }
+                Integrator::SemiImplicit => {
+                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
+                    self.dispatch(pass, &p.semi_implicit_update, &bg.integrate, None, base, g);
+                }
+                Integrator::Rk2 => {
+                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
+                    self.dispatch(pass, &p.rk2_stage, &bg.integrate, None, base, g);
+                    self.dispatch(
+                        pass,
+                        forces,
+                        &bg.forces_model,
+                        Some(&bg.state_xtvt),
+                        base + 1,
+                        g,
+                    );
+                    self.dispatch(pass, &p.rk2_final, &bg.integrate, None, base, g);
+                }
+                Integrator::Rk4 => {
+                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
+                    self.dispatch(pass, &p.rk4_begin, &bg.integrate, None, base, g);
+                    for mid in [base + 1, base + 2] {
+                        self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xtvt), mid, g);
+                        self.dispatch(pass, &p.rk4_mid, &bg.integrate, None, mid, g);
+                    }
+                    self.dispatch(
+                        pass,
+                        forces,
+                        &bg.forces_model,
+                        Some(&bg.state_xtvt),
+                        base + 3,
+                        g,
+                    );
+                    self.dispatch(pass, &p.rk4_final, &bg.integrate, None, base, g);
+                }
+                Integrator::Verlet => {
+                    if !primed {
+                        self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
+                        primed = true;
+                    }
+                    self.dispatch(pass, &p.verlet_drift, &bg.integrate, None, base, g);
+                    self.dispatch(
+                        pass,
+                        forces,
+                        &bg.forces_model,
+                        Some(&bg.state_xvt),
+                        base + 3,
+                        g,
+                    );
+                    self.dispatch(pass, &p.verlet_kick, &bg.integrate, None, base, g);
+                }
+            }
+            if has_contact {
+                self.dispatch(pass, &p.project_contacts, &bg.collide, None, base + 3, g);
+            }
+        }
+        self.verlet_primed = primed;
+    }
+
+    /// Run the reductions, copy what a snapshot needs (and `with_velocity`, the velocities) to the
+    /// staging buffer, fold the per-mass ledger, and wait for it.
+    fn read_back(&mut self, with_velocity: bool) -> Result<ReadBack, BackendError> {
+        let n = self.model.mass_count() as u64;
+        let ns = self.model.spring_count() as u64;
+        let partial_count = u64::from(self.energy_groups.0 * self.energy_groups.1);
+        // The reductions' stage slot: the current time, after the stepping slots.
+        let slot = self.stage_slots - 1;
+        self.write_slots(
+            slot,
+            &[Stage {
+                time: self.time_secs as f32,
+                dt: self.dt,
+                weight: 1.0,
+                next_scale: 1.0,
+            }],
+        );
+        let mut enc = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("snapshot"),
+            });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("reduce"),
+                timestamp_writes: None,
+            });
+            if ns > 0 {
+                self.dispatch(
+                    &mut pass,
+                    &self.pipelines.compute_strain,
+                    &self.bg.reduce,
+                    None,
+                    slot,
+                    self.spring_groups,
+                );
+            }
+            self.dispatch(
+                &mut pass,
+                &self.pipelines.compute_energies,
+                &self.bg.reduce,
+                None,
+                slot,
+                self.energy_groups,
+            );
+        }
+        let (x_off, v_off) = (0u64, 16 * n);
+        let strain_off = 32 * n;
+        let partials_off = strain_off + 4 * ns.max(1);
+        let counters_off = partials_off + 48 * partial_count;
+        enc.copy_buffer_to_buffer(&self.buf.x, 0, &self.buf.staging, x_off, 16 * n);
+        if with_velocity {
+            enc.copy_buffer_to_buffer(&self.buf.v, 0, &self.buf.staging, v_off, 16 * n);
+        }
+        if ns > 0 {
+            enc.copy_buffer_to_buffer(&self.buf.strain, 0, &self.buf.staging, strain_off, 4 * ns);
+        }
+        enc.copy_buffer_to_buffer(
+            &self.buf.partials,
+            0,
+            &self.buf.staging,
+            partials_off,
+            48 * partial_count,
+        );
+        enc.copy_buffer_to_buffer(&self.buf.counters, 0, &self.buf.staging, counters_off, 16);
+        enc.clear_buffer(&self.buf.ledger, 0, None);
+        enc.clear_buffer(&self.buf.counters, 0, None);
+        self.ctx.queue.submit([enc.finish()]);
+
+        let slice = self.buf.staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        let lost = |e: String| {
+            BackendError::Device(format!(
+                "reading back from {} failed: {e}",
+                self.ctx.describe()
+            ))
+        };
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| lost(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| lost(e.to_string()))?
+            .map_err(|e| lost(e.to_string()))?;
+        self.check_device()?;
+        let out = {
+            let data = slice.get_mapped_range().map_err(|e| lost(e.to_string()))?;
+            let f32s = |off: u64, count: u64| -> &[f32] {
+                bytemuck::cast_slice(&data[off as usize..(off + 4 * count) as usize])
+            };
+            let as_vec3 = |off: u64| {
+                f32s(off, 4 * n)
+                    .chunks_exact(4)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]))
+                    .collect::<Vec<_>>()
+            };
+            let partials = f32s(partials_off, 12 * partial_count);
+            let mut sum = [0.0f64; 8];
+            let mut max_speed = 0.0f32;
+            let mut bad = 0.0f32;
+            for p in partials.chunks_exact(12) {
+                for (s, q) in sum.iter_mut().zip(&p[..8]) {
+                    *s += f64::from(*q);
+                }
+                max_speed = max_speed.max(p[8]);
+                bad += p[9];
+            }
+            let counters: &[u32] =
+                bytemuck::cast_slice(&data[counters_off as usize..counters_off as usize + 16]);
+            ReadBack {
+                positions: as_vec3(x_off),
+                velocities: if with_velocity {
+                    as_vec3(v_off)
+                } else {
+                    Vec::new()
+                },
+                strain: f32s(strain_off, ns).to_vec(),
+                energy: [sum[0], sum[1], sum[2], sum[3]],
+                ledger: [sum[4], sum[5], sum[6], sum[7]],
+                max_speed,
+                non_finite: bad > 0.0 || !max_speed.is_finite(),
+                projections: counters[0],
+            }
+        };
+        self.buf.staging.unmap();
+        self.ledger.damping_j += out.ledger[0];
+        self.ledger.drag_j += out.ledger[1];
+        self.ledger.contact_j += out.ledger[2];
+        self.ledger.collider_work_j += out.ledger[3];
+        Ok(out)
+    }
+
+    fn divergence(&mut self, rb: &ReadBack) -> Option<Box<Divergence>> {
+        if !rb.non_finite && rb.max_speed <= RUNAWAY_SPEED_M_PER_S {
+            return None;
+        }
+        let state = self.state_now().ok()?;
+        find_divergence(&self.model, &state, self.integrator, f64::from(self.dt))
+    }
+
+    fn state_now(&mut self) -> Result<State, BackendError> {
+        let rb = self.read_back(true)?;
+        Ok(State {
+            x: rb.positions,
+            v: rb.velocities,
+            time_secs: self.time_secs,
+            steps: self.steps,
+            ledger: self.ledger,
+        })
+    }
+
+    pub fn adapter_name(&self) -> String {
+        self.ctx.describe()
+    }
+}
+
+struct ReadBack {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    strain: Vec<f32>,
+    energy: [f64; 4],
+    ledger: [f64; 4],
+    max_speed: f32,
+    non_finite: bool,
+    projections: u32,
+}
+
+/// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
+pub fn adapter_report(name: Option<&str>, model: &Model) -> Result<String, String> {
+    let ctx = GpuContext::open(name)?;
+    let l = &ctx.limits;
+    let fits = match check_fits(&ctx, model) {
+        Ok(()) => "the scene fits".to_owned(),
+        Err(e) => e.to_string(),
+    };
+    Ok(format!(
+        "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, timestamps {}); {fits}",
+        ctx.describe(),
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size) >> 20,
+        l.max_storage_buffers_per_shader_stage,
+        l.max_compute_workgroups_per_dimension,
+        if ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY) {
+            "yes"
+        } else {
+            "no"
+        },
+    ))
+}
+
+/// Refuse a scene beyond the adapter's limits with the numbers, instead of failing inside wgpu.
+fn check_fits(ctx: &GpuContext, model: &Model) -> Result<(), BackendError> {
+    let n = model.mass_count() as u64;
+    let ns = model.spring_count() as u64;
+    let limit = ctx
+        .limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size);
+    let largest = [
+        ("per-mass stage sums", 48 * n),
+        ("per-mass derivatives", 32 * n),
+        ("springs", 20 * ns),
+        ("adjacency", 16 * ns),
+    ];
+    for (what, bytes) in largest {
+        if bytes > limit {
+            return Err(BackendError::Device(format!(
+                "the scene is too large for {}: its {what} buffer needs {bytes} bytes, the adapter allows {limit} bytes per storage buffer \
+                 ({n} masses, {ns} springs). Use a smaller grid or --backend cpu",
+                ctx.describe()
+            )));
+        }
+    }
+    let needed = 8;
+    if ctx.limits.max_storage_buffers_per_shader_stage < needed {
+        return Err(BackendError::Device(format!(
+            "{} allows {} storage buffers per shader stage; Hooke's kernels need {needed}. Use --backend cpu",
+            ctx.describe(),
+            ctx.limits.max_storage_buffers_per_shader_stage
+        )));
+    }
+    Ok(())
+}
+
+impl Backend for GpuBackend {
+    fn describe(&self) -> String {
+        format!("gpu: {}", self.ctx.describe())
+    }
+
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        self.advance_started.get_or_insert_with(Instant::now);
+        // One extra slot, the last, for the snapshot's reductions.
+        self.reserve_stage_slots(SLOTS_PER_STEP * substeps + 1);
+        let h = f64::from(self.dt);
+        let mut stages = Vec::with_capacity((SLOTS_PER_STEP * substeps) as usize);
+        let mut t = self.time_secs;
+        for _ in 0..substeps {
+            let at = |time: f64, weight: f32, next_scale: f32| Stage {
+                time: time as f32,
+                dt: self.dt,
+                weight,
+                next_scale,
+            };
+            stages.extend([
+                at(t, 1.0, 0.5),
+                at(t + 0.5 * h, 2.0, 0.5),
+                at(t + 0.5 * h, 2.0, 1.0),
+                at(t + h, 1.0, 1.0),
+            ]);
+            t += h;
+        }
+        self.write_slots(0, &stages);
+        let mut enc = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("steps"),
+            });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("steps"),
+                timestamp_writes: None,
+            });
+            self.encode_steps(&mut pass, substeps);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        self.time_secs = t;
+        self.steps += u64::from(substeps);
+        self.check_device()?;
+        Ok(StepStats {
+            substeps,
+            dt_secs: h,
+            step_ms: 0.0,
+            projections: 0,
+        })
+    }
+
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
+        let rb = self.read_back(false)?;
+        if let Some(d) = self.divergence(&rb) {
+            return Err(BackendError::Diverged(d));
+        }
+        let step_ms = self
+            .advance_started
+            .take()
+            .map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3);
+        Ok(Snapshot {
+            frame,
+            time_secs: self.time_secs,
+            steps: self.steps,
+            energies: Energies {
+                kinetic_j: rb.energy[0],
+                elastic_j: rb.energy[1],
+                gravity_j: rb.energy[2],
+                contact_j: rb.energy[3],
+                ledger: self.ledger,
+            },
+            positions: rb.positions,
+            strain: rb.strain,
+            stats: StepStats {
+                step_ms,
+                projections: rb.projections,
+                ..stats
+            },
+            sphere_centers: self
+                .model
+                .effects
+                .spheres
+                .iter()
+                .map(|s| s.center_at(self.time_secs))
+                .collect(),
+        })
+    }
+
+    fn state(&mut self) -> Result<State, BackendError> {
+        self.state_now()
+    }
+}

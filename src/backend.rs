@@ -39,6 +39,14 @@ pub trait Backend: Send {
     fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError>;
     /// The full state (tests and benchmarks).
     fn state(&mut self) -> Result<State, BackendError>;
+    /// Wait until all stepping asked for so far has run (benchmarks time up to here).
+    fn finish(&mut self) -> Result<(), BackendError> {
+        Ok(())
+    }
+    /// Device memory held by the simulation's buffers, where the backend has its own device.
+    fn memory_bytes(&self) -> Option<u64> {
+        None
+    }
 }
 
 pub fn create(

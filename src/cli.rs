@@ -34,6 +34,11 @@ pub enum Command {
         #[arg(long)]
         adapter: Option<String>,
     },
+    /// Benchmarks (see BENCHMARKS.md).
+    Bench {
+        #[command(subcommand)]
+        which: BenchCommand,
+    },
     /// Simulate a scene and stream it to Rerun (spawns the viewer unless told otherwise).
     Run {
         /// Built-in scene name or path to a .toml scene file.
@@ -48,6 +53,29 @@ pub enum Command {
         adapter: Option<String>,
         #[command(flatten)]
         rerun: rerun::clap::RerunArgs,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Step scenes headless with no recording and report steps/s and spring updates/s.
+    Throughput {
+        /// Built-in scene names or .toml files (default: cloth-64 cloth-256).
+        scenes: Vec<String>,
+        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
+        backend: BackendKind,
+        /// Use the GPU adapter whose name contains this.
+        #[arg(long)]
+        adapter: Option<String>,
+        /// Integrator (default: each scene's own).
+        #[arg(long, value_enum)]
+        integrator: Option<Integrator>,
+        /// Timed steps per scene (after a warm-up).
+        #[arg(long, default_value_t = 200)]
+        steps: u32,
+        /// Steps per GPU submission.
+        #[arg(long, default_value_t = 100)]
+        batch: u32,
     },
 }
 

@@ -4,6 +4,7 @@
 //! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
 
 pub mod backend;
+pub mod bench;
 pub mod check;
 pub mod cpu;
 pub mod error;

@@ -76,6 +76,35 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Bench {
+            which:
+                cli::BenchCommand::Throughput {
+                    scenes,
+                    backend,
+                    adapter,
+                    integrator,
+                    steps,
+                    batch,
+                },
+        } => {
+            let scenes = if scenes.is_empty() {
+                vec!["cloth-64".to_owned(), "cloth-256".to_owned()]
+            } else {
+                scenes
+            };
+            let opts = hooke::bench::ThroughputOptions {
+                backend,
+                adapter,
+                integrator,
+                steps,
+                batch,
+            };
+            for s in &scenes {
+                let t = hooke::bench::throughput(s, &opts)?;
+                println!("{}", hooke::bench::format_throughput(&t));
+            }
+            Ok(())
+        }
         Command::Run {
             scene,
             solver,

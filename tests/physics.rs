@@ -467,7 +467,12 @@ springs.shear = { stiffness_n_per_m = 100.0 }
 #[test]
 fn built_in_scenes_keep_contact_and_balance_energy() {
     use hooke::settings::{Overrides, Settings};
-    for b in hooke::scene::BUILT_IN {
+    // The benchmark cloths (`cloth-64` … `cloth-1024`) have no colliders and the physics of
+    // `cloth`; run in full they would take hours here.
+    for b in hooke::scene::BUILT_IN
+        .iter()
+        .filter(|b| !b.name.starts_with("cloth-"))
+    {
         let loaded = hooke::scene::load(b.name).unwrap_or_else(|e| panic!("{e}"));
         let settings = Settings::resolve(&loaded.scene, &Overrides::default())
             .unwrap_or_else(|e| panic!("{e}"));

@@ -429,76 +429,223 @@ impl GpuBackend {
         pass.dispatch_workgroups(groups.0, groups.1, 1);
     }
 
-    /// Encode `substeps` steps; slot `4k + j` holds stage j of step k.
-    fn encode_steps(&mut self, pass: &mut wgpu::ComputePass<'_>, substeps: u32) {
-        let p = &self.pipelines;
-        let g = self.mass_groups;
-        let (bg, forces) = (&self.bg, &p.compute_forces);
-        let has_contact = self.model.effects.has_contact();
-        let mut primed = self.verlet_primed;
-        for k in 0..substeps {
-            let base = SLOTS_PER_STEP * k;
-            match self.integrator {
-                Integrator::Euler => {
-                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
-                    self.dispatch(pass, &p.euler_update, &bg.integrate, None, base, g);
+    /// The dispatches of one step, with their stage slot relative to the step's first slot.
+    /// `prime`: Verlet's first step also evaluates a(x_0).
+    fn step_plan(&self, prime: bool) -> Vec<(Kernel, u32)> {
+        use Kernel::*;
+        let mut plan = match self.integrator {
+            Integrator::Euler => vec![(Forces(StateIn::XV), 0), (EulerUpdate, 0)],
+            Integrator::SemiImplicit => vec![(Forces(StateIn::XV), 0), (SemiImplicitUpdate, 0)],
+            Integrator::Rk2 => vec![
+                (Forces(StateIn::XV), 0),
+                (Rk2Stage, 0),
+                (Forces(StateIn::XtVt), 1),
+                (Rk2Final, 0),
+            ],
+            Integrator::Rk4 => vec![
+                (Forces(StateIn::XV), 0),
+                (Rk4Begin, 0),
+                (Forces(StateIn::XtVt), 1),
+                (Rk4Mid, 1),
+                (Forces(StateIn::XtVt), 2),
+                (Rk4Mid, 2),
+                (Forces(StateIn::XtVt), 3),
+                (Rk4Final, 0),
+            ],
+            Integrator::Verlet => {
+                let mut p = vec![(VerletDrift, 0), (Forces(StateIn::XVt), 3), (VerletKick, 0)];
+                if prime {
+                    p.insert(0, (Forces(StateIn::XV), 0));
                 }
-                Integrator::SemiImplicit => {
-                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
-                    self.dispatch(pass, &p.semi_implicit_update, &bg.integrate, None, base, g);
-                }
-                Integrator::Rk2 => {
-                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
-                    self.dispatch(pass, &p.rk2_stage, &bg.integrate, None, base, g);
-                    self.dispatch(
-                        pass,
-                        forces,
-                        &bg.forces_model,
-                        Some(&bg.state_xtvt),
-                        base + 1,
-                        g,
-                    );
-                    self.dispatch(pass, &p.rk2_final, &bg.integrate, None, base, g);
-                }
-                Integrator::Rk4 => {
-                    self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
-                    self.dispatch(pass, &p.rk4_begin, &bg.integrate, None, base, g);
-                    for mid in [base + 1, base + 2] {
-                        self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xtvt), mid, g);
-                        self.dispatch(pass, &p.rk4_mid, &bg.integrate, None, mid, g);
-                    }
-                    self.dispatch(
-                        pass,
-                        forces,
-                        &bg.forces_model,
-                        Some(&bg.state_xtvt),
-                        base + 3,
-                        g,
-                    );
-                    self.dispatch(pass, &p.rk4_final, &bg.integrate, None, base, g);
-                }
-                Integrator::Verlet => {
-                    if !primed {
-                        self.dispatch(pass, forces, &bg.forces_model, Some(&bg.state_xv), base, g);
-                        primed = true;
-                    }
-                    self.dispatch(pass, &p.verlet_drift, &bg.integrate, None, base, g);
-                    self.dispatch(
-                        pass,
-                        forces,
-                        &bg.forces_model,
-                        Some(&bg.state_xvt),
-                        base + 3,
-                        g,
-                    );
-                    self.dispatch(pass, &p.verlet_kick, &bg.integrate, None, base, g);
-                }
+                p
             }
-            if has_contact {
-                self.dispatch(pass, &p.project_contacts, &bg.collide, None, base + 3, g);
+        };
+        if self.model.effects.has_contact() {
+            plan.push((ProjectContacts, 3));
+        }
+        plan
+    }
+
+    fn kernel(
+        &self,
+        k: Kernel,
+    ) -> (
+        &wgpu::ComputePipeline,
+        &wgpu::BindGroup,
+        Option<&wgpu::BindGroup>,
+    ) {
+        let (p, bg) = (&self.pipelines, &self.bg);
+        match k {
+            Kernel::Forces(s) => (
+                &p.compute_forces,
+                &bg.forces_model,
+                Some(match s {
+                    StateIn::XV => &bg.state_xv,
+                    StateIn::XtVt => &bg.state_xtvt,
+                    StateIn::XVt => &bg.state_xvt,
+                }),
+            ),
+            Kernel::EulerUpdate => (&p.euler_update, &bg.integrate, None),
+            Kernel::SemiImplicitUpdate => (&p.semi_implicit_update, &bg.integrate, None),
+            Kernel::Rk2Stage => (&p.rk2_stage, &bg.integrate, None),
+            Kernel::Rk2Final => (&p.rk2_final, &bg.integrate, None),
+            Kernel::Rk4Begin => (&p.rk4_begin, &bg.integrate, None),
+            Kernel::Rk4Mid => (&p.rk4_mid, &bg.integrate, None),
+            Kernel::Rk4Final => (&p.rk4_final, &bg.integrate, None),
+            Kernel::VerletDrift => (&p.verlet_drift, &bg.integrate, None),
+            Kernel::VerletKick => (&p.verlet_kick, &bg.integrate, None),
+            Kernel::ProjectContacts => (&p.project_contacts, &bg.collide, None),
+        }
+    }
+
+    /// Encode `substeps` steps into one pass; slot `4k + j` holds stage j of step k.
+    fn encode_steps(&mut self, pass: &mut wgpu::ComputePass<'_>, substeps: u32) {
+        let warm = self.step_plan(false);
+        for k in 0..substeps {
+            let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
+            let plan = if prime {
+                self.step_plan(true)
+            } else {
+                warm.clone()
+            };
+            for (kernel, rel) in plan {
+                let (pipeline, g0, state) = self.kernel(kernel);
+                self.dispatch(
+                    pass,
+                    pipeline,
+                    g0,
+                    state,
+                    SLOTS_PER_STEP * k + rel,
+                    self.mass_groups,
+                );
+            }
+            self.verlet_primed = true;
+        }
+    }
+
+    /// Wait until everything submitted has run.
+    fn wait_idle(&self) -> Result<(), BackendError> {
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| {
+                BackendError::Device(format!("waiting for {} failed: {e}", self.ctx.describe()))
+            })?;
+        self.check_device()
+    }
+
+    /// GPU time of each kernel per step, averaged over `steps` steps, each dispatch timed in its
+    /// own pass with timestamp queries. `None` when the adapter has no timestamp queries.
+    pub fn profile_kernels(
+        &mut self,
+        steps: u32,
+    ) -> Result<Option<Vec<(String, f64)>>, BackendError> {
+        if !self.ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY) || steps == 0 {
+            return Ok(None);
+        }
+        self.reserve_stage_slots(SLOTS_PER_STEP * steps + 1);
+        let stages = self.stage_times(steps);
+        self.write_slots(0, &stages);
+        let mut dispatches = Vec::new();
+        for k in 0..steps {
+            let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
+            for (kernel, rel) in self.step_plan(prime) {
+                dispatches.push((kernel, SLOTS_PER_STEP * k + rel));
+            }
+            self.verlet_primed = true;
+        }
+        let device = &self.ctx.device;
+        let count = 2 * dispatches.len() as u32;
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("kernel timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count,
+        });
+        let bytes = 8 * u64::from(count);
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let read = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps read"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("profile"),
+        });
+        for (q, (kernel, slot)) in dispatches.iter().enumerate() {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(kernel.name()),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: &queries,
+                    beginning_of_pass_write_index: Some(2 * q as u32),
+                    end_of_pass_write_index: Some(2 * q as u32 + 1),
+                }),
+            });
+            let (pipeline, g0, state) = self.kernel(*kernel);
+            self.dispatch(&mut pass, pipeline, g0, state, *slot, self.mass_groups);
+        }
+        enc.resolve_query_set(&queries, 0..count, &resolve, 0);
+        enc.copy_buffer_to_buffer(&resolve, 0, &read, 0, bytes);
+        self.ctx.queue.submit([enc.finish()]);
+        self.time_secs = self.time_after(steps);
+        self.steps += u64::from(steps);
+        let slice = read.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        self.wait_idle()?;
+        let ns_per_tick = f64::from(self.ctx.queue.get_timestamp_period());
+        let mut totals: Vec<(String, f64)> = Vec::new();
+        {
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| BackendError::Device(format!("reading timestamps failed: {e}")))?;
+            let ticks: &[u64] = bytemuck::cast_slice(&data);
+            for (q, (kernel, _)) in dispatches.iter().enumerate() {
+                let ms = ticks[2 * q + 1].saturating_sub(ticks[2 * q]) as f64 * ns_per_tick * 1e-6;
+                match totals.iter_mut().find(|(n, _)| n == kernel.name()) {
+                    Some(t) => t.1 += ms,
+                    None => totals.push((kernel.name().to_owned(), ms)),
+                }
             }
         }
-        self.verlet_primed = primed;
+        read.unmap();
+        for t in &mut totals {
+            t.1 /= f64::from(steps);
+        }
+        Ok(Some(totals))
+    }
+
+    /// Stage slots for `steps` steps from the current time: t, t + h/2 (RK4 stage 2), t + h/2
+    /// (stage 3), t + h, accumulating t by repeated addition exactly as the CPU backend does.
+    fn stage_times(&self, steps: u32) -> Vec<Stage> {
+        let h = f64::from(self.dt);
+        let mut stages = Vec::with_capacity((SLOTS_PER_STEP * steps) as usize);
+        let mut t = self.time_secs;
+        for _ in 0..steps {
+            let at = |time: f64, weight: f32, next_scale: f32| Stage {
+                time: time as f32,
+                dt: self.dt,
+                weight,
+                next_scale,
+            };
+            stages.extend([
+                at(t, 1.0, 0.5),
+                at(t + 0.5 * h, 2.0, 0.5),
+                at(t + 0.5 * h, 2.0, 1.0),
+                at(t + h, 1.0, 1.0),
+            ]);
+            t += h;
+        }
+        stages
+    }
+
+    fn time_after(&self, steps: u32) -> f64 {
+        let h = f64::from(self.dt);
+        (0..steps).fold(self.time_secs, |t, _| t + h)
     }
 
     /// Run the reductions, copy what a snapshot needs (and `with_velocity`, the velocities) to the
@@ -661,6 +808,48 @@ impl GpuBackend {
     }
 }
 
+/// What a dispatch runs (names as in the WGSL).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kernel {
+    Forces(StateIn),
+    EulerUpdate,
+    SemiImplicitUpdate,
+    Rk2Stage,
+    Rk2Final,
+    Rk4Begin,
+    Rk4Mid,
+    Rk4Final,
+    VerletDrift,
+    VerletKick,
+    ProjectContacts,
+}
+
+/// Which state a force evaluation reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StateIn {
+    XV,
+    XtVt,
+    XVt,
+}
+
+impl Kernel {
+    fn name(self) -> &'static str {
+        match self {
+            Kernel::Forces(_) => "compute_forces",
+            Kernel::EulerUpdate => "euler_update",
+            Kernel::SemiImplicitUpdate => "semi_implicit_update",
+            Kernel::Rk2Stage => "rk2_stage",
+            Kernel::Rk2Final => "rk2_final",
+            Kernel::Rk4Begin => "rk4_begin",
+            Kernel::Rk4Mid => "rk4_mid",
+            Kernel::Rk4Final => "rk4_final",
+            Kernel::VerletDrift => "verlet_drift",
+            Kernel::VerletKick => "verlet_kick",
+            Kernel::ProjectContacts => "project_contacts",
+        }
+    }
+}
+
 struct ReadBack {
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
@@ -737,24 +926,8 @@ impl Backend for GpuBackend {
         self.advance_started.get_or_insert_with(Instant::now);
         // One extra slot, the last, for the snapshot's reductions.
         self.reserve_stage_slots(SLOTS_PER_STEP * substeps + 1);
-        let h = f64::from(self.dt);
-        let mut stages = Vec::with_capacity((SLOTS_PER_STEP * substeps) as usize);
-        let mut t = self.time_secs;
-        for _ in 0..substeps {
-            let at = |time: f64, weight: f32, next_scale: f32| Stage {
-                time: time as f32,
-                dt: self.dt,
-                weight,
-                next_scale,
-            };
-            stages.extend([
-                at(t, 1.0, 0.5),
-                at(t + 0.5 * h, 2.0, 0.5),
-                at(t + 0.5 * h, 2.0, 1.0),
-                at(t + h, 1.0, 1.0),
-            ]);
-            t += h;
-        }
+        let stages = self.stage_times(substeps);
+        let t = self.time_after(substeps);
         self.write_slots(0, &stages);
         let mut enc = self
             .ctx
@@ -775,7 +948,7 @@ impl Backend for GpuBackend {
         self.check_device()?;
         Ok(StepStats {
             substeps,
-            dt_secs: h,
+            dt_secs: f64::from(self.dt),
             step_ms: 0.0,
             projections: 0,
         })
@@ -820,5 +993,13 @@ impl Backend for GpuBackend {
 
     fn state(&mut self) -> Result<State, BackendError> {
         self.state_now()
+    }
+
+    fn finish(&mut self) -> Result<(), BackendError> {
+        self.wait_idle()
+    }
+
+    fn memory_bytes(&self) -> Option<u64> {
+        Some(self.memory_bytes)
     }
 }

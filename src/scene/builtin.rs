@@ -12,7 +12,15 @@ macro_rules! built_in {
     };
 }
 
-pub const BUILT_IN: &[BuiltIn] = built_in!["hair", "cloth", "jello", "jello-sphere"];
+pub const BUILT_IN: &[BuiltIn] = built_in![
+    "hair",
+    "cloth",
+    "jello",
+    "jello-sphere",
+    "cloth-64",
+    "cloth-256",
+    "cloth-1024"
+];
 
 pub fn find(name: &str) -> Option<&'static BuiltIn> {
     BUILT_IN.iter().find(|b| b.name == name)

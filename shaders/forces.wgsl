@@ -58,7 +58,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         if (len <= MIN_SPRING_LENGTH) {
             continue;
         }
-        let n = d / len;
+        let n = d * (1.0 / len);
         let elastic = -s.stiffness * (len - s.rest);
         if (HAS_DAMPING) {
             let damping = -s.damping * dot(vi - v_in[nb.other].xyz, n);

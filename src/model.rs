@@ -276,6 +276,23 @@ impl ModelBuilder {
         (self.springs.len() - 1) as u32
     }
 
+    fn body_spring_start(&self) -> usize {
+        self.bodies.last().map_or(0, |b| b.springs.end as usize)
+    }
+
+    /// Sort springs `first..` by (lower, higher) mass index, keeping each spring's kind with it.
+    fn sort_springs_from(&mut self, first: usize) {
+        let mut order: Vec<usize> = (first..self.springs.len()).collect();
+        let key = |s: &Spring| (s.a.min(s.b), s.a.max(s.b));
+        order.sort_by_key(|&i| key(&self.springs[i]));
+        let springs: Vec<Spring> = order.iter().map(|&i| self.springs[i]).collect();
+        let kinds: Vec<SpringKindTag> = order.iter().map(|&i| self.kinds[i]).collect();
+        self.springs.truncate(first);
+        self.kinds.truncate(first);
+        self.springs.extend(springs);
+        self.kinds.extend(kinds);
+    }
+
     pub fn effects(&mut self, effects: Effects) -> &mut Self {
         self.effects = effects;
         self
@@ -429,6 +446,10 @@ pub fn build(scene: &Scene) -> Model {
                 }
             }
         }
+        // Order the body's springs by the masses they join, kinds interleaved, so that a mass's
+        // springs (and its neighbours') sit close together in memory for the force passes.
+        let first = mb.body_spring_start();
+        mb.sort_springs_from(first);
         mb.end_body(&body.name, body.grid.clone());
     }
     // A fast mass may sink a little into a collider before the penalty force turns it round; the

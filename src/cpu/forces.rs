@@ -86,6 +86,7 @@ impl CollidersAt {
 #[inline(always)]
 fn force_on_mass(
     model: &Model,
+    gather: &Gather,
     col: &CollidersAt,
     x: &[Vec3],
     v: &[Vec3],
@@ -97,9 +98,9 @@ fn force_on_mass(
     let m = model.mass_kg[i];
     let mut f = Vec3::ZERO;
     let mut damping_w = 0.0f32;
-    for nb in model.adjacency.of(i) {
-        let j = nb.other as usize;
-        let (fs, pw) = spring_force(&model.springs[nb.spring as usize], xi, x[j], vi, v[j]);
+    for e in &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize] {
+        let j = e.other as usize;
+        let (fs, pw) = spring_force(&e.spring, xi, x[j], vi, v[j]);
         f += fs;
         damping_w += pw;
     }
@@ -146,9 +147,42 @@ fn force_on_mass(
     )
 }
 
+/// The CSR adjacency with each spring's parameters stored in the entry itself, in the same order
+/// as `model.adjacency`: the gather streams through one array instead of chasing a spring index
+/// per neighbour. (The GPU reads springs by index; its caches make that cheap.)
+#[derive(Debug, Default)]
+pub struct Gather {
+    offsets: Vec<u32>,
+    entries: Vec<GatherEntry>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct GatherEntry {
+    other: u32,
+    spring: Spring,
+}
+
+impl Gather {
+    pub fn new(model: &Model) -> Self {
+        Self {
+            offsets: model.adjacency.offsets.clone(),
+            entries: model
+                .adjacency
+                .entries
+                .iter()
+                .map(|nb| GatherEntry {
+                    other: nb.other,
+                    spring: model.springs[nb.spring as usize],
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Accelerations of every mass at state (x, v, t) into `acc`; returns the ledger rates.
 pub fn compute_forces(
     model: &Model,
+    gather: &Gather,
     x: &[Vec3],
     v: &[Vec3],
     t: f64,
@@ -159,7 +193,7 @@ pub fn compute_forces(
     let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
         let mut sum = [0.0f64; 4];
         for (k, a) in out.iter_mut().enumerate() {
-            let (ai, p) = force_on_mass(model, &col, x, v, ci * CHUNK + k, dt);
+            let (ai, p) = force_on_mass(model, gather, &col, x, v, ci * CHUNK + k, dt);
             *a = ai;
             for (s, q) in sum.iter_mut().zip(p) {
                 *s += f64::from(q);

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::forces::{CHUNK, PARALLEL_MIN_MASSES, compute_forces};
+use super::forces::{CHUNK, Gather, PARALLEL_MIN_MASSES, compute_forces};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::state::{Power, State};
@@ -19,11 +19,14 @@ pub struct Scratch {
     sum_a: Vec<Vec3>,
     /// Verlet's acceleration (and ledger rates) at the current state, from the previous step.
     verlet_cache: Option<Power>,
+    gather: Gather,
 }
 
 impl Scratch {
-    pub fn new(n: usize) -> Self {
+    pub fn new(model: &Model) -> Self {
+        let n = model.mass_count();
         Self {
+            gather: Gather::new(model),
             acc: vec![Vec3::ZERO; n],
             xt: vec![Vec3::ZERO; n],
             vt: vec![Vec3::ZERO; n],
@@ -66,7 +69,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
     let (x, v) = (&mut x[..], &mut v[..]);
     match integrator {
         Integrator::Euler => {
-            let p = compute_forces(model, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
             let acc = &s.acc;
             for_each_mass!(n, |i| (x, v) {
                 *x += dt * *v;
@@ -75,7 +78,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             ledger.accumulate(&p, h);
         }
         Integrator::SemiImplicit => {
-            let p = compute_forces(model, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
             let acc = &s.acc;
             for_each_mass!(n, |i| (x, v) {
                 *v += dt * acc[i];
@@ -84,7 +87,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             ledger.accumulate(&p, h);
         }
         Integrator::Rk2 => {
-            compute_forces(model, x, v, t, dt, &mut s.acc);
+            compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
             let (acc, xt, vt) = (&s.acc, &mut s.xt[..], &mut s.vt[..]);
             {
                 let (x, v) = (&*x, &*v);
@@ -93,7 +96,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
                     *vt = v[i] + 0.5 * dt * acc[i];
                 });
             }
-            let p = compute_forces(model, &s.xt, &s.vt, t + 0.5 * h, dt, &mut s.acc);
+            let p = compute_forces(model, &s.gather, &s.xt, &s.vt, t + 0.5 * h, dt, &mut s.acc);
             let (acc, vt) = (&s.acc, &s.vt);
             for_each_mass!(n, |i| (x, v) {
                 *x += dt * vt[i];
@@ -104,7 +107,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
         Integrator::Rk4 => {
             let mut power = Power::default();
             // Stage 1 at (x, v).
-            let p = compute_forces(model, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
             power.add_scaled(&p, 1.0);
             {
                 let (x, v, acc) = (&*x, &*v, &s.acc);
@@ -123,7 +126,15 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             }
             // Stages 2 and 3 at the midpoint; stage 4 at the end.
             for (stage_t, next_scale, weight) in [(0.5, 0.5f32, 2.0f32), (0.5, 1.0, 2.0)] {
-                let p = compute_forces(model, &s.xt, &s.vt, t + stage_t * h, dt, &mut s.acc);
+                let p = compute_forces(
+                    model,
+                    &s.gather,
+                    &s.xt,
+                    &s.vt,
+                    t + stage_t * h,
+                    dt,
+                    &mut s.acc,
+                );
                 power.add_scaled(&p, f64::from(weight));
                 let (x, v, acc) = (&*x, &*v, &s.acc);
                 let (xt, vt, sv, sa) = (
@@ -139,7 +150,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
                     *vt = v[i] + next_scale * dt * acc[i];
                 });
             }
-            let p = compute_forces(model, &s.xt, &s.vt, t + h, dt, &mut s.acc);
+            let p = compute_forces(model, &s.gather, &s.xt, &s.vt, t + h, dt, &mut s.acc);
             power.add_scaled(&p, 1.0);
             let (acc, vt, sv, sa) = (&s.acc, &s.vt, &s.sum_v, &s.sum_a);
             for_each_mass!(n, |i| (x, v) {
@@ -152,7 +163,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             // a(x_n) is kept in `acc` from the previous step.
             let p0 = match s.verlet_cache {
                 Some(p) => p,
-                None => compute_forces(model, x, v, t, dt, &mut s.acc),
+                None => compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc),
             };
             {
                 let acc = &s.acc;
@@ -167,7 +178,7 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
                     *xt = half_kick;
                 });
             }
-            let p1 = compute_forces(model, x, &s.vt, t + h, dt, &mut s.acc);
+            let p1 = compute_forces(model, &s.gather, x, &s.vt, t + h, dt, &mut s.acc);
             let (acc, half_kick) = (&s.acc, &s.xt);
             for_each_mass!(n, |i| (v) {
                 *v = half_kick[i] + (0.5 * dt) * acc[i];

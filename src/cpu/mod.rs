@@ -7,7 +7,7 @@ mod integrate;
 mod reduce;
 
 pub use collide::project_contacts;
-pub use forces::{compute_forces, contact_force, spring_force};
+pub use forces::{Gather, compute_forces, contact_force, spring_force};
 pub use reduce::{compute_energies, compute_strain};
 
 use crate::backend::{Backend, BackendError, find_divergence};
@@ -25,10 +25,9 @@ pub struct CpuBackend {
 
 impl CpuBackend {
     pub fn new(model: std::sync::Arc<Model>, integrator: Integrator, dt_secs: f64) -> Self {
-        let n = model.mass_count();
         Self {
             state: model.initial.clone(),
-            scratch: integrate::Scratch::new(n),
+            scratch: integrate::Scratch::new(&model),
             model,
             integrator,
             dt: dt_secs as f32,

@@ -34,9 +34,20 @@ pub trait Backend: Send {
     /// Advance `substeps` steps of the backend's dt. Stops at the first step whose state is not
     /// finite or runs away, leaving the last good snapshot intact for the caller.
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError>;
-    /// What the recorder logs for the current state. A backend that can only see the state at
-    /// snapshot time (the GPU) reports divergence here, and never hands out a non-finite frame.
-    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError>;
+    /// Start taking a snapshot of the current state (what the recorder logs). The caller may
+    /// advance again before [`Backend::collect_snapshot`] returns it: the GPU steps the next frame
+    /// while this one is read back.
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError>;
+    /// The oldest requested snapshot, `None` when none is pending. A backend that sees the state
+    /// only here (the GPU) reports divergence here, and never hands out a non-finite frame.
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError>;
+    /// A snapshot of the current state, now (none may be pending).
+    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
+        self.request_snapshot(frame, stats)?;
+        self.collect_snapshot()?.ok_or_else(|| {
+            BackendError::Device("internal: a requested snapshot went missing".to_owned())
+        })
+    }
     /// The full state (tests and benchmarks).
     fn state(&mut self) -> Result<State, BackendError>;
     /// Wait until all stepping asked for so far has run (benchmarks time up to here).

@@ -31,6 +31,10 @@ pub struct SimOutcome {
 }
 
 /// Step `frames` frames of `substeps` steps each, sending the initial state and every frame.
+/// Snapshots are pipelined one frame deep: frame N is collected after frame N + 1's steps have
+/// been handed to the backend, so a GPU keeps stepping while the host reads N back. Whatever
+/// stops the run (divergence, a device fault, cancellation), every good frame already taken is
+/// delivered first.
 pub fn simulate(
     backend: &mut dyn Backend,
     frames: u64,
@@ -46,44 +50,66 @@ pub fn simulate(
         failed: None,
         recorder_gone: false,
     };
-    let mut stats = StepStats::default();
-    for frame in 0..=frames {
-        if frame > 0 {
-            if cancel.load(Ordering::Relaxed) {
-                out.cancelled = true;
-                break;
-            }
-            match backend.advance(substeps) {
-                Ok(s) => stats = s,
-                Err(e) => {
-                    out.failed = Some(e);
-                    break;
-                }
-            }
-        }
-        let snap = match backend.snapshot(frame, stats) {
-            Ok(s) => s,
-            Err(e) => {
-                out.failed = Some(e);
-                break;
-            }
-        };
+    // Sends one snapshot; false when the recorder has gone.
+    let deliver = |out: &mut SimOutcome, snap: Snapshot| -> bool {
         let sent = match delivery {
-            Delivery::Lossless => tx.send(snap).map_err(|_| ()),
+            Delivery::Lossless => tx.send(snap).is_ok(),
             Delivery::DropWhenBusy => match tx.try_send(snap) {
-                Ok(()) => Ok(()),
+                Ok(()) => true,
                 Err(TrySendError::Full(_)) => {
                     out.frames_dropped += 1;
-                    continue;
+                    return true;
                 }
-                Err(TrySendError::Disconnected(_)) => Err(()),
+                Err(TrySendError::Disconnected(_)) => false,
             },
         };
-        if sent.is_err() {
+        if sent {
+            out.frames_sent += 1;
+        } else {
             out.recorder_gone = true;
+        }
+        sent
+    };
+    let mut healthy = match backend.request_snapshot(0, StepStats::default()) {
+        Ok(()) => true,
+        Err(e) => {
+            out.failed = Some(e);
+            false
+        }
+    };
+    let mut frame = 1;
+    while healthy && frame <= frames {
+        if cancel.load(Ordering::Relaxed) {
+            out.cancelled = true;
             break;
         }
-        out.frames_sent += 1;
+        let stepped = backend
+            .advance(substeps)
+            .and_then(|stats| backend.request_snapshot(frame, stats));
+        if let Err(e) = stepped {
+            out.failed = Some(e);
+            break;
+        }
+        match backend.collect_snapshot() {
+            Ok(Some(snap)) => healthy = deliver(&mut out, snap),
+            Ok(None) => {}
+            Err(e) => {
+                out.failed = Some(e);
+                healthy = false;
+            }
+        }
+        frame += 1;
+    }
+    // Deliver what is still pending, unless the state already went bad or the recorder left.
+    while healthy {
+        match backend.collect_snapshot() {
+            Ok(Some(snap)) => healthy = deliver(&mut out, snap),
+            Ok(None) => break,
+            Err(e) => {
+                out.failed.get_or_insert(e);
+                break;
+            }
+        }
     }
     out
 }

@@ -406,3 +406,49 @@ fn without_any_gpu_adapter_the_run_fails_clearly_before_writing_anything() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_diverging_run_says_where_and_keeps_its_good_frames() {
+    let dir = temp_dir("diverge");
+    let path = dir.join("hair.rrd");
+    // Forward Euler at the hair scene's dt is 19 times past its stable step.
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--integrator",
+        "euler",
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("warning: dt = "),
+        "check's warning should come first: {err}"
+    );
+    for needle in [
+        "diverged at step",
+        "at mass",
+        "most strained spring",
+        "smaller",
+        "--dt",
+        "hooke check",
+        "frames recorded before the error",
+    ] {
+        assert!(err.contains(needle), "`{needle}` missing from: {err}");
+    }
+    let frames = &read_rrd(&path)["/world/strand_0/masses"].0;
+    assert!(
+        !frames.is_empty() && frames.len() < 361,
+        "{} frames recorded",
+        frames.len()
+    );
+    assert_eq!(
+        frames.iter().copied().max(),
+        Some(frames.len() as i64 - 1),
+        "frames missing"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

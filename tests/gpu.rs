@@ -379,3 +379,41 @@ fn shared_structs_match_their_wgsl_layout() {
         }
     }
 }
+
+#[test]
+fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
+    if !have_adapter() {
+        return;
+    }
+    use hooke::backend::BackendError;
+    // The hair scene under forward Euler at its own dt, 19 times its stable step.
+    let (model, dt) = scene_model("hair");
+    let mut be = ok(GpuBackend::new(model, Integrator::Euler, dt, None));
+    let (tx, rx) = crossbeam_channel::unbounded();
+    let out = hooke::sim::simulate(
+        &mut be,
+        300,
+        20,
+        &tx,
+        hooke::sim::Delivery::Lossless,
+        &std::sync::atomic::AtomicBool::new(false),
+    );
+    drop(tx);
+    let frames: Vec<_> = rx.iter().collect();
+    for (k, s) in frames.iter().enumerate() {
+        assert_eq!(s.frame, k as u64);
+        assert!(
+            s.positions.iter().all(|p| p.is_finite()) && s.energies.total_j().is_finite(),
+            "frame {k} is not finite"
+        );
+    }
+    match out.failed {
+        Some(BackendError::Diverged(d)) => {
+            assert!(d.to_string().contains("at mass") && frames.len() > 1, "{d}")
+        }
+        other => panic!(
+            "expected divergence, got {other:?} after {} frames",
+            frames.len()
+        ),
+    }
+}

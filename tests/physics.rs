@@ -557,3 +557,50 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
         }
     }
 }
+
+/// The simulation thread's loop, pipelined one frame deep: every frame arrives, in order; when
+/// the state goes bad, every good frame before it arrives and nothing non-finite does.
+#[test]
+fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
+    use hooke::backend::BackendError;
+    use hooke::sim::{Delivery, simulate};
+    let model = oscillator();
+    for (dt, expect_divergence) in [(1e-3, false), (0.05, true)] {
+        // Forward Euler grows by √(1 + (ωdt)²) a step: at ωdt ≈ 0.31 it runs away after ~20 frames.
+        let mut be = CpuBackend::new(model.clone(), Integrator::Euler, dt);
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let out = simulate(
+            &mut be,
+            200,
+            10,
+            &tx,
+            Delivery::Lossless,
+            &std::sync::atomic::AtomicBool::new(false),
+        );
+        drop(tx);
+        let frames: Vec<_> = rx.iter().collect();
+        assert_eq!(out.frames_sent as usize, frames.len());
+        for (k, s) in frames.iter().enumerate() {
+            assert_eq!(s.frame, k as u64, "frames out of order");
+            assert!(
+                s.positions.iter().all(|p| p.is_finite()),
+                "frame {k} is not finite"
+            );
+        }
+        match (&out.failed, expect_divergence) {
+            (None, false) => assert_eq!(frames.len(), 201),
+            (Some(BackendError::Diverged(d)), true) => {
+                assert!(
+                    frames.len() > 1 && frames.len() < 201,
+                    "{} frames",
+                    frames.len()
+                );
+                assert!(
+                    d.to_string().contains("diverged at step") && d.spring.contains("spring"),
+                    "{d}"
+                );
+            }
+            (other, _) => panic!("dt {dt}: unexpected outcome {other:?}"),
+        }
+    }
+}

@@ -21,6 +21,7 @@ pub struct CpuBackend {
     dt: f32,
     state: State,
     scratch: integrate::Scratch,
+    pending: std::collections::VecDeque<Snapshot>,
 }
 
 impl CpuBackend {
@@ -28,6 +29,7 @@ impl CpuBackend {
         Self {
             state: model.initial.clone(),
             scratch: integrate::Scratch::new(&model),
+            pending: std::collections::VecDeque::new(),
             model,
             integrator,
             dt: dt_secs as f32,
@@ -71,10 +73,10 @@ impl Backend for CpuBackend {
         })
     }
 
-    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
         let mut strain = Vec::with_capacity(self.model.spring_count());
         compute_strain(&self.model, &self.state.x, &mut strain);
-        Ok(Snapshot {
+        self.pending.push_back(Snapshot {
             frame,
             time_secs: self.state.time_secs,
             steps: self.state.steps,
@@ -89,7 +91,12 @@ impl Backend for CpuBackend {
                 .iter()
                 .map(|s| s.center_at(self.state.time_secs))
                 .collect(),
-        })
+        });
+        Ok(())
+    }
+
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        Ok(self.pending.pop_front())
     }
 
     fn state(&mut self) -> Result<State, BackendError> {

@@ -34,7 +34,8 @@ struct Buffers {
     strain: wgpu::Buffer,
     partials: wgpu::Buffer,
     stage: wgpu::Buffer,
-    staging: wgpu::Buffer,
+    /// Two, so that one frame's snapshot is read back while the next frame steps.
+    staging: [wgpu::Buffer; 2],
 }
 
 struct BindGroups {
@@ -70,6 +71,8 @@ pub struct GpuBackend {
     /// Bytes of GPU memory held by the simulation's buffers.
     pub memory_bytes: u64,
     advance_started: Option<Instant>,
+    /// Snapshots asked for and not yet collected, oldest first.
+    pending: std::collections::VecDeque<Pending>,
 }
 
 fn storage(
@@ -225,11 +228,13 @@ impl GpuBackend {
             mapped_at_creation: false,
         });
         let staging_size = (16 * n + 16 * n + 4 * ns.max(1) + 48 * partial_count + 16) as u64;
-        let staging = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("staging"),
-            size: staging_size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        let staging = [0, 1].map(|_| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("staging"),
+                size: staging_size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
         });
         let layouts = Layouts::new(device);
         let pipelines = Pipelines::new(device, &layouts, &kernels::effect_constants(&model));
@@ -310,7 +315,8 @@ impl GpuBackend {
             &counters,
             &strain,
             &partials,
-            &staging,
+            &staging[0],
+            &staging[1],
         ]
         .iter()
         .map(|b| b.size())
@@ -344,6 +350,7 @@ impl GpuBackend {
             energy_groups,
             memory_bytes,
             advance_started: None,
+            pending: std::collections::VecDeque::new(),
         };
         backend.check_device()?;
         Ok(backend)
@@ -648,9 +655,17 @@ impl GpuBackend {
         (0..steps).fold(self.time_secs, |t, _| t + h)
     }
 
-    /// Run the reductions, copy what a snapshot needs (and `with_velocity`, the velocities) to the
-    /// staging buffer, fold the per-mass ledger, and wait for it.
-    fn read_back(&mut self, with_velocity: bool) -> Result<ReadBack, BackendError> {
+    /// Run the reductions and copy what a snapshot needs (and `with_velocity`, the velocities) to a
+    /// free staging buffer, without waiting: returns which buffer and the submission to wait for.
+    fn submit_read_back(
+        &mut self,
+        with_velocity: bool,
+    ) -> Result<(usize, wgpu::SubmissionIndex), BackendError> {
+        let k = (0..2)
+            .find(|k| self.pending.iter().all(|p| p.staging != *k))
+            .ok_or_else(|| {
+                BackendError::Device("internal: both snapshot buffers are in use".to_owned())
+            })?;
         let n = self.model.mass_count() as u64;
         let ns = self.model.spring_count() as u64;
         let partial_count = u64::from(self.energy_groups.0 * self.energy_groups.1);
@@ -699,26 +714,54 @@ impl GpuBackend {
         let strain_off = 32 * n;
         let partials_off = strain_off + 4 * ns.max(1);
         let counters_off = partials_off + 48 * partial_count;
-        enc.copy_buffer_to_buffer(&self.buf.x, 0, &self.buf.staging, x_off, 16 * n);
+        enc.copy_buffer_to_buffer(&self.buf.x, 0, &self.buf.staging[k], x_off, 16 * n);
         if with_velocity {
-            enc.copy_buffer_to_buffer(&self.buf.v, 0, &self.buf.staging, v_off, 16 * n);
+            enc.copy_buffer_to_buffer(&self.buf.v, 0, &self.buf.staging[k], v_off, 16 * n);
         }
         if ns > 0 {
-            enc.copy_buffer_to_buffer(&self.buf.strain, 0, &self.buf.staging, strain_off, 4 * ns);
+            enc.copy_buffer_to_buffer(
+                &self.buf.strain,
+                0,
+                &self.buf.staging[k],
+                strain_off,
+                4 * ns,
+            );
         }
         enc.copy_buffer_to_buffer(
             &self.buf.partials,
             0,
-            &self.buf.staging,
+            &self.buf.staging[k],
             partials_off,
             48 * partial_count,
         );
-        enc.copy_buffer_to_buffer(&self.buf.counters, 0, &self.buf.staging, counters_off, 16);
+        enc.copy_buffer_to_buffer(
+            &self.buf.counters,
+            0,
+            &self.buf.staging[k],
+            counters_off,
+            16,
+        );
         enc.clear_buffer(&self.buf.ledger, 0, None);
         enc.clear_buffer(&self.buf.counters, 0, None);
-        self.ctx.queue.submit([enc.finish()]);
+        let index = self.ctx.queue.submit([enc.finish()]);
+        Ok((k, index))
+    }
 
-        let slice = self.buf.staging.slice(..);
+    /// Wait for staging buffer `k` (submission `index`) and decode it; folds the ledger.
+    fn finish_read_back(
+        &mut self,
+        k: usize,
+        index: wgpu::SubmissionIndex,
+        with_velocity: bool,
+    ) -> Result<ReadBack, BackendError> {
+        let n = self.model.mass_count() as u64;
+        let ns = self.model.spring_count() as u64;
+        let partial_count = u64::from(self.energy_groups.0 * self.energy_groups.1);
+        let (x_off, v_off) = (0u64, 16 * n);
+        let strain_off = 32 * n;
+        let partials_off = strain_off + 4 * ns.max(1);
+        let counters_off = partials_off + 48 * partial_count;
+        let slice = self.buf.staging[k].slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
@@ -729,9 +772,13 @@ impl GpuBackend {
                 self.ctx.describe()
             ))
         };
+        // Wait for this read-back only: steps submitted after it keep the GPU busy meanwhile.
         self.ctx
             .device
-            .poll(wgpu::PollType::wait_indefinitely())
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
             .map_err(|e| lost(e.to_string()))?;
         rx.recv()
             .map_err(|e| lost(e.to_string()))?
@@ -776,12 +823,18 @@ impl GpuBackend {
                 projections: counters[0],
             }
         };
-        self.buf.staging.unmap();
+        self.buf.staging[k].unmap();
         self.ledger.damping_j += out.ledger[0];
         self.ledger.drag_j += out.ledger[1];
         self.ledger.contact_j += out.ledger[2];
         self.ledger.collider_work_j += out.ledger[3];
         Ok(out)
+    }
+
+    /// Reductions, copy and wait in one: for tests, divergence reports and `state()`.
+    fn read_back(&mut self, with_velocity: bool) -> Result<ReadBack, BackendError> {
+        let (k, index) = self.submit_read_back(with_velocity)?;
+        self.finish_read_back(k, index, with_velocity)
     }
 
     fn divergence(&mut self, rb: &ReadBack) -> Option<Box<Divergence>> {
@@ -848,6 +901,17 @@ impl Kernel {
             Kernel::ProjectContacts => "project_contacts",
         }
     }
+}
+
+/// A snapshot asked for and not yet collected.
+struct Pending {
+    staging: usize,
+    index: wgpu::SubmissionIndex,
+    frame: u64,
+    stats: StepStats,
+    time_secs: f64,
+    steps: u64,
+    started: Option<Instant>,
 }
 
 struct ReadBack {
@@ -954,19 +1018,32 @@ impl Backend for GpuBackend {
         })
     }
 
-    fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
-        let rb = self.read_back(false)?;
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        let (staging, index) = self.submit_read_back(false)?;
+        self.pending.push_back(Pending {
+            staging,
+            index,
+            frame,
+            stats,
+            time_secs: self.time_secs,
+            steps: self.steps,
+            started: self.advance_started.take(),
+        });
+        Ok(())
+    }
+
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        let Some(p) = self.pending.pop_front() else {
+            return Ok(None);
+        };
+        let rb = self.finish_read_back(p.staging, p.index, false)?;
         if let Some(d) = self.divergence(&rb) {
             return Err(BackendError::Diverged(d));
         }
-        let step_ms = self
-            .advance_started
-            .take()
-            .map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3);
-        Ok(Snapshot {
-            frame,
-            time_secs: self.time_secs,
-            steps: self.steps,
+        Ok(Some(Snapshot {
+            frame: p.frame,
+            time_secs: p.time_secs,
+            steps: p.steps,
             energies: Energies {
                 kinetic_j: rb.energy[0],
                 elastic_j: rb.energy[1],
@@ -977,18 +1054,18 @@ impl Backend for GpuBackend {
             positions: rb.positions,
             strain: rb.strain,
             stats: StepStats {
-                step_ms,
+                step_ms: p.started.map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3),
                 projections: rb.projections,
-                ..stats
+                ..p.stats
             },
             sphere_centers: self
                 .model
                 .effects
                 .spheres
                 .iter()
-                .map(|s| s.center_at(self.time_secs))
+                .map(|s| s.center_at(p.time_secs))
                 .collect(),
-        })
+        }))
     }
 
     fn state(&mut self) -> Result<State, BackendError> {

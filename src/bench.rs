@@ -34,6 +34,8 @@ pub struct Throughput {
     pub memory_bytes: Option<u64>,
     /// GPU time per step of each kernel (ms), where the adapter has timestamp queries.
     pub kernels_ms: Option<Vec<(String, f64)>>,
+    /// Compulsory bytes a GPU step moves (see `GpuBackend::bytes_per_step`).
+    pub bytes_per_step: Option<u64>,
 }
 
 impl Throughput {
@@ -79,9 +81,9 @@ pub fn throughput(scene_arg: &str, opts: &ThroughputOptions) -> Result<Throughpu
     let wall_secs = start.elapsed().as_secs_f64();
     // The final state must still be sound, or the figure means nothing.
     be.snapshot(0, Default::default())?;
-    let kernels_ms = match opts.backend {
+    let (kernels_ms, bytes_per_step) = match opts.backend {
         BackendKind::Gpu => profile(&model, &settings, opts)?,
-        BackendKind::Cpu => None,
+        BackendKind::Cpu => (None, None),
     };
     Ok(Throughput {
         scene: loaded.scene.name,
@@ -93,16 +95,19 @@ pub fn throughput(scene_arg: &str, opts: &ThroughputOptions) -> Result<Throughpu
         wall_secs,
         memory_bytes: be.memory_bytes(),
         kernels_ms,
+        bytes_per_step,
     })
 }
 
 /// Per-kernel GPU times from a separate, profiled run (timestamps around every dispatch would
 /// slow the timed run).
+type Profile = (Option<Vec<(String, f64)>>, Option<u64>);
+
 fn profile(
     model: &Arc<model::Model>,
     settings: &Settings,
     opts: &ThroughputOptions,
-) -> Result<Option<Vec<(String, f64)>>> {
+) -> Result<Profile> {
     let mut gpu = crate::gpu::GpuBackend::new(
         model.clone(),
         settings.integrator,
@@ -112,7 +117,7 @@ fn profile(
     let steps = opts.steps.clamp(1, 20);
     // The first profiled steps include Verlet's priming evaluation; warm up first.
     crate::backend::Backend::advance(&mut gpu, 2)?;
-    Ok(gpu.profile_kernels(steps)?)
+    Ok((gpu.profile_kernels(steps)?, Some(gpu.bytes_per_step())))
 }
 
 pub fn format_throughput(t: &Throughput) -> String {
@@ -135,6 +140,14 @@ pub fn format_throughput(t: &Throughput) -> String {
             s,
             "\n    GPU memory for the simulation's buffers: {:.1} MiB",
             m as f64 / (1024.0 * 1024.0)
+        );
+    }
+    if let Some(b) = t.bytes_per_step {
+        let _ = write!(
+            s,
+            "\n    memory traffic: {:.2} MB per step (each buffer once per pass) -> {:.1} GB/s achieved",
+            b as f64 / 1e6,
+            b as f64 * t.steps_per_sec() / 1e9
         );
     }
     if let Some(k) = &t.kernels_ms {

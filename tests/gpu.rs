@@ -417,3 +417,42 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
         ),
     }
 }
+
+#[test]
+fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
+    if !have_adapter() {
+        return;
+    }
+    let limits = hooke::gpu::adapters()[0].limits();
+    let limit = u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+    // The largest per-mass buffer holds 48 bytes a mass: one mass more than fits.
+    let n = limit / 48 + 1;
+    if n > 1 << 26 {
+        eprintln!(
+            "SKIPPED: this adapter's limit ({limit} bytes) needs a scene too large to build here"
+        );
+        return;
+    }
+    let mut mb = hooke::model::ModelBuilder::new();
+    for i in 0..n {
+        mb.mass(
+            glam::Vec3::new(i as f32, 0.0, 0.0),
+            glam::Vec3::ZERO,
+            1.0,
+            false,
+        );
+    }
+    let model = Arc::new(mb.build());
+    let err = match GpuBackend::new(model, Integrator::SemiImplicit, 1e-3, None) {
+        Ok(_) => panic!("a scene over the limit was accepted"),
+        Err(e) => e.to_string(),
+    };
+    for needle in [
+        "too large",
+        &format!("needs {} bytes", 48 * n),
+        &format!("allows {limit} bytes"),
+        "--backend cpu",
+    ] {
+        assert!(err.contains(needle), "`{needle}` missing from: {err}");
+    }
+}

@@ -530,6 +530,32 @@ impl GpuBackend {
         }
     }
 
+    /// Compulsory memory traffic of one step: every buffer a kernel touches, read (and written)
+    /// once per dispatch, caches assumed to absorb the neighbours' repeated reads. Steps/s times
+    /// this is the achieved bandwidth that BENCHMARKS.md compares with the card's peak.
+    pub fn bytes_per_step(&self) -> u64 {
+        let n = self.model.mass_count() as u64;
+        let ns = self.model.spring_count() as u64;
+        let spheres = self.model.effects.spheres.len() as u64 * 48;
+        self.step_plan(false)
+            .iter()
+            .map(|(k, _)| match k {
+                // x, v in; offsets; neighbours and springs; acceleration and rates out.
+                Kernel::Forces(_) => n * (16 + 16 + 4 + 8 + 32) + ns * (2 * 8 + 20) + spheres,
+                // x, v read and written; derivatives read; ledger read and written.
+                Kernel::EulerUpdate | Kernel::SemiImplicitUpdate => n * (4 * 16 + 32 + 2 * 16 + 8),
+                Kernel::Rk2Stage => n * (2 * 16 + 32 + 2 * 16 + 8),
+                Kernel::Rk2Final => n * (5 * 16 + 32 + 2 * 16 + 8),
+                Kernel::Rk4Begin => n * (2 * 16 + 32 + 2 * 16 + 3 * 16 + 8),
+                Kernel::Rk4Mid => n * (3 * 16 + 32 + 2 * 16 + 2 * 3 * 16 + 8),
+                Kernel::Rk4Final => n * (5 * 16 + 32 + 3 * 16 + 2 * 16 + 8),
+                Kernel::VerletDrift => n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
+                Kernel::VerletKick => n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
+                Kernel::ProjectContacts => n * (4 * 16 + 8) + spheres,
+            })
+            .sum()
+    }
+
     /// Wait until everything submitted has run.
     fn wait_idle(&self) -> Result<(), BackendError> {
         self.ctx

@@ -424,7 +424,7 @@ fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
         return;
     }
     let limits = hooke::gpu::adapters()[0].limits();
-    let limit = u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+    let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
     // The largest per-mass buffer holds 48 bytes a mass: one mass more than fits.
     let n = limit / 48 + 1;
     if n > 1 << 26 {

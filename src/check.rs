@@ -136,6 +136,13 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
                     (1.0 / (settings.frame_rate_hz * dt)).ceil()
                 );
             }
+            Some(_) if i == crate::integrator::Integrator::Implicit => {
+                let _ = writeln!(
+                    s,
+                    "    {:<14} any (A-stable; it damps, so accuracy still wants small steps){mark}",
+                    i.name()
+                );
+            }
             Some(_) => {
                 let _ = writeln!(
                     s,

@@ -19,10 +19,23 @@ pub enum Integrator {
     Rk4,
     /// Velocity Verlet: second order, symplectic for conservative forces.
     Verlet,
+    /// Backward (implicit) Euler, solved by preconditioned conjugate gradients: first order,
+    /// stable at any dt (it damps), for stiff scenes and large steps. CPU backend for now.
+    Implicit,
 }
 
 impl Integrator {
-    pub const ALL: [Integrator; 5] = [
+    pub const ALL: [Integrator; 6] = [
+        Integrator::Euler,
+        Integrator::SemiImplicit,
+        Integrator::Rk2,
+        Integrator::Rk4,
+        Integrator::Verlet,
+        Integrator::Implicit,
+    ];
+
+    /// The explicit schemes, which both backends run.
+    pub const EXPLICIT: [Integrator; 5] = [
         Integrator::Euler,
         Integrator::SemiImplicit,
         Integrator::Rk2,
@@ -38,22 +51,27 @@ impl Integrator {
             Integrator::Rk2 => "rk2",
             Integrator::Rk4 => "rk4",
             Integrator::Verlet => "verlet",
+            Integrator::Implicit => "implicit",
         }
     }
 
     /// Global order of accuracy: halving dt divides the error by `2^order`.
     pub fn order(self) -> u32 {
         match self {
-            Integrator::Euler | Integrator::SemiImplicit => 1,
+            Integrator::Euler | Integrator::SemiImplicit | Integrator::Implicit => 1,
             Integrator::Rk2 | Integrator::Verlet => 2,
             Integrator::Rk4 => 4,
         }
     }
 
-    /// Full force evaluations per step (Verlet reuses the previous step's last one).
+    /// Full force evaluations per step (Verlet reuses the previous step's last one; implicit
+    /// Euler adds one matrix-free product per conjugate-gradient iteration).
     pub fn force_evaluations(self) -> u32 {
         match self {
-            Integrator::Euler | Integrator::SemiImplicit | Integrator::Verlet => 1,
+            Integrator::Euler
+            | Integrator::SemiImplicit
+            | Integrator::Verlet
+            | Integrator::Implicit => 1,
             Integrator::Rk2 => 2,
             Integrator::Rk4 => 4,
         }
@@ -89,6 +107,12 @@ impl Integrator {
                     v + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v),
                 )
             }
+            Integrator::Implicit => {
+                // v₁ = v₀ + h a(x₀ + h v₁, v₁), solved exactly for the linear oscillator.
+                let v1 = (v - dt * omega * omega * x)
+                    / (1.0 + 2.0 * zeta * omega * dt + omega * omega * dt * dt);
+                (x + dt * v1, v1)
+            }
             Integrator::Verlet => {
                 let a0 = acc(x, v);
                 let x1 = x + dt * v + 0.5 * dt * dt * a0;
@@ -119,6 +143,10 @@ impl Integrator {
     /// even at ωdt = 0.01 (explicit Euler and RK2 on an undamped or barely damped mode).
     pub fn stable_dt(self, omega: f64, zeta: f64) -> Option<f64> {
         if omega <= 0.0 {
+            return Some(f64::INFINITY);
+        }
+        if self == Integrator::Implicit {
+            // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane.
             return Some(f64::INFINITY);
         }
         let stable = |dt: f64| self.amplification(omega, zeta, dt) <= 1.0 + 1e-12;
@@ -166,6 +194,11 @@ mod tests {
         );
         let vv = Integrator::Verlet.stable_dt(w, 0.0).unwrap_or(0.0);
         assert!((vv * w - 2.0).abs() < 1e-6, "verlet ωdt = {}", vv * w);
+        assert_eq!(Integrator::Implicit.stable_dt(w, 0.0), Some(f64::INFINITY));
+        assert!(
+            Integrator::Implicit.amplification(w, 0.0, 100.0) < 1.0,
+            "backward Euler must damp at any dt"
+        );
         let rk4 = Integrator::Rk4.stable_dt(w, 0.0).unwrap_or(0.0);
         assert!(
             (rk4 * w - 8f64.sqrt()).abs() < 1e-6,

@@ -82,6 +82,8 @@ pub struct Recorder {
     /// Per body: springs as (a, b) pairs reused to build line strips each frame.
     strips: Vec<Vec<[Vec3; 2]>>,
     colors: Vec<Vec<rerun::Color>>,
+    /// The implicit integrator's solver statistics are logged too.
+    implicit: bool,
 }
 
 impl Recorder {
@@ -102,17 +104,19 @@ impl Recorder {
             strain_range,
             strips,
             colors,
+            implicit: false,
         }
     }
 
     /// Everything that does not change over the run.
     pub fn log_static(
-        &self,
+        &mut self,
         scene_name: &str,
         scene_text: &str,
         settings: &Settings,
         backend: &str,
     ) -> RResult {
+        self.implicit = settings.integrator == crate::integrator::Integrator::Implicit;
         let rec = &self.rec;
         rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
         rec.log_static(
@@ -141,6 +145,14 @@ impl Recorder {
             ("stats/step_ms", "wall time per frame (ms)"),
             ("stats/substeps", "substeps per frame"),
             ("stats/projections", "contact safeguard projections"),
+            (
+                "stats/cg_iterations",
+                "conjugate-gradient iterations (implicit, most in a step)",
+            ),
+            (
+                "stats/cg_residual",
+                "conjugate-gradient relative residual (implicit, largest)",
+            ),
         ] {
             rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
         }
@@ -310,6 +322,14 @@ impl Recorder {
             "stats/projections",
             &rerun::Scalars::single(f64::from(st.projections)),
         )?;
+        if self.implicit {
+            let iterations = f64::from(st.solver_iterations);
+            rec.log("stats/cg_iterations", &rerun::Scalars::single(iterations))?;
+            rec.log(
+                "stats/cg_residual",
+                &rerun::Scalars::single(st.solver_residual),
+            )?;
+        }
         Ok(())
     }
 

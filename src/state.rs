@@ -104,6 +104,10 @@ pub struct StepStats {
     pub step_ms: f64,
     /// Masses the post-step safeguard pushed back out of a collider this frame.
     pub projections: u32,
+    /// Implicit integrator: most conjugate-gradient iterations a step of this frame took.
+    pub solver_iterations: u32,
+    /// Implicit integrator: largest final relative residual of a step of this frame.
+    pub solver_residual: f64,
 }
 
 /// One frame as the recorder sees it.

@@ -54,7 +54,8 @@ fn free_fall_matches_each_schemes_exact_discrete_solution() {
         let s = run(&model, integrator, dt, steps);
         let bias = match integrator {
             Integrator::Euler => 0.5 * g * dt * t,
-            Integrator::SemiImplicit => -0.5 * g * dt * t,
+            // Backward Euler on a constant force is semi-implicit Euler.
+            Integrator::SemiImplicit | Integrator::Implicit => -0.5 * g * dt * t,
             _ => 0.0,
         };
         let y = f64::from(s.x[0].y);
@@ -602,5 +603,82 @@ fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
             }
             (other, _) => panic!("dt {dt}: unexpected outcome {other:?}"),
         }
+    }
+}
+
+/// Implicit Euler at one step per frame on springs far stiffer than any explicit step allows
+/// (k·dt²/m ≈ 1.4e4 here, against ≈ 4 for semi-implicit Euler): the chain stays finite, never
+/// gains energy, settles where statics says, and each linear solve converges.
+#[test]
+fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
+    let (n, k, m, spacing) = (20u32, 5.0e4f32, 1.0e-3f32, 0.05f32);
+    let mut mb = ModelBuilder::new();
+    for i in 0..n {
+        // Released horizontal, pinned at the first mass.
+        mb.mass(
+            Vec3::new(i as f32 * spacing, 1.0, 0.0),
+            Vec3::ZERO,
+            m,
+            i == 0,
+        );
+    }
+    for i in 0..n - 1 {
+        mb.spring(i, i + 1, k, 0.1);
+    }
+    // Air drag lets the swing die out within the run, so the end state is the static one.
+    mb.effects(Effects {
+        air_drag_per_s: Some(1.0),
+        ..gravity()
+    });
+    let model = Arc::new(mb.build());
+    let dt = 1.0 / 60.0;
+    let explicit_limit = hooke::stability::stable_dts(&model)
+        .into_iter()
+        .find(|(i, _)| *i == Integrator::SemiImplicit)
+        .and_then(|l| l.1)
+        .unwrap_or(0.0);
+    assert!(
+        dt > 100.0 * explicit_limit,
+        "dt {dt} should be far past the explicit limit {explicit_limit}"
+    );
+    let mut be = CpuBackend::new(model.clone(), Integrator::Implicit, dt);
+    let e0 = be
+        .snapshot(0, Default::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .energies
+        .total_j();
+    for frame in 1..=600 {
+        let stats = be
+            .advance(1)
+            .unwrap_or_else(|e| panic!("frame {frame}: {e}"));
+        assert!(
+            stats.solver_residual <= hooke::cpu::CG_TOLERANCE,
+            "frame {frame}: residual {}",
+            stats.solver_residual
+        );
+        let s = be.snapshot(frame, stats).unwrap_or_else(|e| panic!("{e}"));
+        assert!(s.positions.iter().all(|p| p.is_finite()));
+        assert!(
+            s.energies.total_j() <= e0 * (1.0 + 1e-6),
+            "frame {frame}: energy {} above the initial {e0}",
+            s.energies.total_j()
+        );
+    }
+    // After 10 s the chain hangs straight down; each spring carries the weight below it.
+    let s = be.state().unwrap_or_else(|e| panic!("{e}"));
+    let mut y = 1.0f64;
+    for i in 1..n as usize {
+        let below = f64::from(n - i as u32) * f64::from(m) * 9.81;
+        y -= f64::from(spacing) + below / f64::from(k);
+        assert!(
+            (f64::from(s.x[i].y) - y).abs() < 2e-3,
+            "mass {i} at y = {}, statics says {y}",
+            s.x[i].y
+        );
+        assert!(
+            s.x[i].x.abs() < 2e-3,
+            "mass {i} still swinging at x = {}",
+            s.x[i].x
+        );
     }
 }

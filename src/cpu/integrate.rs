@@ -20,6 +20,8 @@ pub struct Scratch {
     /// Verlet's acceleration (and ledger rates) at the current state, from the previous step.
     verlet_cache: Option<Power>,
     gather: Gather,
+    /// Only for the implicit integrator.
+    implicit: Option<super::implicit::ImplicitWork>,
 }
 
 impl Scratch {
@@ -27,6 +29,7 @@ impl Scratch {
         let n = model.mass_count();
         Self {
             gather: Gather::new(model),
+            implicit: None,
             acc: vec![Vec3::ZERO; n],
             xt: vec![Vec3::ZERO; n],
             vt: vec![Vec3::ZERO; n],
@@ -60,8 +63,22 @@ macro_rules! for_each_mass {
     }};
 }
 
-/// Advance `state` by one step of `dt`.
-pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Scratch, dt: f32) {
+/// Advance `state` by one step of `dt`; the implicit integrator reports its linear solve.
+pub fn step(
+    model: &Model,
+    integrator: Integrator,
+    state: &mut State,
+    s: &mut Scratch,
+    dt: f32,
+) -> Option<super::implicit::SolveStats> {
+    if integrator == Integrator::Implicit {
+        let work = s
+            .implicit
+            .get_or_insert_with(|| super::implicit::ImplicitWork::new(model));
+        return Some(super::implicit::implicit_step(
+            model, &s.gather, state, work, dt,
+        ));
+    }
     let n = state.x.len();
     let t = state.time_secs;
     let h = f64::from(dt);
@@ -187,7 +204,9 @@ pub fn step(model: &Model, integrator: Integrator, state: &mut State, s: &mut Sc
             ledger.accumulate(&p1, 0.5 * h);
             s.verlet_cache = Some(p1);
         }
+        Integrator::Implicit => unreachable!("handled above"),
     }
     state.time_secs += h;
     state.steps += 1;
+    None
 }

@@ -3,11 +3,13 @@
 
 mod collide;
 mod forces;
+mod implicit;
 mod integrate;
 mod reduce;
 
 pub use collide::project_contacts;
 pub use forces::{Gather, compute_forces, contact_force, spring_force};
+pub use implicit::{CG_MAX_ITERATIONS, CG_TOLERANCE, SolveStats};
 pub use reduce::{compute_energies, compute_strain};
 
 use crate::backend::{Backend, BackendError, find_divergence};
@@ -45,14 +47,18 @@ impl Backend for CpuBackend {
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         let start = std::time::Instant::now();
         let mut projections = 0;
+        let (mut iterations, mut residual) = (0u32, 0.0f64);
         for _ in 0..substeps {
-            integrate::step(
+            if let Some(solve) = integrate::step(
                 &self.model,
                 self.integrator,
                 &mut self.state,
                 &mut self.scratch,
                 self.dt,
-            );
+            ) {
+                iterations = iterations.max(solve.iterations);
+                residual = residual.max(solve.residual);
+            }
             // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
             // which cannot know that one happened without a read-back.
             projections += project_contacts(&self.model, &mut self.state);
@@ -70,6 +76,8 @@ impl Backend for CpuBackend {
             dt_secs: f64::from(self.dt),
             step_ms: start.elapsed().as_secs_f64() * 1e3,
             projections,
+            solver_iterations: iterations,
+            solver_residual: residual,
         })
     }
 

@@ -116,6 +116,12 @@ impl GpuBackend {
         dt_secs: f64,
         adapter: Option<&str>,
     ) -> Result<Self, BackendError> {
+        if integrator == Integrator::Implicit {
+            return Err(BackendError::Device(
+                "the implicit integrator runs on the CPU backend only so far: add `--backend cpu`"
+                    .to_owned(),
+            ));
+        }
         let ctx = GpuContext::open(adapter).map_err(BackendError::Device)?;
         let n = model.mass_count();
         let ns = model.spring_count();
@@ -459,6 +465,8 @@ impl GpuBackend {
                 (Forces(StateIn::XtVt), 3),
                 (Rk4Final, 0),
             ],
+            // Refused by `GpuBackend::new`.
+            Integrator::Implicit => Vec::new(),
             Integrator::Verlet => {
                 let mut p = vec![(VerletDrift, 0), (Forces(StateIn::XVt), 3), (VerletKick, 0)];
                 if prime {
@@ -1041,6 +1049,7 @@ impl Backend for GpuBackend {
             dt_secs: f64::from(self.dt),
             step_ms: 0.0,
             projections: 0,
+            ..StepStats::default()
         })
     }
 

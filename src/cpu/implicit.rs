@@ -1,0 +1,333 @@
+//! `implicit_step`: backward Euler, one Newton step per time step (Baraff & Witkin 1998), solved
+//! matrix-free by conjugate gradients with a Jacobi preconditioner.
+//!
+//! Backward Euler asks for Δv with M Δv = h f(x₀ + h (v₀ + Δv), v₀ + Δv). Newton's method on
+//! that, from Δv = 0, solves at each iterate (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv)
+//!   (M − h D − h² K) δ = h f(x, v) − M Δv,   Δv ← Δv + δ,
+//! with K = ∂f/∂x and D = ∂f/∂v at the iterate, until δ is small. (A single iteration, as in
+//! Baraff & Witkin, over-stretches stiff springs when a step rotates them far; iterating to
+//! convergence keeps the step dissipative.)
+//! Per spring (unit direction n, length l, rest L): −K = k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)],
+//! the transverse term clamped so that a compressed spring cannot make the system indefinite, and
+//! −D = c n nᵀ. A contact adds its penalty stiffness and damping along its normal; drag adds m γ I.
+//! The system matrix is then symmetric positive definite. Pinned masses are filtered out of the
+//! solve (their Δv stays zero). Friction enters through f only.
+
+use glam::Vec3;
+
+use super::forces::{Gather, compute_forces};
+use crate::model::{ContactModel, Model};
+use crate::state::{Power, State};
+
+/// Relative residual |r| / |b| at which each linear solve stops (f32 vectors: near their floor
+/// on stiff systems, whose condition number reaches k·dt²/m).
+pub const CG_TOLERANCE: f64 = 1e-4;
+/// Newton stops when the update is this small relative to Δv (or Δv is below 1e-7 m/s).
+pub const NEWTON_TOLERANCE: f64 = 1e-4;
+/// Newton iteration cap per step.
+pub const NEWTON_MAX_ITERATIONS: u32 = 10;
+/// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
+pub const CG_MAX_ITERATIONS: u32 = 200;
+
+/// How one implicit step's linear solve went.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolveStats {
+    /// Newton iterations of the step.
+    pub newton: u32,
+    /// Conjugate-gradient iterations over all of the step's Newton iterations.
+    pub iterations: u32,
+    /// Largest final residual of the step's linear solves, relative to the first Newton
+    /// right-hand side |h f| (later ones shrink towards zero as Newton converges).
+    pub residual: f64,
+}
+
+/// One spring's share of the system, scaled by h: h²k along n, h²k·max(0, 1 − L/l) across it,
+/// h c along it.
+#[derive(Debug, Clone, Copy, Default)]
+struct SpringTerms {
+    n: Vec3,
+    stiff_along: f32,
+    stiff_across: f32,
+    damp_along: f32,
+}
+
+/// One contact's share: h²k_c and h c_c along its normal.
+#[derive(Debug, Clone, Copy)]
+struct ContactTerms {
+    n: Vec3,
+    stiff: f32,
+    damp: f32,
+}
+
+/// The system linearised at x₀.
+#[derive(Debug, Default)]
+struct Linearisation {
+    springs: Vec<SpringTerms>,
+    contacts: Vec<Vec<ContactTerms>>,
+}
+
+/// Scratch for the solve, allocated once per backend.
+#[derive(Debug, Default)]
+pub struct ImplicitWork {
+    lin: Linearisation,
+    acc: Vec<Vec3>,
+    b: Vec<Vec3>,
+    r: Vec<Vec3>,
+    z: Vec<Vec3>,
+    p: Vec<Vec3>,
+    ap: Vec<Vec3>,
+    dv: Vec<Vec3>,
+    diag: Vec<Vec3>,
+    /// Δv so far, and the iterate's state.
+    dv_total: Vec<Vec3>,
+    xk: Vec<Vec3>,
+    vk: Vec<Vec3>,
+}
+
+impl ImplicitWork {
+    pub fn new(model: &Model) -> Self {
+        let n = model.mass_count();
+        let zeros = || vec![Vec3::ZERO; n];
+        Self {
+            lin: Linearisation {
+                springs: vec![SpringTerms::default(); model.spring_count()],
+                contacts: vec![Vec::new(); n],
+            },
+            acc: zeros(),
+            b: zeros(),
+            r: zeros(),
+            z: zeros(),
+            p: zeros(),
+            ap: zeros(),
+            dv: zeros(),
+            diag: zeros(),
+            dv_total: zeros(),
+            xk: zeros(),
+            vk: zeros(),
+        }
+    }
+}
+
+fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| f64::from(p.dot(*q))).sum()
+}
+
+/// Σ over the springs of mass `i` of (stiffness [+ damping]) applied to p_i − p_j.
+#[inline(always)]
+fn spring_terms(
+    model: &Model,
+    lin: &Linearisation,
+    p: &[Vec3],
+    i: usize,
+    with_damping: bool,
+) -> Vec3 {
+    let mut out = Vec3::ZERO;
+    for nb in model.adjacency.of(i) {
+        let j = nb.other as usize;
+        let t = lin.springs[nb.spring as usize];
+        // A pinned neighbour's Δv is zero: the filter removes its column.
+        let pj = if model.inv_mass[j] == 0.0 {
+            Vec3::ZERO
+        } else {
+            p[j]
+        };
+        let dp = p[i] - pj;
+        let dn = t.n.dot(dp);
+        let along = if with_damping {
+            t.stiff_along + t.damp_along
+        } else {
+            t.stiff_along
+        };
+        out += along * dn * t.n + t.stiff_across * (dp - dn * t.n);
+    }
+    out
+}
+
+/// (M − h D − h² K) p, filtered (pinned rows are zero).
+fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out: &mut [Vec3]) {
+    let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
+    for (i, o) in out.iter_mut().enumerate() {
+        if model.inv_mass[i] == 0.0 {
+            *o = Vec3::ZERO;
+            continue;
+        }
+        let m = model.mass_kg[i];
+        let mut v = m * (1.0 + h * drag) * p[i] + spring_terms(model, lin, p, i, true);
+        for c in &lin.contacts[i] {
+            v += (c.stiff + c.damp) * c.n.dot(p[i]) * c.n;
+        }
+        *o = v;
+    }
+}
+
+fn linearise(model: &Model, x: &[Vec3], t: f64, h: f32, lin: &mut Linearisation) {
+    for (terms, s) in lin.springs.iter_mut().zip(&model.springs) {
+        let d = x[s.a as usize] - x[s.b as usize];
+        let len = d.length();
+        *terms = if len > f32::MIN_POSITIVE * 1e6 {
+            let k = h * h * s.stiffness_n_per_m;
+            SpringTerms {
+                n: d * (1.0 / len),
+                stiff_along: k,
+                stiff_across: k * (1.0 - s.rest_m / len).max(0.0),
+                damp_along: h * s.damping_n_s_per_m,
+            }
+        } else {
+            SpringTerms::default()
+        };
+    }
+    let fx = &model.effects;
+    let centers: Vec<Vec3> = fx.spheres.iter().map(|s| s.center_at(t)).collect();
+    for (i, contacts) in lin.contacts.iter_mut().enumerate() {
+        contacts.clear();
+        if model.inv_mass[i] == 0.0 {
+            continue;
+        }
+        let m = model.mass_kg[i];
+        let terms = |n: Vec3, c: &ContactModel| ContactTerms {
+            n,
+            stiff: h * h * c.stiffness_n_per_m,
+            damp: h * 2.0 * c.damping_ratio * (c.stiffness_n_per_m * m).sqrt(),
+        };
+        if let Some(g) = fx.ground.as_ref().filter(|g| g.height_m - x[i].y > 0.0) {
+            contacts.push(terms(Vec3::Y, &g.contact));
+        }
+        for (s, c) in fx.spheres.iter().zip(&centers) {
+            let r = x[i] - *c;
+            let dist = r.length();
+            if dist > 0.0 && s.radius_m > dist {
+                contacts.push(terms(r / dist, &s.contact));
+            }
+        }
+    }
+}
+
+/// One backward Euler step of `dt`. The ledger takes the dissipation rates at the converged
+/// iterate, the end of the step (backward quadrature, as the scheme itself).
+pub fn implicit_step(
+    model: &Model,
+    gather: &Gather,
+    state: &mut State,
+    w: &mut ImplicitWork,
+    dt: f32,
+) -> SolveStats {
+    let h = dt;
+    let n = state.x.len();
+    let t_end = state.time_secs + f64::from(h);
+    let mut stats = SolveStats::default();
+    let mut power = Power::default();
+    let mut scale = 0.0f64;
+    w.dv_total.fill(Vec3::ZERO);
+    for _ in 0..NEWTON_MAX_ITERATIONS {
+        for i in 0..n {
+            w.vk[i] = state.v[i] + w.dv_total[i];
+            w.xk[i] = state.x[i] + h * w.vk[i];
+        }
+        power = compute_forces(model, gather, &w.xk, &w.vk, t_end, dt, &mut w.acc);
+        linearise(model, &w.xk, t_end, h, &mut w.lin);
+        // b = h f(x, v) − M Δv, and the system's diagonal for the preconditioner.
+        let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
+        for i in 0..n {
+            if model.inv_mass[i] == 0.0 {
+                w.b[i] = Vec3::ZERO;
+                w.diag[i] = Vec3::ONE;
+                continue;
+            }
+            let m = model.mass_kg[i];
+            w.b[i] = h * m * w.acc[i] - m * w.dv_total[i];
+            let mut d = Vec3::splat(m * (1.0 + h * drag));
+            for c in &w.lin.contacts[i] {
+                d += (c.stiff + c.damp) * c.n * c.n;
+            }
+            for nb in model.adjacency.of(i) {
+                let t = w.lin.springs[nb.spring as usize];
+                d += (t.stiff_along + t.damp_along) * t.n * t.n
+                    + t.stiff_across * (Vec3::ONE - t.n * t.n);
+            }
+            w.diag[i] = d;
+        }
+        if scale == 0.0 {
+            scale = dot(&w.b, &w.b).sqrt();
+        }
+        let (iterations, residual) = solve(model, w, h, scale);
+        stats.newton += 1;
+        stats.iterations += iterations;
+        stats.residual = stats.residual.max(residual);
+        let step =
+            w.dv.iter()
+                .map(|d| f64::from(d.length()))
+                .fold(0.0, f64::max);
+        for i in 0..n {
+            w.dv_total[i] += w.dv[i];
+        }
+        let size = w
+            .dv_total
+            .iter()
+            .map(|d| f64::from(d.length()))
+            .fold(0.0, f64::max);
+        if step <= NEWTON_TOLERANCE * size || step < 1e-7 {
+            break;
+        }
+    }
+    for i in 0..n {
+        state.v[i] += w.dv_total[i];
+        state.x[i] += h * state.v[i];
+    }
+    state.ledger.accumulate(&power, f64::from(h));
+    state.time_secs = t_end;
+    state.steps += 1;
+    stats
+}
+
+/// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
+/// into `w.dv`, to |r| ≤ CG_TOLERANCE · `scale`. Returns the iterations and |r| / `scale`.
+fn solve(model: &Model, w: &mut ImplicitWork, h: f32, scale: f64) -> (u32, f64) {
+    let n = w.b.len();
+    let ImplicitWork {
+        lin,
+        b,
+        r,
+        z,
+        p,
+        ap,
+        dv,
+        diag,
+        ..
+    } = w;
+    dv.fill(Vec3::ZERO);
+    r.copy_from_slice(b);
+    let b_norm = dot(b, b).sqrt();
+    if b_norm == 0.0 || scale == 0.0 {
+        return (0, 0.0);
+    }
+    for i in 0..n {
+        z[i] = r[i] / diag[i];
+    }
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z);
+    let mut iterations = 0;
+    loop {
+        let residual = dot(r, r).sqrt() / scale;
+        if residual <= CG_TOLERANCE || iterations >= CG_MAX_ITERATIONS {
+            return (iterations, residual);
+        }
+        iterations += 1;
+        apply_system(model, lin, h, p, ap);
+        let pap = dot(p, ap);
+        if pap <= 0.0 || !pap.is_finite() {
+            return (iterations, residual);
+        }
+        let alpha = (rz / pap) as f32;
+        for i in 0..n {
+            dv[i] += alpha * p[i];
+            r[i] -= alpha * ap[i];
+            z[i] = r[i] / diag[i];
+        }
+        let rz_next = dot(r, z);
+        let beta = (rz_next / rz) as f32;
+        rz = rz_next;
+        for i in 0..n {
+            p[i] = z[i] + beta * p[i];
+        }
+    }
+}

@@ -58,6 +58,33 @@ pub enum Command {
 
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
+    /// Every integrator over a ladder of time steps against an f64 RK4 reference: error, energy
+    /// drift, stability and wall time, as a table (Markdown, CSV) and a work-precision chart (SVG).
+    Accuracy {
+        /// Built-in scene name or .toml file.
+        #[arg(default_value = "hair")]
+        scene: String,
+        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
+        backend: BackendKind,
+        /// Use the GPU adapter whose name contains this.
+        #[arg(long)]
+        adapter: Option<String>,
+        /// Simulated seconds each run covers.
+        #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
+        duration: f64,
+        /// How many time steps: the scene's dt × 2^k, k = coarsest, coarsest − 1, …
+        #[arg(long, default_value_t = 7)]
+        points: u32,
+        /// The largest step is the scene's dt × 2^coarsest.
+        #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+        coarsest: i32,
+        /// Where the table, CSV and chart go.
+        #[arg(long, default_value = "bench-out")]
+        out: std::path::PathBuf,
+        /// Also record the series to this .rrd file.
+        #[arg(long)]
+        save: Option<std::path::PathBuf>,
+    },
     /// Step scenes headless with no recording and report steps/s and spring updates/s.
     Throughput {
         /// Built-in scene names or .toml files (default: cloth-64 cloth-256).

@@ -3,6 +3,7 @@
 //!
 //! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
 
+pub mod accuracy;
 pub mod backend;
 pub mod bench;
 pub mod check;
@@ -12,6 +13,7 @@ pub mod gpu;
 pub mod integrator;
 pub mod model;
 pub mod record;
+pub mod reference;
 pub mod run;
 pub mod scene;
 pub mod settings;

@@ -78,6 +78,39 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         }
         Command::Bench {
             which:
+                cli::BenchCommand::Accuracy {
+                    scene,
+                    backend,
+                    adapter,
+                    duration,
+                    points,
+                    coarsest,
+                    out,
+                    save,
+                },
+        } => {
+            let opts = hooke::accuracy::AccuracyOptions {
+                backend,
+                adapter,
+                duration_secs: duration,
+                points,
+                coarsest,
+                out_dir: out.clone(),
+                rrd: save.clone(),
+            };
+            let report = hooke::accuracy::accuracy(&scene, &opts)?;
+            println!("{}", hooke::accuracy::markdown(&report));
+            println!(
+                "wrote {0}/accuracy-{1}.md, .csv and .svg (the work-precision chart){2}",
+                out.display(),
+                report.scene,
+                save.map(|p| format!("; recording {}", p.display()))
+                    .unwrap_or_default()
+            );
+            Ok(())
+        }
+        Command::Bench {
+            which:
                 cli::BenchCommand::Throughput {
                     scenes,
                     backend,

@@ -452,3 +452,82 @@ fn a_diverging_run_says_where_and_keeps_its_good_frames() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
+    let dir = temp_dir("accuracy");
+    let out = hooke(&[
+        "bench",
+        "accuracy",
+        "hair",
+        "--backend",
+        "cpu",
+        "--duration",
+        "0.1",
+        "--points",
+        "3",
+        "--coarsest",
+        "0",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv =
+        std::fs::read_to_string(dir.join("accuracy-hair.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 6 * 3, "six integrators × three steps:\n{csv}");
+    // Semi-implicit Euler is first order: halving dt about halves the error.
+    let semi: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[1] == "semi-implicit")
+        .map(|r| r[4].parse().unwrap_or(f64::NAN))
+        .collect();
+    for w in semi.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            (1.6..2.5).contains(&ratio),
+            "semi-implicit error ratio {ratio} ({semi:?})"
+        );
+    }
+    // Forward Euler is far past its limit at these steps; implicit Euler is stable at all of them.
+    assert!(
+        rows.iter()
+            .filter(|r| r[1] == "euler")
+            .all(|r| r[7] == "false"),
+        "{csv}"
+    );
+    assert!(
+        rows.iter()
+            .filter(|r| r[1] == "implicit")
+            .all(|r| r[7] == "true"),
+        "{csv}"
+    );
+    // The search agrees with `hooke check`'s estimate for semi-implicit Euler within 10%.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("| semi-implicit | ") && l.matches('|').count() == 4)
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let cells: Vec<f64> = line
+        .split('|')
+        .filter_map(|c| c.trim().trim_end_matches(" s").parse().ok())
+        .collect();
+    assert_eq!(cells.len(), 2, "{line}");
+    assert!(
+        (cells[1] / cells[0] - 1.0).abs() < 0.1,
+        "estimate {} vs found {}",
+        cells[0],
+        cells[1]
+    );
+    let svg =
+        std::fs::read_to_string(dir.join("accuracy-hair.svg")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        svg.starts_with("<svg") && svg.contains("polyline") && svg.trim_end().ends_with("</svg>")
+    );
+    assert!(dir.join("accuracy-hair.md").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

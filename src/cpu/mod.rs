@@ -8,7 +8,7 @@ mod integrate;
 mod reduce;
 
 pub use collide::project_contacts;
-pub use forces::{Gather, compute_forces, contact_force, spring_force};
+pub use forces::{Gather, PARALLEL_MIN_MASSES, compute_forces, contact_force, spring_force};
 pub use implicit::{CG_MAX_ITERATIONS, CG_TOLERANCE, SolveStats};
 pub use reduce::{compute_energies, compute_strain};
 

@@ -13,7 +13,8 @@
 struct Body {
     x: vec3<f32>,
     v: vec3<f32>,
-    removed: f32,
+    dissipated: f32,
+    work: f32,
     count: u32,
 }
 
@@ -27,9 +28,13 @@ fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: 
     if (vn >= 0.0) {
         return;
     }
+    // Perfectly inelastic in the collider's frame: ½ m vn² is dissipated; the kinetic energy's
+    // change plus that is the collider's work (zero for a static collider).
     let before = 0.5 * m * dot((*b).v, (*b).v);
     (*b).v -= vn * n;
-    (*b).removed += before - 0.5 * m * dot((*b).v, (*b).v);
+    let dissipated = 0.5 * m * vn * vn;
+    (*b).dissipated += dissipated;
+    (*b).work += 0.5 * m * dot((*b).v, (*b).v) - before + dissipated;
 }
 
 @compute @workgroup_size(64)
@@ -39,7 +44,7 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         return;
     }
     let m = mass[i].x;
-    var b = Body(x[i].xyz, v[i].xyz, 0.0, 0u);
+    var b = Body(x[i].xyz, v[i].xyz, 0.0, 0.0, 0u);
     if (HAS_GROUND) {
         project(&b, m, vec3<f32>(0.0, 1.0, 0.0), params.ground_height - b.x.y, params.ground_max_depth, vec3<f32>(0.0));
     }
@@ -56,7 +61,8 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (b.count > 0u) {
         x[i] = vec4<f32>(b.x, 0.0);
         v[i] = vec4<f32>(b.v, 0.0);
-        ledger[i].z += b.removed;
+        ledger[i].z += b.dissipated;
+        ledger[i].w += b.work;
         atomicAdd(&counters[0], b.count);
     }
 }

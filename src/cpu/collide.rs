@@ -8,7 +8,9 @@ use glam::Vec3;
 use crate::model::Model;
 use crate::state::State;
 
-/// Returns the number of masses projected. Removed kinetic energy goes to the contact ledger.
+/// Returns the number of masses projected. The impulse is perfectly inelastic in the collider's
+/// frame: ½ m v_n² (relative normal speed) is dissipated into the contact ledger, and the change
+/// of kinetic energy plus that is work done by the collider (zero for a static one).
 pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
     let e = &model.effects;
     if !e.has_contact() {
@@ -17,7 +19,7 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
     let t = state.time_secs;
     let centers: Vec<Vec3> = e.spheres.iter().map(|s| s.center_at(t)).collect();
     let mut count = 0;
-    let mut removed_j = 0.0f64;
+    let (mut dissipated_j, mut work_j) = (0.0f64, 0.0f64);
     for i in 0..state.x.len() {
         if model.inv_mass[i] == 0.0 {
             continue;
@@ -26,8 +28,9 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
         let (x, v) = (&mut state.x[i], &mut state.v[i]);
         if let Some(g) = &e.ground {
             let depth = g.height_m - x.y;
-            if let Some(r) = project(x, v, m, Vec3::Y, depth, g.max_depth_m, Vec3::ZERO) {
-                removed_j += r;
+            if let Some((d, w)) = project(x, v, m, Vec3::Y, depth, g.max_depth_m, Vec3::ZERO) {
+                dissipated_j += d;
+                work_j += w;
                 count += 1;
             }
         }
@@ -35,7 +38,7 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
             let r = *x - c;
             let dist = r.length();
             if dist > 0.0
-                && let Some(r) = project(
+                && let Some((d, w)) = project(
                     x,
                     v,
                     m,
@@ -45,17 +48,20 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
                     s.velocity_m_per_s,
                 )
             {
-                removed_j += r;
+                dissipated_j += d;
+                work_j += w;
                 count += 1;
             }
         }
     }
-    state.ledger.contact_j += removed_j;
+    state.ledger.contact_j += dissipated_j;
+    state.ledger.collider_work_j += work_j;
     count
 }
 
 /// Move a mass deeper than `max_depth` back to that depth along `n` and remove its approach speed
-/// relative to the collider. Returns the kinetic energy removed, or `None` if it was not too deep.
+/// relative to the collider. Returns (energy dissipated, work done by the collider), or `None`
+/// if it was not too deep.
 fn project(
     x: &mut Vec3,
     v: &mut Vec3,
@@ -64,16 +70,20 @@ fn project(
     depth: f32,
     max_depth: f32,
     collider_v: Vec3,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     if depth <= max_depth {
         return None;
     }
     *x += n * (depth - max_depth);
     let vn = (*v - collider_v).dot(n);
     if vn >= 0.0 {
-        return Some(0.0);
+        return Some((0.0, 0.0));
     }
     let before = 0.5 * m * v.length_squared();
     *v -= vn * n;
-    Some(f64::from(before - 0.5 * m * v.length_squared()))
+    let dissipated = 0.5 * m * vn * vn;
+    Some((
+        f64::from(dissipated),
+        f64::from(0.5 * m * v.length_squared() - before + dissipated),
+    ))
 }

@@ -112,9 +112,13 @@ pub struct SolverArgs {
     /// Time integrator.
     #[arg(long, value_enum)]
     pub integrator: Option<Integrator>,
-    /// Step size in seconds (the substeps per frame follow from it).
-    #[arg(long, conflicts_with = "substeps", allow_negative_numbers = true)]
-    pub dt: Option<f64>,
+    /// Step size in seconds (the substeps per frame follow from it), or `auto`: substeps chosen
+    /// from the stability estimate and --tolerance, measured by step doubling on a short probe.
+    #[arg(long, conflicts_with = "substeps", allow_negative_numbers = true, value_parser = parse_dt)]
+    pub dt: Option<Dt>,
+    /// With --dt auto: the RMS position error (m) allowed over the probe.
+    #[arg(long, default_value_t = 1e-3)]
+    pub tolerance: f64,
     /// Steps per frame (dt = 1 / (frame rate × substeps)).
     #[arg(long)]
     pub substeps: Option<u32>,
@@ -126,11 +130,30 @@ pub struct SolverArgs {
     pub duration: Option<f64>,
 }
 
+/// `--dt`: seconds, or `auto`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Dt {
+    Secs(f64),
+    Auto,
+}
+
+fn parse_dt(s: &str) -> Result<Dt, String> {
+    if s == "auto" {
+        return Ok(Dt::Auto);
+    }
+    s.parse::<f64>()
+        .map(Dt::Secs)
+        .map_err(|_| format!("expected seconds (like 0.001) or `auto`, got '{s}'"))
+}
+
 impl SolverArgs {
     pub fn overrides(&self) -> Overrides {
         Overrides {
             integrator: self.integrator,
-            dt_secs: self.dt,
+            dt_secs: match self.dt {
+                Some(Dt::Secs(s)) => Some(s),
+                _ => None,
+            },
             substeps: self.substeps,
             frames: self.frames,
             duration_secs: self.duration,

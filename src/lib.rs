@@ -4,6 +4,7 @@
 //! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
 
 pub mod accuracy;
+pub mod auto_dt;
 pub mod backend;
 pub mod bench;
 pub mod check;

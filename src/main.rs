@@ -54,11 +54,23 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             adapter,
         } => {
             let loaded = scene::load(&scene)?;
-            let settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
+            let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
             for n in &settings.notes {
                 println!("note: {n}");
             }
-            let model = hooke::model::build(&loaded.scene);
+            let model = Arc::new(hooke::model::build(&loaded.scene));
+            if solver.dt == Some(cli::Dt::Auto) {
+                let auto = auto_dt(
+                    &model,
+                    &settings,
+                    backend,
+                    adapter.as_deref(),
+                    solver.tolerance,
+                )?;
+                println!("{auto}");
+                settings.substeps = auto.substeps;
+                settings.dt_secs = auto.dt_secs;
+            }
             print!(
                 "{}",
                 hooke::check::report(&loaded.scene.name, &model, &settings)
@@ -151,6 +163,21 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             run(&scene, &solver, (backend, adapter), &rerun, run_matches)
         }
     }
+}
+
+fn auto_dt(
+    model: &Arc<hooke::model::Model>,
+    settings: &Settings,
+    kind: hooke::backend::BackendKind,
+    adapter: Option<&str>,
+    tolerance: f64,
+) -> anyhow::Result<hooke::auto_dt::AutoDt> {
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        anyhow::bail!("--tolerance must be a positive number of metres, got {tolerance}");
+    }
+    Ok(hooke::auto_dt::choose(
+        model, settings, kind, adapter, tolerance,
+    )?)
 }
 
 /// Why the default (spawn a viewer) cannot work here, if it cannot.
@@ -254,11 +281,23 @@ fn run(
     m: &clap::ArgMatches,
 ) -> anyhow::Result<()> {
     let loaded = scene::load(scene_arg)?;
-    let settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
+    let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
     for n in &settings.notes {
         eprintln!("note: {n}");
     }
     let model = Arc::new(hooke::model::build(&loaded.scene));
+    if solver.dt == Some(cli::Dt::Auto) {
+        let auto = auto_dt(
+            &model,
+            &settings,
+            kind,
+            adapter.as_deref(),
+            solver.tolerance,
+        )?;
+        eprintln!("{auto}");
+        settings.substeps = auto.substeps;
+        settings.dt_secs = auto.dt_secs;
+    }
     if let Some(w) = hooke::check::dt_warning(&model, &settings) {
         eprintln!("warning: {w}");
     }

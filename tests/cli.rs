@@ -531,3 +531,42 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
     assert!(dir.join("accuracy-hair.md").exists());
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn dt_auto_says_what_it_picked_and_a_tighter_tolerance_takes_more_substeps() {
+    let substeps = |tolerance: &str| -> u32 {
+        let out = hooke(&[
+            "check",
+            "hair",
+            "--backend",
+            "cpu",
+            "--dt",
+            "auto",
+            "--tolerance",
+            tolerance,
+        ]);
+        let err = text(&out.stderr);
+        let out_text = text(&out.stdout);
+        let line = out_text
+            .lines()
+            .chain(err.lines())
+            .find(|l| l.starts_with("--dt auto: "))
+            .unwrap_or_else(|| panic!("no --dt auto line:\n{out_text}\n{err}"));
+        line["--dt auto: ".len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    let (loose, tight) = (substeps("1e-3"), substeps("1e-5"));
+    assert!(
+        tight > loose,
+        "tolerance 1e-5 took {tight} substeps, 1e-3 took {loose}"
+    );
+    let out = hooke(&["check", "hair", "--dt", "fast"]);
+    assert!(
+        text(&out.stderr).contains("expected seconds (like 0.001) or `auto`"),
+        "{}",
+        text(&out.stderr)
+    );
+}

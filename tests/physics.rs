@@ -682,3 +682,45 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
         );
     }
 }
+
+/// `--dt auto` keeps its promise: at the step it picks, the error against the f64 reference over
+/// its probe is within the tolerance asked for (with a factor 2 for the estimate's own error).
+#[test]
+fn auto_dt_meets_the_requested_accuracy() {
+    use hooke::settings::{Overrides, Settings};
+    let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    for (integrator, tolerance) in [(Integrator::SemiImplicit, 1e-4), (Integrator::Verlet, 1e-5)] {
+        let settings = Settings::resolve(
+            &loaded.scene,
+            &Overrides {
+                integrator: Some(integrator),
+                ..Overrides::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let auto = hooke::auto_dt::choose(
+            &model,
+            &settings,
+            hooke::backend::BackendKind::Cpu,
+            None,
+            tolerance,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(auto.estimated_error_m <= tolerance, "{integrator}: {auto}");
+        let steps = (auto.probe_secs / auto.dt_secs).round() as u64;
+        let s = run(&model, integrator, auto.dt_secs, steps);
+        let mut reference = hooke::reference::Reference::new(model.clone());
+        reference.advance_to(s.time_secs, auto.dt_secs / 8.0, auto.dt_secs);
+        let sq: f64 =
+            s.x.iter()
+                .zip(&reference.x)
+                .map(|(a, b)| (a.as_dvec3() - *b).length_squared())
+                .sum();
+        let actual = (sq / s.x.len() as f64).sqrt();
+        assert!(
+            actual <= 2.0 * tolerance,
+            "{integrator}: asked for {tolerance} m, got {actual} m ({auto})"
+        );
+    }
+}

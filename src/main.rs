@@ -26,7 +26,9 @@ fn main() -> std::process::ExitCode {
         .map_err(anyhow::Error::from)
         .and_then(|cli| dispatch(cli, &matches));
     match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(Outcome::Done) => std::process::ExitCode::SUCCESS,
+        // The shell's convention for a run ended by SIGINT.
+        Ok(Outcome::Interrupted) => std::process::ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
@@ -34,7 +36,14 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
+/// How a command ended without error.
+enum Outcome {
+    Done,
+    /// Ctrl-C or SIGTERM stopped a run; everything produced before it was recorded.
+    Interrupted,
+}
+
+fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
     match cli.command {
         Command::Scenes => {
             for b in scene::BUILT_IN {
@@ -45,7 +54,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             println!(
                 "\nEach is also a file under examples/scenes/; `hooke run FILE.toml` runs a copy you edit."
             );
-            Ok(())
+            Ok(Outcome::Done)
         }
         Command::Check {
             scene,
@@ -86,7 +95,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
                     }
                 }
             }
-            Ok(())
+            Ok(Outcome::Done)
         }
         Command::Bench {
             which:
@@ -119,7 +128,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
                 save.map(|p| format!("; recording {}", p.display()))
                     .unwrap_or_default()
             );
-            Ok(())
+            Ok(Outcome::Done)
         }
         Command::Bench {
             which:
@@ -148,7 +157,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
                 let t = hooke::bench::throughput(s, &opts)?;
                 println!("{}", hooke::bench::format_throughput(&t));
             }
-            Ok(())
+            Ok(Outcome::Done)
         }
         Command::Run {
             scene,
@@ -279,7 +288,7 @@ fn run(
     (kind, adapter): (hooke::backend::BackendKind, Option<String>),
     rerun_args: &rerun::clap::RerunArgs,
     m: &clap::ArgMatches,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Outcome> {
     let loaded = scene::load(scene_arg)?;
     let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
     for n in &settings.notes {
@@ -325,7 +334,26 @@ fn run(
         delivery: sink.delivery,
         progress: std::io::stderr().is_terminal(),
     };
+    // Ctrl-C or SIGTERM: the first stops stepping, records every frame already produced and
+    // flushes the recording; a second one ends the process at once.
     let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = cancel.clone();
+        let installed = ctrlc::set_handler(move || {
+            if cancel.swap(true, std::sync::atomic::Ordering::SeqCst) {
+                eprintln!("second interrupt: exiting without finishing the recording");
+                std::process::exit(130);
+            }
+            eprintln!(
+                "interrupted: stopping after the current frame and saving what was recorded (again to quit at once)"
+            );
+        });
+        if let Err(e) = installed {
+            eprintln!(
+                "warning: cannot catch Ctrl-C ({e}); an interrupt will end the run without flushing"
+            );
+        }
+    }
     let result = hooke::run::run(
         &loaded,
         model,
@@ -347,7 +375,12 @@ fn run(
     }
     let summary = result?;
     eprintln!(
-        "done: {} frames ({:.3} s simulated) in {:.2} s wall{}",
+        "{}: {} frames ({:.3} s simulated) in {:.2} s wall{}",
+        if summary.cancelled {
+            "interrupted"
+        } else {
+            "done"
+        },
         summary.frames_recorded,
         summary.sim_time_secs,
         summary.wall_secs,
@@ -360,5 +393,9 @@ fn run(
             String::new()
         }
     );
-    Ok(())
+    Ok(if summary.cancelled {
+        Outcome::Interrupted
+    } else {
+        Outcome::Done
+    })
 }

@@ -570,3 +570,75 @@ fn dt_auto_says_what_it_picked_and_a_tighter_tolerance_takes_more_substeps() {
         text(&out.stderr)
     );
 }
+
+/// Ctrl-C (SIGINT) or SIGTERM during `--save`: the run stops, every frame already produced is in
+/// the file, contiguous from frame 0, the file decodes to its end, and the exit status is 130.
+#[test]
+fn an_interrupted_recording_keeps_every_frame_it_produced() {
+    for signal in ["-INT", "-TERM"] {
+        let dir = temp_dir(&format!("signal{signal}"));
+        let path = dir.join("cloth.rrd");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_hooke"))
+            .args([
+                "run",
+                "cloth",
+                "--backend",
+                "cpu",
+                "--duration",
+                "600",
+                "--save",
+                &path.to_string_lossy(),
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("{e}"));
+        // Wait until frames are being written.
+        let started = std::time::Instant::now();
+        while std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) < 200_000 {
+            assert!(
+                started.elapsed().as_secs() < 60,
+                "the run never started writing"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let sent = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(sent.success());
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap_or_else(|e| panic!("{e}")) {
+                break s;
+            }
+            assert!(
+                std::time::Instant::now() < deadline,
+                "{signal}: the run did not stop"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        let mut err = String::new();
+        if let Some(mut e) = child.stderr.take() {
+            let _ = std::io::Read::read_to_string(&mut e, &mut err);
+        }
+        assert_eq!(status.code(), Some(130), "{signal}: {err}");
+        assert!(
+            err.contains("interrupted:") && err.contains("saved"),
+            "{signal}: {err}"
+        );
+        let frames = &read_rrd(&path)["/world/cloth/masses"].0;
+        let n = frames.len() as i64;
+        assert!(n > 1, "{signal}: only {n} frames");
+        assert_eq!(
+            frames.iter().copied().collect::<Vec<_>>(),
+            (0..n).collect::<Vec<_>>(),
+            "{signal}: frames missing"
+        );
+        assert!(
+            err.contains(&format!("interrupted: {n} frames")),
+            "{signal}: the summary should count the {n} frames saved: {err}"
+        );
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

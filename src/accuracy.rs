@@ -82,12 +82,7 @@ fn run(
     let name = be.describe();
     let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
     let start = Instant::now();
-    let mut left = steps;
-    while left > 0 {
-        let n = left.min(1000) as u32;
-        be.advance(n)?;
-        left -= u64::from(n);
-    }
+    backend::advance_steps(be.as_mut(), steps, 1000)?;
     be.finish()?;
     let wall_secs = start.elapsed().as_secs_f64();
     let end = be.snapshot(1, Default::default())?;
@@ -122,12 +117,7 @@ fn is_stable(model: &Arc<Model>, integrator: Integrator, dt: f64, duration: f64)
 fn run_cpu(be: &mut crate::cpu::CpuBackend, steps: u64) -> std::result::Result<f64, BackendError> {
     use crate::backend::Backend as _;
     let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
-    let mut left = steps;
-    while left > 0 {
-        let n = left.min(10_000) as u32;
-        be.advance(n)?;
-        left -= u64::from(n);
-    }
+    backend::advance_steps(be, steps, 10_000)?;
     Ok(be.snapshot(0, Default::default())?.energies.balance_j() - b0)
 }
 

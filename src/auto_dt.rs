@@ -61,12 +61,7 @@ fn positions_after(
     steps: u64,
 ) -> Result<Vec<glam::Vec3>> {
     let mut be = backend::create(kind, model.clone(), integrator, dt, adapter)?;
-    let mut left = steps;
-    while left > 0 {
-        let n = left.min(1000) as u32;
-        be.advance(n)?;
-        left -= u64::from(n);
-    }
+    backend::advance_steps(be.as_mut(), steps, 1000)?;
     Ok(be.state()?.x)
 }
 

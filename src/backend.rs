@@ -75,6 +75,18 @@ pub fn create(
     })
 }
 
+/// Advance `steps` steps in submissions of at most `batch` substeps (a GPU encodes each batch
+/// into one submission; the CPU does not care).
+pub fn advance_steps(be: &mut dyn Backend, steps: u64, batch: u32) -> Result<(), BackendError> {
+    let mut left = steps;
+    while left > 0 {
+        let n = left.min(u64::from(batch.max(1))) as u32;
+        be.advance(n)?;
+        left -= u64::from(n);
+    }
+    Ok(())
+}
+
 /// Speed beyond which a state counts as runaway: nothing in a mass-spring scene moves at 10 km/s
 /// unless the integration has gone unstable, and stopping there keeps the last frames readable.
 pub const RUNAWAY_SPEED_M_PER_S: f32 = 1.0e4;

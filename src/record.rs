@@ -64,12 +64,18 @@ pub fn blueprint() -> rerun::blueprint::Blueprint {
 }
 
 /// Entity paths for the energy series, with their display names.
-const ENERGY_SERIES: [(&str, &str); 8] = [
+const ENERGY_SERIES: [(&str, &str); 11] = [
     ("energy/kinetic", "kinetic"),
     ("energy/elastic", "elastic (springs)"),
     ("energy/gravity", "gravitational"),
     ("energy/contact", "contact (penalty)"),
     ("energy/dissipated", "dissipated (damping + drag + contact)"),
+    ("energy/dissipated_damping", "dissipated by spring damping"),
+    ("energy/dissipated_drag", "dissipated by air drag"),
+    (
+        "energy/dissipated_contact",
+        "dissipated by contact damping and friction",
+    ),
     ("energy/collider_work", "work done by moving colliders"),
     ("energy/total", "total mechanical"),
     ("energy/balance", "total + dissipated − collider work"),
@@ -301,6 +307,9 @@ impl Recorder {
             e.gravity_j,
             e.contact_j,
             e.ledger.dissipated_j(),
+            e.ledger.damping_j,
+            e.ledger.drag_j,
+            e.ledger.contact_j,
             e.ledger.collider_work_j,
             e.total_j(),
             e.balance_j(),

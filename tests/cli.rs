@@ -131,6 +131,8 @@ fn a_saved_recording_has_every_frame_on_both_timelines() {
         "/energy/kinetic",
         "/energy/total",
         "/energy/dissipated",
+        "/energy/dissipated_damping",
+        "/energy/dissipated_contact",
         "/stats/max_strain",
     ] {
         let (f, t) = e

@@ -644,3 +644,63 @@ fn an_interrupted_recording_keeps_every_frame_it_produced() {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
+
+/// Each built-in scene's step runs exactly the passes, and compiles in exactly the effects, it
+/// calls for.
+#[test]
+fn check_lists_the_passes_and_effects_each_built_in_scene_runs() {
+    let expect = [
+        (
+            "hair",
+            "compute_forces → semi_implicit_update",
+            "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING",
+        ),
+        (
+            "cloth",
+            "compute_forces → semi_implicit_update → project_contacts",
+            "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_SPHERES, HAS_DAMPING",
+        ),
+        (
+            "jello",
+            "compute_forces → semi_implicit_update → project_contacts",
+            "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
+        ),
+        (
+            "jello-sphere",
+            "compute_forces → semi_implicit_update → project_contacts",
+            "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_DAMPING",
+        ),
+        (
+            "cloth-64",
+            "compute_forces → semi_implicit_update",
+            "HAS_GRAVITY, HAS_DAMPING",
+        ),
+        (
+            "cloth-256",
+            "compute_forces → semi_implicit_update",
+            "HAS_GRAVITY, HAS_DAMPING",
+        ),
+        (
+            "cloth-1024",
+            "compute_forces → semi_implicit_update",
+            "HAS_GRAVITY, HAS_DAMPING",
+        ),
+    ];
+    assert_eq!(
+        expect.len(),
+        hooke::scene::BUILT_IN.len(),
+        "a built-in scene is missing here"
+    );
+    for (scene, passes, effects) in expect {
+        let out = hooke(&["check", scene, "--backend", "cpu"]);
+        let s = text(&out.stdout);
+        assert!(
+            s.contains(&format!("GPU step passes: {passes}\n")),
+            "{scene}:\n{s}"
+        );
+        assert!(
+            s.contains(&format!("compiled-in effects: {effects}\n")),
+            "{scene}:\n{s}"
+        );
+    }
+}

@@ -442,43 +442,8 @@ impl GpuBackend {
         pass.dispatch_workgroups(groups.0, groups.1, 1);
     }
 
-    /// The dispatches of one step, with their stage slot relative to the step's first slot.
-    /// `prime`: Verlet's first step also evaluates a(x_0).
     fn step_plan(&self, prime: bool) -> Vec<(Kernel, u32)> {
-        use Kernel::*;
-        let mut plan = match self.integrator {
-            Integrator::Euler => vec![(Forces(StateIn::XV), 0), (EulerUpdate, 0)],
-            Integrator::SemiImplicit => vec![(Forces(StateIn::XV), 0), (SemiImplicitUpdate, 0)],
-            Integrator::Rk2 => vec![
-                (Forces(StateIn::XV), 0),
-                (Rk2Stage, 0),
-                (Forces(StateIn::XtVt), 1),
-                (Rk2Final, 0),
-            ],
-            Integrator::Rk4 => vec![
-                (Forces(StateIn::XV), 0),
-                (Rk4Begin, 0),
-                (Forces(StateIn::XtVt), 1),
-                (Rk4Mid, 1),
-                (Forces(StateIn::XtVt), 2),
-                (Rk4Mid, 2),
-                (Forces(StateIn::XtVt), 3),
-                (Rk4Final, 0),
-            ],
-            // Refused by `GpuBackend::new`.
-            Integrator::Implicit => Vec::new(),
-            Integrator::Verlet => {
-                let mut p = vec![(VerletDrift, 0), (Forces(StateIn::XVt), 3), (VerletKick, 0)];
-                if prime {
-                    p.insert(0, (Forces(StateIn::XV), 0));
-                }
-                p
-            }
-        };
-        if self.model.effects.has_contact() {
-            plan.push((ProjectContacts, 3));
-        }
-        plan
+        step_plan(self.integrator, self.model.effects.has_contact(), prime)
     }
 
     fn kernel(
@@ -893,6 +858,62 @@ impl GpuBackend {
     pub fn adapter_name(&self) -> String {
         self.ctx.describe()
     }
+}
+
+/// The dispatches of one step, with their stage slot relative to the step's first slot.
+/// `prime`: Verlet's first step also evaluates a(x_0). Implicit Euler has none (CPU only).
+fn step_plan(integrator: Integrator, has_contact: bool, prime: bool) -> Vec<(Kernel, u32)> {
+    use Kernel::*;
+    let mut plan = match integrator {
+        Integrator::Euler => vec![(Forces(StateIn::XV), 0), (EulerUpdate, 0)],
+        Integrator::SemiImplicit => vec![(Forces(StateIn::XV), 0), (SemiImplicitUpdate, 0)],
+        Integrator::Rk2 => vec![
+            (Forces(StateIn::XV), 0),
+            (Rk2Stage, 0),
+            (Forces(StateIn::XtVt), 1),
+            (Rk2Final, 0),
+        ],
+        Integrator::Rk4 => vec![
+            (Forces(StateIn::XV), 0),
+            (Rk4Begin, 0),
+            (Forces(StateIn::XtVt), 1),
+            (Rk4Mid, 1),
+            (Forces(StateIn::XtVt), 2),
+            (Rk4Mid, 2),
+            (Forces(StateIn::XtVt), 3),
+            (Rk4Final, 0),
+        ],
+        Integrator::Verlet => {
+            let mut p = vec![(VerletDrift, 0), (Forces(StateIn::XVt), 3), (VerletKick, 0)];
+            if prime {
+                p.insert(0, (Forces(StateIn::XV), 0));
+            }
+            p
+        }
+        Integrator::Implicit => Vec::new(),
+    };
+    if has_contact && integrator != Integrator::Implicit {
+        plan.push((ProjectContacts, 3));
+    }
+    plan
+}
+
+/// For `hooke check`: the kernels one GPU step dispatches, in order, and the effects compiled into
+/// them (absent effects are specialised away and cost nothing).
+pub fn step_passes(
+    model: &Model,
+    integrator: Integrator,
+) -> (Vec<&'static str>, Vec<&'static str>) {
+    let passes = step_plan(integrator, model.effects.has_contact(), false)
+        .into_iter()
+        .map(|(k, _)| k.name())
+        .collect();
+    let effects = kernels::effect_constants(model)
+        .into_iter()
+        .filter(|(_, on)| *on != 0.0)
+        .map(|(name, _)| name)
+        .collect();
+    (passes, effects)
 }
 
 /// What a dispatch runs (names as in the WGSL).

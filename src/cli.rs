@@ -58,6 +58,22 @@ pub enum Command {
 
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
+    /// A long run through the whole pipeline (simulation, recorder, .rrd file) with resident
+    /// memory sampled over time.
+    Soak {
+        #[arg(default_value = "hair")]
+        scene: String,
+        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
+        backend: BackendKind,
+        #[arg(long)]
+        adapter: Option<String>,
+        /// Simulated seconds.
+        #[arg(long, default_value_t = 600.0)]
+        duration: f64,
+        /// Where the recording goes.
+        #[arg(long, default_value = "soak.rrd")]
+        save: std::path::PathBuf,
+    },
     /// Every integrator over a ladder of time steps against an f64 RK4 reference: error, energy
     /// drift, stability and wall time, as a table (Markdown, CSV) and a work-precision chart (SVG).
     Accuracy {

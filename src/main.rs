@@ -99,6 +99,20 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         }
         Command::Bench {
             which:
+                cli::BenchCommand::Soak {
+                    scene,
+                    backend,
+                    adapter,
+                    duration,
+                    save,
+                },
+        } => {
+            let s = hooke::bench::soak(&scene, backend, adapter.as_deref(), duration, &save)?;
+            println!("{}", hooke::bench::format_soak(&s));
+            Ok(Outcome::Done)
+        }
+        Command::Bench {
+            which:
                 cli::BenchCommand::Accuracy {
                     scene,
                     backend,

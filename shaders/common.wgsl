@@ -36,6 +36,11 @@ struct Stage {
     // RK4: weight of this stage's derivative, and the step fraction of the next stage point.
     weight: f32,
     next_scale: f32,
+    // Index of this step within its submission (the divergence check reports the first bad one).
+    step: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Spring {

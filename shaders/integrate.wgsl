@@ -12,7 +12,19 @@
 @group(0) @binding(6) var<storage, read_write> sums: array<vec4<f32>>;
 // Energy that left (damping, drag, contact) or entered (collider work) through this mass.
 @group(0) @binding(7) var<storage, read_write> ledger: array<vec4<f32>>;
+// [1]: u32::MAX − (index of the first step whose state went non-finite or ran away), 0 if none.
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
+
+// Flag the step if the new state of mass i is not finite or runs away (as src/backend.rs's
+// find_divergence): atomicMax of the complement keeps the earliest step.
+fn check_state(xi: vec3<f32>, vi: vec3<f32>) {
+    let limit = vec3<f32>(3.4028235e38);
+    let finite = all(abs(xi) <= limit) && all(abs(vi) <= limit);
+    if (!finite || length(vi) > params.runaway_speed) {
+        atomicMax(&counters[1], 0xFFFFFFFFu - stage.step);
+    }
+}
 
 fn acc(i: u32) -> vec3<f32> {
     return deriv[2u * i].xyz;
@@ -31,6 +43,7 @@ fn euler_update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     x[i] = vec4<f32>(x[i].xyz + dt * vi, 0.0);
     v[i] = vec4<f32>(vi + dt * acc(i), 0.0);
     ledger[i] += dt * rate(i);
+    check_state(x[i].xyz, v[i].xyz);
 }
 
 @compute @workgroup_size(64)
@@ -42,6 +55,7 @@ fn semi_implicit_update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(
     v[i] = vec4<f32>(vn, 0.0);
     x[i] = vec4<f32>(x[i].xyz + dt * vn, 0.0);
     ledger[i] += dt * rate(i);
+    check_state(x[i].xyz, vn);
 }
 
 @compute @workgroup_size(64)
@@ -61,6 +75,7 @@ fn rk2_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     x[i] = vec4<f32>(x[i].xyz + dt * vt[i].xyz, 0.0);
     v[i] = vec4<f32>(v[i].xyz + dt * acc(i), 0.0);
     ledger[i] += dt * rate(i);
+    check_state(x[i].xyz, v[i].xyz);
 }
 
 @compute @workgroup_size(64)
@@ -103,6 +118,7 @@ fn rk4_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     x[i] = vec4<f32>(x[i].xyz + h6 * (sums[3u * i].xyz + vt[i].xyz), 0.0);
     v[i] = vec4<f32>(v[i].xyz + h6 * (sums[3u * i + 1u].xyz + acc(i)), 0.0);
     ledger[i] += h6 * (sums[3u * i + 2u] + rate(i));
+    check_state(x[i].xyz, v[i].xyz);
 }
 
 // Velocity Verlet as kick-drift-kick, first half: half a kick with a(x_n) (kept from the previous
@@ -130,4 +146,5 @@ fn verlet_kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let dt = stage.dt;
     v[i] = vec4<f32>(sums[3u * i].xyz + (0.5 * dt) * acc(i), 0.0);
     ledger[i] += (0.5 * dt) * (sums[3u * i + 2u] + rate(i));
+    check_state(x[i].xyz, v[i].xyz);
 }

@@ -407,15 +407,31 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
             "frame {k} is not finite"
         );
     }
-    match out.failed {
+    let gpu_step = match out.failed {
         Some(BackendError::Diverged(d)) => {
-            assert!(d.to_string().contains("at mass") && frames.len() > 1, "{d}")
+            assert!(d.to_string().contains("at mass") && frames.len() > 1, "{d}");
+            d.step
         }
         other => panic!(
             "expected divergence, got {other:?} after {} frames",
             frames.len()
         ),
-    }
+    };
+    // The GPU names the first bad step, as the CPU's per-step check does (bit-identical on
+    // lavapipe; within 1% where a GPU fuses multiply-adds).
+    let mut cpu = CpuBackend::new(scene_model("hair").0, Integrator::Euler, dt);
+    let cpu_step = loop {
+        match cpu.advance(20) {
+            Ok(_) => continue,
+            Err(BackendError::Diverged(d)) => break d.step,
+            Err(e) => panic!("{e}"),
+        }
+    };
+    eprintln!("first bad step: GPU {gpu_step}, CPU {cpu_step}");
+    assert!(
+        gpu_step.abs_diff(cpu_step) <= 2 + cpu_step / 100,
+        "GPU names step {gpu_step}, CPU step {cpu_step}"
+    );
 }
 
 #[test]

@@ -100,7 +100,8 @@ impl Layouts {
                 device,
                 "integrate",
                 &[
-                    Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite, ReadWrite,
+                    Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite,
+                    ReadWrite, ReadWrite,
                 ],
             ),
             collide: layout(

@@ -31,6 +31,8 @@ pub struct Stage {
     pub dt: f32,
     pub weight: f32,
     pub next_scale: f32,
+    pub step: u32,
+    pub _pad: [u32; 3],
 }
 
 /// A sphere collider (`Sphere` in WGSL): centre at t = 0 and constant velocity.

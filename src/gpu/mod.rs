@@ -225,7 +225,9 @@ impl GpuBackend {
         let energy_groups = groups_for(n.max(ns) as u32, max_dim);
         let partial_count = (energy_groups.0 * energy_groups.1) as usize;
         let partials = zeros("partials", 48 * partial_count);
-        let stage_stride = u64::from(ctx.limits.min_uniform_buffer_offset_alignment).max(16);
+        let align = u64::from(ctx.limits.min_uniform_buffer_offset_alignment).max(1);
+        // Each slot holds one Stage, at an offset the adapter accepts for a dynamic uniform.
+        let stage_stride = (std::mem::size_of::<Stage>() as u64).div_ceil(align) * align;
         let stage_slots = 1;
         let stage = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stage"),
@@ -272,7 +274,17 @@ impl GpuBackend {
             integrate: bg_of(
                 &layouts.integrate,
                 "integrate",
-                &[&params_buf, &x, &v, &xt, &vt, &deriv, &sums, &ledger],
+                &[
+                    &params_buf,
+                    &x,
+                    &v,
+                    &xt,
+                    &vt,
+                    &deriv,
+                    &sums,
+                    &ledger,
+                    &counters,
+                ],
             ),
             collide: bg_of(
                 &layouts.collide,
@@ -411,7 +423,8 @@ impl GpuBackend {
         let stride = self.stage_stride as usize;
         let mut bytes = vec![0u8; stride * stages.len()];
         for (k, s) in stages.iter().enumerate() {
-            bytes[k * stride..k * stride + 16].copy_from_slice(bytemuck::bytes_of(s));
+            let b = bytemuck::bytes_of(s);
+            bytes[k * stride..k * stride + b.len()].copy_from_slice(b);
         }
         self.ctx.queue.write_buffer(
             &self.buf.stage,
@@ -631,12 +644,14 @@ impl GpuBackend {
         let h = f64::from(self.dt);
         let mut stages = Vec::with_capacity((SLOTS_PER_STEP * steps) as usize);
         let mut t = self.time_secs;
-        for _ in 0..steps {
+        for k in 0..steps {
             let at = |time: f64, weight: f32, next_scale: f32| Stage {
                 time: time as f32,
                 dt: self.dt,
                 weight,
                 next_scale,
+                step: k,
+                _pad: [0; 3],
             };
             stages.extend([
                 at(t, 1.0, 0.5),
@@ -677,6 +692,7 @@ impl GpuBackend {
                 dt: self.dt,
                 weight: 1.0,
                 next_scale: 1.0,
+                ..Stage::default()
             }],
         );
         let mut enc = self
@@ -820,6 +836,7 @@ impl GpuBackend {
                 max_speed,
                 non_finite: bad > 0.0 || !max_speed.is_finite(),
                 projections: counters[0],
+                first_bad_step: (counters[1] != 0).then(|| u32::MAX - counters[1]),
             }
         };
         self.buf.staging[k].unmap();
@@ -836,12 +853,20 @@ impl GpuBackend {
         self.finish_read_back(k, index, with_velocity)
     }
 
-    fn divergence(&mut self, rb: &ReadBack) -> Option<Box<Divergence>> {
-        if !rb.non_finite && rb.max_speed <= RUNAWAY_SPEED_M_PER_S {
+    /// The divergence of a collected frame, if its state went bad. The step is the first bad
+    /// one, as the update kernels flagged it; the mass and spring are read off the state now.
+    fn divergence(&mut self, rb: &ReadBack, frame: &Pending) -> Option<Box<Divergence>> {
+        if rb.first_bad_step.is_none() && !rb.non_finite && rb.max_speed <= RUNAWAY_SPEED_M_PER_S {
             return None;
         }
         let state = self.state_now().ok()?;
-        find_divergence(&self.model, &state, self.integrator, f64::from(self.dt))
+        let mut d = find_divergence(&self.model, &state, self.integrator, f64::from(self.dt))?;
+        if let Some(k) = rb.first_bad_step {
+            let later = u64::from(frame.stats.substeps.saturating_sub(k + 1));
+            d.step = frame.steps - later;
+            d.time_secs = frame.time_secs - later as f64 * f64::from(self.dt);
+        }
+        Some(d)
     }
 
     fn state_now(&mut self) -> Result<State, BackendError> {
@@ -978,6 +1003,8 @@ struct ReadBack {
     max_speed: f32,
     non_finite: bool,
     projections: u32,
+    /// Index, within the last submission of steps, of the first step whose state went bad.
+    first_bad_step: Option<u32>,
 }
 
 /// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
@@ -1092,8 +1119,8 @@ impl Backend for GpuBackend {
         let Some(p) = self.pending.pop_front() else {
             return Ok(None);
         };
-        let rb = self.finish_read_back(p.staging, p.index, false)?;
-        if let Some(d) = self.divergence(&rb) {
+        let rb = self.finish_read_back(p.staging, p.index.clone(), false)?;
+        if let Some(d) = self.divergence(&rb, &p) {
             return Err(BackendError::Diverged(d));
         }
         Ok(Some(Snapshot {

@@ -50,6 +50,9 @@ pub trait Backend: Send {
     }
     /// The full state (tests and benchmarks).
     fn state(&mut self) -> Result<State, BackendError>;
+    /// Take back a snapshot the recorder is done with, so that its buffers are refilled instead
+    /// of allocating new ones each frame.
+    fn recycle(&mut self, _snapshot: Snapshot) {}
     /// Wait until all stepping asked for so far has run (benchmarks time up to here).
     fn finish(&mut self) -> Result<(), BackendError> {
         Ok(())

@@ -52,6 +52,8 @@ pub fn run(
 
     let start = std::time::Instant::now();
     let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
+    // The recorder hands logged snapshots back so that their buffers are reused.
+    let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     let progress = if opts.progress {
         indicatif::ProgressBar::new(settings.frames + 1).with_style(
             indicatif::ProgressStyle::with_template(
@@ -74,7 +76,15 @@ pub fn run(
                     (settings.frames, settings.substeps, opts.delivery);
                 move || {
                     let mut be = be;
-                    sim::simulate(be.as_mut(), frames, substeps, &tx, delivery, &cancel)
+                    sim::simulate(
+                        be.as_mut(),
+                        frames,
+                        substeps,
+                        &tx,
+                        delivery,
+                        &cancel,
+                        Some(&back_rx),
+                    )
                 }
             });
         let rec_thread = std::thread::Builder::new()
@@ -88,6 +98,8 @@ pub fn run(
                     }
                     recorded += 1;
                     progress.inc(1);
+                    // Back to the simulation for reuse; if its queue is full, just drop it.
+                    let _ = back_tx.try_send(snap);
                 }
                 (recorded, None)
             });

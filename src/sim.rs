@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use crossbeam_channel::{Sender, TrySendError};
+use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::backend::{Backend, BackendError};
 use crate::state::{Snapshot, StepStats};
@@ -42,6 +42,7 @@ pub fn simulate(
     tx: &Sender<Snapshot>,
     delivery: Delivery,
     cancel: &AtomicBool,
+    recycled: Option<&Receiver<Snapshot>>,
 ) -> SimOutcome {
     let mut out = SimOutcome {
         frames_sent: 0,
@@ -82,6 +83,12 @@ pub fn simulate(
         if cancel.load(Ordering::Relaxed) {
             out.cancelled = true;
             break;
+        }
+        // Snapshots the recorder has finished with: their buffers are refilled, not reallocated.
+        if let Some(rx) = recycled {
+            for s in rx.try_iter() {
+                backend.recycle(s);
+            }
         }
         let stepped = backend
             .advance(substeps)

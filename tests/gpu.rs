@@ -397,6 +397,7 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
         &tx,
         hooke::sim::Delivery::Lossless,
         &std::sync::atomic::AtomicBool::new(false),
+        None,
     );
     drop(tx);
     let frames: Vec<_> = rx.iter().collect();

@@ -577,6 +577,7 @@ fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
             &tx,
             Delivery::Lossless,
             &std::sync::atomic::AtomicBool::new(false),
+            None,
         );
         drop(tx);
         let frames: Vec<_> = rx.iter().collect();

@@ -24,6 +24,8 @@ pub struct CpuBackend {
     state: State,
     scratch: integrate::Scratch,
     pending: std::collections::VecDeque<Snapshot>,
+    /// Snapshots returned by the recorder, their buffers reused.
+    spare: Vec<Snapshot>,
 }
 
 impl CpuBackend {
@@ -32,6 +34,7 @@ impl CpuBackend {
             state: model.initial.clone(),
             scratch: integrate::Scratch::new(&model),
             pending: std::collections::VecDeque::new(),
+            spare: Vec::new(),
             model,
             integrator,
             dt: dt_secs as f32,
@@ -82,25 +85,36 @@ impl Backend for CpuBackend {
     }
 
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
-        let mut strain = Vec::with_capacity(self.model.spring_count());
-        compute_strain(&self.model, &self.state.x, &mut strain);
-        self.pending.push_back(Snapshot {
+        let t = self.state.time_secs;
+        let mut snap = self.spare.pop().unwrap_or_else(|| Snapshot {
             frame,
-            time_secs: self.state.time_secs,
-            steps: self.state.steps,
-            positions: self.state.x.clone(),
-            strain,
-            energies: compute_energies(&self.model, &self.state),
+            time_secs: t,
+            steps: 0,
+            positions: Vec::new(),
+            strain: Vec::new(),
+            energies: Default::default(),
             stats,
-            sphere_centers: self
-                .model
-                .effects
-                .spheres
-                .iter()
-                .map(|s| s.center_at(self.state.time_secs))
-                .collect(),
+            sphere_centers: Vec::new(),
         });
+        snap.frame = frame;
+        snap.time_secs = t;
+        snap.steps = self.state.steps;
+        snap.stats = stats;
+        snap.positions.clear();
+        snap.positions.extend_from_slice(&self.state.x);
+        compute_strain(&self.model, &self.state.x, &mut snap.strain);
+        snap.energies = compute_energies(&self.model, &self.state);
+        snap.sphere_centers.clear();
+        snap.sphere_centers
+            .extend(self.model.effects.spheres.iter().map(|s| s.center_at(t)));
+        self.pending.push_back(snap);
         Ok(())
+    }
+
+    fn recycle(&mut self, snapshot: Snapshot) {
+        if self.spare.len() < 8 {
+            self.spare.push(snapshot);
+        }
     }
 
     fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {

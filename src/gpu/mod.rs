@@ -73,6 +73,8 @@ pub struct GpuBackend {
     advance_started: Option<Instant>,
     /// Snapshots asked for and not yet collected, oldest first.
     pending: std::collections::VecDeque<Pending>,
+    /// Snapshots returned by the recorder, their buffers reused.
+    spare: Vec<Snapshot>,
 }
 
 fn storage(
@@ -369,6 +371,7 @@ impl GpuBackend {
             memory_bytes,
             advance_started: None,
             pending: std::collections::VecDeque::new(),
+            spare: Vec::new(),
         };
         backend.check_device()?;
         Ok(backend)
@@ -768,6 +771,7 @@ impl GpuBackend {
         k: usize,
         index: wgpu::SubmissionIndex,
         with_velocity: bool,
+        (mut positions, mut strain): (Vec<Vec3>, Vec<f32>),
     ) -> Result<ReadBack, BackendError> {
         let n = self.model.mass_count() as u64;
         let ns = self.model.spring_count() as u64;
@@ -824,13 +828,25 @@ impl GpuBackend {
             let counters: &[u32] =
                 bytemuck::cast_slice(&data[counters_off as usize..counters_off as usize + 16]);
             ReadBack {
-                positions: as_vec3(x_off),
+                positions: {
+                    positions.clear();
+                    positions.extend(
+                        f32s(x_off, 4 * n)
+                            .chunks_exact(4)
+                            .map(|c| Vec3::new(c[0], c[1], c[2])),
+                    );
+                    positions
+                },
                 velocities: if with_velocity {
                     as_vec3(v_off)
                 } else {
                     Vec::new()
                 },
-                strain: f32s(strain_off, ns).to_vec(),
+                strain: {
+                    strain.clear();
+                    strain.extend_from_slice(f32s(strain_off, ns));
+                    strain
+                },
                 energy: [sum[0], sum[1], sum[2], sum[3]],
                 ledger: [sum[4], sum[5], sum[6], sum[7]],
                 max_speed,
@@ -850,7 +866,7 @@ impl GpuBackend {
     /// Reductions, copy and wait in one: for tests, divergence reports and `state()`.
     fn read_back(&mut self, with_velocity: bool) -> Result<ReadBack, BackendError> {
         let (k, index) = self.submit_read_back(with_velocity)?;
-        self.finish_read_back(k, index, with_velocity)
+        self.finish_read_back(k, index, with_velocity, (Vec::new(), Vec::new()))
     }
 
     /// The divergence of a collected frame, if its state went bad. The step is the first bad
@@ -1119,7 +1135,14 @@ impl Backend for GpuBackend {
         let Some(p) = self.pending.pop_front() else {
             return Ok(None);
         };
-        let rb = self.finish_read_back(p.staging, p.index.clone(), false)?;
+        let mut spare = self.spare.pop();
+        let buffers = spare.as_mut().map_or_else(Default::default, |s| {
+            (
+                std::mem::take(&mut s.positions),
+                std::mem::take(&mut s.strain),
+            )
+        });
+        let rb = self.finish_read_back(p.staging, p.index.clone(), false, buffers)?;
         if let Some(d) = self.divergence(&rb, &p) {
             return Err(BackendError::Diverged(d));
         }
@@ -1141,14 +1164,25 @@ impl Backend for GpuBackend {
                 projections: rb.projections,
                 ..p.stats
             },
-            sphere_centers: self
-                .model
-                .effects
-                .spheres
-                .iter()
-                .map(|s| s.center_at(p.time_secs))
-                .collect(),
+            sphere_centers: {
+                let mut c = spare.map(|s| s.sphere_centers).unwrap_or_default();
+                c.clear();
+                c.extend(
+                    self.model
+                        .effects
+                        .spheres
+                        .iter()
+                        .map(|s| s.center_at(p.time_secs)),
+                );
+                c
+            },
         }))
+    }
+
+    fn recycle(&mut self, snapshot: Snapshot) {
+        if self.spare.len() < 8 {
+            self.spare.push(snapshot);
+        }
     }
 
     fn state(&mut self) -> Result<State, BackendError> {

@@ -27,12 +27,8 @@ pub enum Command {
         scene: String,
         #[command(flatten)]
         solver: SolverArgs,
-        /// Report on this backend (for gpu: the adapter a run would use and whether the scene fits).
-        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
-        backend: BackendKind,
-        /// Use the GPU adapter whose name contains this.
-        #[arg(long)]
-        adapter: Option<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
     },
     /// Benchmarks (see BENCHMARKS.md).
     Bench {
@@ -45,12 +41,8 @@ pub enum Command {
         scene: String,
         #[command(flatten)]
         solver: SolverArgs,
-        /// Which backend steps the simulation.
-        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
-        backend: BackendKind,
-        /// Use the GPU adapter whose name contains this (see `hooke check` for the one chosen).
-        #[arg(long)]
-        adapter: Option<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
         #[command(flatten)]
         rerun: rerun::clap::RerunArgs,
     },
@@ -63,10 +55,8 @@ pub enum BenchCommand {
     Soak {
         #[arg(default_value = "hair")]
         scene: String,
-        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
-        backend: BackendKind,
-        #[arg(long)]
-        adapter: Option<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
         /// Simulated seconds.
         #[arg(long, default_value_t = 600.0)]
         duration: f64,
@@ -80,11 +70,8 @@ pub enum BenchCommand {
         /// Built-in scene name or .toml file.
         #[arg(default_value = "hair")]
         scene: String,
-        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
-        backend: BackendKind,
-        /// Use the GPU adapter whose name contains this.
-        #[arg(long)]
-        adapter: Option<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
         /// Simulated seconds each run covers.
         #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
         duration: f64,
@@ -105,11 +92,8 @@ pub enum BenchCommand {
     Throughput {
         /// Built-in scene names or .toml files (default: cloth-64 cloth-256).
         scenes: Vec<String>,
-        #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
-        backend: BackendKind,
-        /// Use the GPU adapter whose name contains this.
-        #[arg(long)]
-        adapter: Option<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
         /// Integrator (default: each scene's own).
         #[arg(long, value_enum)]
         integrator: Option<Integrator>,
@@ -120,6 +104,17 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 100)]
         batch: u32,
     },
+}
+
+/// Which backend steps the simulation, and on which adapter.
+#[derive(Debug, Clone, Args)]
+pub struct DeviceArgs {
+    /// The backend: wgpu compute on a GPU adapter, or the multi-threaded CPU reference.
+    #[arg(long, value_enum, default_value_t = BackendKind::Gpu)]
+    pub backend: BackendKind,
+    /// Use the GPU adapter whose name contains this (`hooke check` names the one chosen).
+    #[arg(long)]
+    pub adapter: Option<String>,
 }
 
 /// Solver settings; each overrides the scene file's value.

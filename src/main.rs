@@ -59,8 +59,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         Command::Check {
             scene,
             solver,
-            backend,
-            adapter,
+            device: cli::DeviceArgs { backend, adapter },
         } => {
             let loaded = scene::load(&scene)?;
             let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
@@ -101,8 +100,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             which:
                 cli::BenchCommand::Soak {
                     scene,
-                    backend,
-                    adapter,
+                    device: cli::DeviceArgs { backend, adapter },
                     duration,
                     save,
                 },
@@ -115,8 +113,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             which:
                 cli::BenchCommand::Accuracy {
                     scene,
-                    backend,
-                    adapter,
+                    device: cli::DeviceArgs { backend, adapter },
                     duration,
                     points,
                     coarsest,
@@ -148,8 +145,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             which:
                 cli::BenchCommand::Throughput {
                     scenes,
-                    backend,
-                    adapter,
+                    device: cli::DeviceArgs { backend, adapter },
                     integrator,
                     steps,
                     batch,
@@ -176,8 +172,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         Command::Run {
             scene,
             solver,
-            backend,
-            adapter,
+            device: cli::DeviceArgs { backend, adapter },
             rerun,
         } => {
             let run_matches = matches

@@ -61,24 +61,10 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             solver,
             device: cli::DeviceArgs { backend, adapter },
         } => {
-            let loaded = scene::load(&scene)?;
-            let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
-            for n in &settings.notes {
-                println!("note: {n}");
-            }
-            let model = Arc::new(hooke::model::build(&loaded.scene));
-            if solver.dt == Some(cli::Dt::Auto) {
-                let auto = auto_dt(
-                    &model,
-                    &settings,
-                    backend,
-                    adapter.as_deref(),
-                    solver.tolerance,
-                )?;
-                println!("{auto}");
-                settings.substeps = auto.substeps;
-                settings.dt_secs = auto.dt_secs;
-            }
+            let (loaded, settings, model) =
+                prepare(&scene, &solver, backend, adapter.as_deref(), |m| {
+                    println!("{m}")
+                })?;
             print!(
                 "{}",
                 hooke::check::report(&loaded.scene.name, &model, &settings)
@@ -183,19 +169,32 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
     }
 }
 
-fn auto_dt(
-    model: &Arc<hooke::model::Model>,
-    settings: &Settings,
+/// Load a scene, resolve its settings with the command line's (`--dt auto` included) and build
+/// its model, telling `say` what the user should know about how their values were applied.
+fn prepare(
+    scene_arg: &str,
+    solver: &cli::SolverArgs,
     kind: hooke::backend::BackendKind,
     adapter: Option<&str>,
-    tolerance: f64,
-) -> anyhow::Result<hooke::auto_dt::AutoDt> {
-    if !(tolerance.is_finite() && tolerance > 0.0) {
-        anyhow::bail!("--tolerance must be a positive number of metres, got {tolerance}");
+    say: impl Fn(&str),
+) -> anyhow::Result<(scene::LoadedScene, Settings, Arc<hooke::model::Model>)> {
+    let loaded = scene::load(scene_arg)?;
+    let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
+    for n in &settings.notes {
+        say(&format!("note: {n}"));
     }
-    Ok(hooke::auto_dt::choose(
-        model, settings, kind, adapter, tolerance,
-    )?)
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    if solver.dt == Some(cli::Dt::Auto) {
+        let tolerance = solver.tolerance;
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            anyhow::bail!("--tolerance must be a positive number of metres, got {tolerance}");
+        }
+        let auto = hooke::auto_dt::choose(&model, &settings, kind, adapter, tolerance)?;
+        say(&auto.to_string());
+        settings.substeps = auto.substeps;
+        settings.dt_secs = auto.dt_secs;
+    }
+    Ok((loaded, settings, model))
 }
 
 /// Why the default (spawn a viewer) cannot work here, if it cannot.
@@ -298,24 +297,10 @@ fn run(
     rerun_args: &rerun::clap::RerunArgs,
     m: &clap::ArgMatches,
 ) -> anyhow::Result<Outcome> {
-    let loaded = scene::load(scene_arg)?;
-    let mut settings = Settings::resolve(&loaded.scene, &solver.overrides())?;
-    for n in &settings.notes {
-        eprintln!("note: {n}");
-    }
-    let model = Arc::new(hooke::model::build(&loaded.scene));
-    if solver.dt == Some(cli::Dt::Auto) {
-        let auto = auto_dt(
-            &model,
-            &settings,
-            kind,
-            adapter.as_deref(),
-            solver.tolerance,
-        )?;
-        eprintln!("{auto}");
-        settings.substeps = auto.substeps;
-        settings.dt_secs = auto.dt_secs;
-    }
+    // With --stdout the recording owns standard output: messages go to stderr.
+    let (loaded, settings, model) = prepare(scene_arg, solver, kind, adapter.as_deref(), |m| {
+        eprintln!("{m}")
+    })?;
     if let Some(w) = hooke::check::dt_warning(&model, &settings) {
         eprintln!("warning: {w}");
     }

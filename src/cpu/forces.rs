@@ -201,20 +201,26 @@ pub fn compute_forces(
         }
         sum
     };
-    let partials: Vec<[f64; 4]> = if acc.len() >= PARALLEL_MIN_MASSES {
-        acc.par_chunks_mut(CHUNK)
-            .enumerate()
-            .map(chunk_sum)
-            .collect()
-    } else {
-        acc.chunks_mut(CHUNK).enumerate().map(chunk_sum).collect()
-    };
-    let mut total = [0.0f64; 4];
-    for p in &partials {
+    // Per-chunk sums added in chunk order either way, so threads change nothing in the result.
+    let add = |mut total: [f64; 4], p: [f64; 4]| {
         for (t, q) in total.iter_mut().zip(p) {
             *t += q;
         }
-    }
+        total
+    };
+    let total = if acc.len() >= PARALLEL_MIN_MASSES {
+        let partials: Vec<[f64; 4]> = acc
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(chunk_sum)
+            .collect();
+        partials.into_iter().fold([0.0; 4], add)
+    } else {
+        acc.chunks_mut(CHUNK)
+            .enumerate()
+            .map(chunk_sum)
+            .fold([0.0; 4], add)
+    };
     Power {
         damping_w: total[0],
         drag_w: total[1],

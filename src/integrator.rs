@@ -64,19 +64,6 @@ impl Integrator {
         }
     }
 
-    /// Full force evaluations per step (Verlet reuses the previous step's last one; implicit
-    /// Euler adds one matrix-free product per conjugate-gradient iteration).
-    pub fn force_evaluations(self) -> u32 {
-        match self {
-            Integrator::Euler
-            | Integrator::SemiImplicit
-            | Integrator::Verlet
-            | Integrator::Implicit => 1,
-            Integrator::Rk2 => 2,
-            Integrator::Rk4 => 4,
-        }
-    }
-
     /// One step of this scheme on the linear test oscillator `x'' = -ω² x - 2ζω x'`, written
     /// exactly as the backends apply the scheme, so that its amplification is the scheme's own.
     fn step_oscillator(self, omega: f64, zeta: f64, dt: f64, x: f64, v: f64) -> (f64, f64) {

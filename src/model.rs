@@ -202,12 +202,6 @@ impl Model {
             .find(|b| b.masses.contains(&i))
             .map(|b| (b, i - b.masses.start))
     }
-    pub fn body_of_spring(&self, s: u32) -> Option<(&BodyInfo, u32)> {
-        self.bodies
-            .iter()
-            .find(|b| b.springs.contains(&s))
-            .map(|b| (b, s - b.springs.start))
-    }
 }
 
 /// Builds a [`Model`] mass by mass and spring by spring.

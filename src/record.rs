@@ -341,8 +341,4 @@ impl Recorder {
         }
         Ok(())
     }
-
-    pub fn stream(&self) -> &RecordingStream {
-        &self.rec
-    }
 }

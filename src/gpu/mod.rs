@@ -895,10 +895,6 @@ impl GpuBackend {
             ledger: self.ledger,
         })
     }
-
-    pub fn adapter_name(&self) -> String {
-        self.ctx.describe()
-    }
 }
 
 /// The dispatches of one step, with their stage slot relative to the step's first slot.

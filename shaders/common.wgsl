@@ -7,6 +7,12 @@ override HAS_DRAG: bool = false;
 override HAS_GROUND: bool = false;
 override HAS_SPHERES: bool = false;
 override HAS_DAMPING: bool = false;
+// Implicit Euler: compute_forces also linearises the contacts, and the solver's stopping rules
+// (set from src/cpu/implicit.rs, so both backends stop alike).
+override IMPLICIT: bool = false;
+override CG_TOLERANCE: f32 = 1e-4;
+override CG_MAX_ITERATIONS: u32 = 200u;
+override NEWTON_TOLERANCE: f32 = 1e-4;
 
 const WORKGROUP: u32 = 64u;
 // A spring shorter than this has no direction and exerts nothing (as src/cpu/forces.rs).
@@ -65,6 +71,22 @@ struct Sphere {
     damping_ratio: f32,
     max_depth: f32,
     _pad: f32,
+}
+
+// Implicit Euler's per-mass vectors, each a block of mass_count vec4s in the per-mass scratch
+// buffer (RK4's stage sums otherwise): Δv so far, the CG update δ, residual, preconditioned
+// residual, search direction, A·p, and the system's diagonal.
+const DV_TOTAL: u32 = 0u;
+const DV: u32 = 1u;
+const RESIDUAL: u32 = 2u;
+const PRECONDITIONED: u32 = 3u;
+const DIRECTION: u32 = 4u;
+const PRODUCT: u32 = 5u;
+const DIAGONAL: u32 = 6u;
+const SOLVER_VECTORS: u32 = 7u;
+
+fn block(k: u32, i: u32) -> u32 {
+    return k * params.mass_count + i;
 }
 
 // Linear thread index over a 2D grid of workgroups (large scenes exceed 65535 groups in x).

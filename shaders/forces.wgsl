@@ -8,7 +8,8 @@
 @group(0) @binding(4) var<storage, read> spheres: array<Sphere>;
 // (mass, inverse mass; 0 when pinned)
 @group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
-// Per mass: [2i] acceleration, [2i+1] ledger rates (damping, drag, contact, collider work).
+// Per mass: [2i] acceleration, [2i+1] ledger rates (damping, drag, contact, collider work); with
+// IMPLICIT also [2n + 2i], [2n + 2i + 1] the contacts' share of the implicit system (below).
 @group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
 @group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
@@ -79,12 +80,21 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
     var contact_w = 0.0;
     var collider_w = 0.0;
+    // Implicit Euler: Σ over contacts of (h²k + h·2ζ√(km)) n nᵀ, as src/cpu/implicit.rs's
+    // linearise, stored as (xx, yy, zz, xy) and (xz, yz).
+    var jac_diag = vec3<f32>(0.0);
+    var jac_off = vec3<f32>(0.0);
+    let h = stage.dt;
     if (HAS_GROUND) {
         let depth = params.ground_height - xi.y;
         if (depth > 0.0) {
             let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, m, stage.dt);
             f += c.force;
             contact_w += c.dissipated;
+            if (IMPLICIT) {
+                let k = params.ground_stiffness;
+                jac_diag.y += h * h * k + h * 2.0 * params.ground_damping_ratio * sqrt(k * m);
+            }
         }
     }
     if (HAS_SPHERES) {
@@ -98,10 +108,25 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
                 f += c.force;
                 contact_w += c.dissipated;
                 collider_w += dot(c.force, sp.velocity);
+                if (IMPLICIT) {
+                    let n = r / dist;
+                    let s = h * h * sp.stiffness + h * 2.0 * sp.damping_ratio * sqrt(sp.stiffness * m);
+                    jac_diag += s * n * n;
+                    jac_off += s * vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
+                }
             }
         }
     }
     let w = mass[i].y;
+    if (IMPLICIT && (HAS_GROUND || HAS_SPHERES)) {
+        let n2 = 2u * params.mass_count;
+        if (w == 0.0) {
+            jac_diag = vec3<f32>(0.0);
+            jac_off = vec3<f32>(0.0);
+        }
+        deriv[n2 + 2u * i] = vec4<f32>(jac_diag, 0.0);
+        deriv[n2 + 2u * i + 1u] = vec4<f32>(jac_off, 0.0);
+    }
     if (w == 0.0) {
         deriv[2u * i] = vec4<f32>(0.0);
         deriv[2u * i + 1u] = vec4<f32>(0.0);

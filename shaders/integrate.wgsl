@@ -8,7 +8,9 @@
 @group(0) @binding(4) var<storage, read_write> vt: array<vec4<f32>>;
 // [2i] acceleration, [2i+1] ledger rates, from the last compute_forces.
 @group(0) @binding(5) var<storage, read> deriv: array<vec4<f32>>;
-// [3i] Σ weighted stage velocities, [3i+1] Σ weighted accelerations, [3i+2] Σ weighted rates.
+// Per-mass scratch. RK4 and Verlet: [3i] Σ weighted stage velocities, [3i+1] Σ weighted
+// accelerations, [3i+2] Σ weighted rates. Implicit Euler: the solver's vectors (block() in
+// common.wgsl), shared with implicit.wgsl.
 @group(0) @binding(6) var<storage, read_write> sums: array<vec4<f32>>;
 // Energy that left (damping, drag, contact) or entered (collider work) through this mass.
 @group(0) @binding(7) var<storage, read_write> ledger: array<vec4<f32>>;
@@ -147,4 +149,35 @@ fn verlet_kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     v[i] = vec4<f32>(sums[3u * i].xyz + (0.5 * dt) * acc(i), 0.0);
     ledger[i] += (0.5 * dt) * (sums[3u * i + 2u] + rate(i));
     check_state(x[i].xyz, v[i].xyz);
+}
+
+// Implicit Euler (src/cpu/implicit.rs's implicit_step), the parts that touch the state: Δv starts
+// at zero; each Newton iterate is (x + h (v + Δv), v + Δv); the step ends at the last iterate.
+// The linear solves between are in implicit.wgsl.
+@compute @workgroup_size(64)
+fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    sums[block(DV_TOTAL, i)] = vec4<f32>(0.0);
+}
+
+@compute @workgroup_size(64)
+fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let vk = v[i].xyz + sums[block(DV_TOTAL, i)].xyz;
+    vt[i] = vec4<f32>(vk, 0.0);
+    xt[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
+}
+
+// The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU).
+@compute @workgroup_size(64)
+fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let vn = v[i].xyz + sums[block(DV_TOTAL, i)].xyz;
+    v[i] = vec4<f32>(vn, 0.0);
+    x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
+    ledger[i] += stage.dt * rate(i);
+    check_state(x[i].xyz, vn);
 }

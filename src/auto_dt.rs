@@ -88,11 +88,6 @@ pub fn choose(
     } else {
         Some(cap.unwrap_or(frame / 1000.0))
     };
-    let kind = if integrator == Integrator::Implicit {
-        BackendKind::Cpu
-    } else {
-        kind
-    };
     let probe = (5.0 * frame).min(settings.duration_secs());
     let p = f64::from(integrator.order());
     let mut substeps = cap.map_or(1.0, |c| (frame / c).ceil()).max(1.0) as u32;

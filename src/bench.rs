@@ -76,9 +76,12 @@ pub fn throughput(scene_arg: &str, opts: &ThroughputOptions) -> Result<Throughpu
     let wall_secs = start.elapsed().as_secs_f64();
     // The final state must still be sound, or the figure means nothing.
     be.snapshot(0, Default::default())?;
+    // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
     let (kernels_ms, bytes_per_step) = match opts.backend {
-        BackendKind::Gpu => profile(&model, &settings, opts)?,
-        BackendKind::Cpu => (None, None),
+        BackendKind::Gpu if settings.integrator != crate::integrator::Integrator::Implicit => {
+            profile(&model, &settings, opts)?
+        }
+        _ => (None, None),
     };
     Ok(Throughput {
         scene: loaded.scene.name,

@@ -159,24 +159,17 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             }
         }
     }
-    if settings.integrator == crate::integrator::Integrator::Implicit {
-        let _ = writeln!(
-            s,
-            "  step: implicit Euler (Newton + conjugate gradients) on the CPU backend"
-        );
-    } else {
-        let (passes, effects) = crate::gpu::step_passes(model, settings.integrator);
-        let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
-        let _ = writeln!(
-            s,
-            "  compiled-in effects: {}",
-            if effects.is_empty() {
-                "none".to_owned()
-            } else {
-                effects.join(", ")
-            }
-        );
-    }
+    let (passes, effects) = crate::gpu::step_passes(model, settings.integrator);
+    let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
+    let _ = writeln!(
+        s,
+        "  compiled-in effects: {}",
+        if effects.is_empty() {
+            "none".to_owned()
+        } else {
+            effects.join(", ")
+        }
+    );
     if let Some(w) = dt_warning(model, settings) {
         let _ = writeln!(s, "warning: {w}");
     }

@@ -20,7 +20,7 @@ pub enum Integrator {
     /// Velocity Verlet: second order, symplectic for conservative forces.
     Verlet,
     /// Backward (implicit) Euler, solved by preconditioned conjugate gradients: first order,
-    /// stable at any dt (it damps), for stiff scenes and large steps. CPU backend for now.
+    /// stable at any dt (it damps), for stiff scenes and large steps.
     Implicit,
 }
 

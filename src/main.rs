@@ -74,7 +74,11 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                     println!("backend: cpu ({} threads)", rayon::current_num_threads())
                 }
                 hooke::backend::BackendKind::Gpu => {
-                    match hooke::gpu::adapter_report(adapter.as_deref(), &model) {
+                    match hooke::gpu::adapter_report(
+                        adapter.as_deref(),
+                        &model,
+                        settings.integrator,
+                    ) {
                         Ok(line) => println!("{line}"),
                         Err(e) => println!("warning: {e}"),
                     }

@@ -703,4 +703,20 @@ fn check_lists_the_passes_and_effects_each_built_in_scene_runs() {
             "{scene}:\n{s}"
         );
     }
+    // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update.
+    let out = hooke(&[
+        "check",
+        "hair",
+        "--integrator",
+        "implicit",
+        "--backend",
+        "cpu",
+    ]);
+    let s = text(&out.stdout);
+    assert!(
+        s.contains(
+            "GPU step passes: implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final\n"
+        ),
+        "hair, implicit:\n{s}"
+    );
 }

@@ -9,7 +9,9 @@ mod reduce;
 
 pub use collide::project_contacts;
 pub use forces::{Gather, PARALLEL_MIN_MASSES, compute_forces, contact_force, spring_force};
-pub use implicit::{CG_MAX_ITERATIONS, CG_TOLERANCE, SolveStats};
+pub use implicit::{
+    CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
+};
 pub use reduce::{compute_energies, compute_strain};
 
 use crate::backend::{Backend, BackendError, find_divergence};

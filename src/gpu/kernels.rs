@@ -1,6 +1,7 @@
 //! Shader modules, bind group layouts and compute pipelines. Each WGSL file is compiled after
 //! `common.wgsl`; the effects a scene lacks are specialised away through `override` constants.
 
+use crate::integrator::Integrator;
 use crate::model::Model;
 
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
@@ -8,14 +9,16 @@ pub const FORCES: &str = include_str!("../../shaders/forces.wgsl");
 pub const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 pub const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 pub const REDUCE: &str = include_str!("../../shaders/reduce.wgsl");
+pub const IMPLICIT: &str = include_str!("../../shaders/implicit.wgsl");
 
 /// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 4] {
+pub fn programs() -> [(&'static str, String); 5] {
     [
         ("forces.wgsl", format!("{COMMON}\n{FORCES}")),
         ("integrate.wgsl", format!("{COMMON}\n{INTEGRATE}")),
         ("collide.wgsl", format!("{COMMON}\n{COLLIDE}")),
         ("reduce.wgsl", format!("{COMMON}\n{REDUCE}")),
+        ("implicit.wgsl", format!("{COMMON}\n{IMPLICIT}")),
     ]
 }
 
@@ -60,6 +63,27 @@ pub fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindG
     })
 }
 
+/// Every override constant of a pipeline: the effects, and the implicit solver's switch and
+/// stopping rules (the CPU's, so both backends stop alike).
+pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
+    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_TOLERANCE};
+    let mut c = effect_constants(model);
+    c.extend([
+        (
+            "IMPLICIT",
+            if integrator == Integrator::Implicit {
+                1.0
+            } else {
+                0.0
+            },
+        ),
+        ("CG_TOLERANCE", CG_TOLERANCE),
+        ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
+        ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
+    ]);
+    c
+}
+
 /// The override constants that switch effects on, from the model.
 pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
     let e = &model.effects;
@@ -83,6 +107,7 @@ pub struct Layouts {
     pub integrate: wgpu::BindGroupLayout,
     pub collide: wgpu::BindGroupLayout,
     pub reduce: wgpu::BindGroupLayout,
+    pub solve: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -118,6 +143,14 @@ impl Layouts {
                     Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
                 ],
             ),
+            // params, springs, offsets, neighbours, mass, xt, deriv, work, scratch.
+            solve: layout(
+                device,
+                "solve",
+                &[
+                    Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+                ],
+            ),
         }
     }
 }
@@ -136,16 +169,45 @@ pub struct Pipelines {
     pub project_contacts: wgpu::ComputePipeline,
     pub compute_strain: wgpu::ComputePipeline,
     pub compute_energies: wgpu::ComputePipeline,
+    /// Only for the implicit integrator.
+    pub implicit: Option<ImplicitPipelines>,
+}
+
+/// Implicit Euler's kernels: the state-side ones in integrate.wgsl, the solve in implicit.wgsl.
+pub struct ImplicitPipelines {
+    pub implicit_begin: wgpu::ComputePipeline,
+    pub implicit_iterate: wgpu::ComputePipeline,
+    pub implicit_final: wgpu::ComputePipeline,
+    pub solver_begin: wgpu::ComputePipeline,
+    pub implicit_rhs: wgpu::ComputePipeline,
+    pub cg_begin: wgpu::ComputePipeline,
+    pub apply_system: wgpu::ComputePipeline,
+    pub cg_alpha: wgpu::ComputePipeline,
+    pub cg_update: wgpu::ComputePipeline,
+    pub cg_beta: wgpu::ComputePipeline,
+    pub cg_direction: wgpu::ComputePipeline,
+    pub newton_update: wgpu::ComputePipeline,
+    pub newton_end: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
-    pub fn new(device: &wgpu::Device, l: &Layouts, constants: &[(&str, f64)]) -> Self {
-        let [forces, integrate, collide, reduce] = programs().map(|(name, src)| {
+    pub fn new(
+        device: &wgpu::Device,
+        l: &Layouts,
+        constants: &[(&str, f64)],
+        implicit: bool,
+    ) -> Self {
+        let module = |(name, src): (&str, String)| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             })
-        });
+        };
+        let [forces, integrate, collide, reduce, solve] = programs();
+        let (forces, integrate) = (module(forces), module(integrate));
+        let (collide, reduce) = (module(collide), module(reduce));
+        // Implicit Euler's solve compiles only for that integrator.
+        let solve = implicit.then(|| module(solve));
         let pipeline_layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(label),
@@ -188,6 +250,25 @@ impl Pipelines {
             project_contacts: make(&collide_layout, &collide, "project_contacts"),
             compute_strain: make(&reduce_layout, &reduce, "compute_strain"),
             compute_energies: make(&reduce_layout, &reduce, "compute_energies"),
+            implicit: solve.map(|solve| {
+                let solve_layout =
+                    pipeline_layout("solve", &[Some(&l.solve), None, Some(&l.stage)]);
+                ImplicitPipelines {
+                    implicit_begin: make(&integrate_layout, &integrate, "implicit_begin"),
+                    implicit_iterate: make(&integrate_layout, &integrate, "implicit_iterate"),
+                    implicit_final: make(&integrate_layout, &integrate, "implicit_final"),
+                    solver_begin: make(&solve_layout, &solve, "solver_begin"),
+                    implicit_rhs: make(&solve_layout, &solve, "implicit_rhs"),
+                    cg_begin: make(&solve_layout, &solve, "cg_begin"),
+                    apply_system: make(&solve_layout, &solve, "apply_system"),
+                    cg_alpha: make(&solve_layout, &solve, "cg_alpha"),
+                    cg_update: make(&solve_layout, &solve, "cg_update"),
+                    cg_beta: make(&solve_layout, &solve, "cg_beta"),
+                    cg_direction: make(&solve_layout, &solve, "cg_direction"),
+                    newton_update: make(&solve_layout, &solve, "newton_update"),
+                    newton_end: make(&solve_layout, &solve, "newton_end"),
+                }
+            }),
         }
     }
 }

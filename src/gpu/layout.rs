@@ -49,8 +49,32 @@ pub struct Sphere {
     pub _pad: f32,
 }
 
+/// Implicit Euler's solver state (`Solver` in shaders/implicit.wgsl), read back between chunks of
+/// conjugate-gradient iterations.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct SolverStatus {
+    pub rz: f32,
+    pub pap: f32,
+    pub alpha: f32,
+    pub beta: f32,
+    pub scale: f32,
+    pub residual: f32,
+    pub max_residual: f32,
+    pub step_norm: f32,
+    pub size_norm: f32,
+    pub iterations: u32,
+    pub total_iterations: u32,
+    pub cg_active: u32,
+    pub newton: u32,
+    pub newton_pending: u32,
+    pub converged: u32,
+    pub _pad: u32,
+}
+
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 6] = [
+pub const SHARED_STRUCTS: [(&str, usize); 7] = [
+    ("Solver", std::mem::size_of::<SolverStatus>()),
     ("Params", std::mem::size_of::<Params>()),
     ("Stage", std::mem::size_of::<Stage>()),
     ("Sphere", std::mem::size_of::<Sphere>()),

@@ -4,6 +4,7 @@
 //! a few per-workgroup energy sums).
 
 mod context;
+mod implicit;
 mod kernels;
 pub mod layout;
 
@@ -21,10 +22,12 @@ use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
 use kernels::{Layouts, Pipelines, groups_for};
-use layout::{Params, Sphere, Stage};
+use layout::{Params, SolverStatus, Sphere, Stage};
 
 /// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
 const SLOTS_PER_STEP: u32 = 4;
+/// Implicit Euler's per-mass vectors (SOLVER_VECTORS in shaders/common.wgsl).
+const IMPLICIT_VECTORS: u64 = 7;
 
 struct Buffers {
     x: wgpu::Buffer,
@@ -75,6 +78,19 @@ pub struct GpuBackend {
     pending: std::collections::VecDeque<Pending>,
     /// Snapshots returned by the recorder, their buffers reused.
     spare: Vec<Snapshot>,
+    /// Implicit Euler only.
+    solve: Option<ImplicitSolve>,
+}
+
+/// Implicit Euler's solver buffers (its vectors live in the per-mass scratch, `sums`).
+struct ImplicitSolve {
+    bind_group: wgpu::BindGroup,
+    /// `SolverStatus`, then the per-workgroup partial sums.
+    scratch: wgpu::Buffer,
+    /// Where the host reads the status between chunks.
+    status: wgpu::Buffer,
+    /// CG iterations to encode before the first status read of a solve: the last solve's count.
+    chunk: u32,
 }
 
 fn storage(
@@ -118,16 +134,11 @@ impl GpuBackend {
         dt_secs: f64,
         adapter: Option<&str>,
     ) -> Result<Self, BackendError> {
-        if integrator == Integrator::Implicit {
-            return Err(BackendError::Device(
-                "the implicit integrator runs on the CPU backend only so far: add `--backend cpu`"
-                    .to_owned(),
-            ));
-        }
         let ctx = GpuContext::open(adapter).map_err(BackendError::Device)?;
         let n = model.mass_count();
         let ns = model.spring_count();
-        check_fits(&ctx, &model)?;
+        let implicit = integrator == Integrator::Implicit;
+        check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
         let e = &model.effects;
         let ground = e.ground;
@@ -216,8 +227,8 @@ impl GpuBackend {
         let zeros = |label: &str, bytes: usize| storage(device, label, &vec![0u8; bytes], copy);
         let xt = zeros("xt", 16 * n);
         let vt = zeros("vt", 16 * n);
-        let deriv = zeros("deriv", 32 * n);
-        let sums = zeros("sums", 48 * n);
+        let deriv = zeros("deriv", deriv_bytes(&model, integrator) as usize);
+        let sums = zeros("sums", scratch_bytes(&model, integrator) as usize);
         let ledger = zeros("ledger", 16 * n);
         let counters = zeros("counters", 16);
         let strain = zeros("strain", 4 * ns);
@@ -227,6 +238,13 @@ impl GpuBackend {
         let energy_groups = groups_for(n.max(ns) as u32, max_dim);
         let partial_count = (energy_groups.0 * energy_groups.1) as usize;
         let partials = zeros("partials", 48 * partial_count);
+        // Implicit Euler: the solver's status, then one partial sum per mass workgroup.
+        let solver_scratch = implicit.then(|| {
+            zeros(
+                "solver",
+                std::mem::size_of::<SolverStatus>() + 16 * (mass_groups.0 * mass_groups.1) as usize,
+            )
+        });
         let align = u64::from(ctx.limits.min_uniform_buffer_offset_alignment).max(1);
         // Each slot holds one Stage, at an offset the adapter accepts for a dynamic uniform.
         let stage_stride = (std::mem::size_of::<Stage>() as u64).div_ceil(align) * align;
@@ -247,7 +265,12 @@ impl GpuBackend {
             })
         });
         let layouts = Layouts::new(device);
-        let pipelines = Pipelines::new(device, &layouts, &kernels::effect_constants(&model));
+        let pipelines = Pipelines::new(
+            device,
+            &layouts,
+            &kernels::constants(&model, integrator),
+            implicit,
+        );
         let bg_of = |layout: &wgpu::BindGroupLayout, label: &str, bufs: &[&wgpu::Buffer]| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),
@@ -318,6 +341,31 @@ impl GpuBackend {
             ),
             stage: stage_bg,
         };
+        let solve = solver_scratch.map(|scratch| ImplicitSolve {
+            bind_group: bg_of(
+                &layouts.solve,
+                "solve",
+                &[
+                    &params_buf,
+                    &springs,
+                    &offsets,
+                    &neighbors,
+                    &mass_buf,
+                    &xt,
+                    &deriv,
+                    &sums,
+                    &scratch,
+                ],
+            ),
+            status: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("solver status"),
+                size: std::mem::size_of::<SolverStatus>() as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            scratch,
+            chunk: 16,
+        });
         let memory_bytes = [
             &params_buf,
             &springs,
@@ -340,7 +388,10 @@ impl GpuBackend {
         ]
         .iter()
         .map(|b| b.size())
-        .sum();
+        .sum::<u64>()
+            + solve
+                .as_ref()
+                .map_or(0, |s| s.scratch.size() + s.status.size());
         let backend = Self {
             ctx,
             model,
@@ -372,6 +423,7 @@ impl GpuBackend {
             advance_started: None,
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
+            solve,
         };
         backend.check_device()?;
         Ok(backend)
@@ -765,6 +817,36 @@ impl GpuBackend {
         Ok((k, index))
     }
 
+    /// Map `slice` for reading once submission `index` has run, waiting for that submission only:
+    /// work submitted after it keeps the GPU busy meanwhile.
+    fn map_and_wait(
+        &self,
+        slice: &wgpu::BufferSlice<'_>,
+        index: wgpu::SubmissionIndex,
+    ) -> Result<(), BackendError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        let lost = |e: String| {
+            BackendError::Device(format!(
+                "reading back from {} failed: {e}",
+                self.ctx.describe()
+            ))
+        };
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| lost(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| lost(e.to_string()))?
+            .map_err(|e| lost(e.to_string()))?;
+        self.check_device()
+    }
+
     /// Wait for staging buffer `k` (submission `index`) and decode it; folds the ledger.
     fn finish_read_back(
         &mut self,
@@ -781,28 +863,13 @@ impl GpuBackend {
         let partials_off = strain_off + 4 * ns.max(1);
         let counters_off = partials_off + 48 * partial_count;
         let slice = self.buf.staging[k].slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
+        self.map_and_wait(&slice, index)?;
         let lost = |e: String| {
             BackendError::Device(format!(
                 "reading back from {} failed: {e}",
                 self.ctx.describe()
             ))
         };
-        // Wait for this read-back only: steps submitted after it keep the GPU busy meanwhile.
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| lost(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| lost(e.to_string()))?
-            .map_err(|e| lost(e.to_string()))?;
-        self.check_device()?;
         let out = {
             let data = slice.get_mapped_range().map_err(|e| lost(e.to_string()))?;
             let f32s = |off: u64, count: u64| -> &[f32] {
@@ -941,10 +1008,14 @@ pub fn step_passes(
     model: &Model,
     integrator: Integrator,
 ) -> (Vec<&'static str>, Vec<&'static str>) {
-    let passes = step_plan(integrator, model.effects.has_contact(), false)
-        .into_iter()
-        .map(|(k, _)| k.name())
-        .collect();
+    let passes = if integrator == Integrator::Implicit {
+        vec![implicit::STEP_PASSES]
+    } else {
+        step_plan(integrator, model.effects.has_contact(), false)
+            .into_iter()
+            .map(|(k, _)| k.name())
+            .collect()
+    };
     let effects = kernels::effect_constants(model)
         .into_iter()
         .filter(|(_, on)| *on != 0.0)
@@ -1020,10 +1091,14 @@ struct ReadBack {
 }
 
 /// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
-pub fn adapter_report(name: Option<&str>, model: &Model) -> Result<String, String> {
+pub fn adapter_report(
+    name: Option<&str>,
+    model: &Model,
+    integrator: Integrator,
+) -> Result<String, String> {
     let ctx = GpuContext::open(name)?;
     let l = &ctx.limits;
-    let fits = match check_fits(&ctx, model) {
+    let fits = match check_fits(&ctx, model, integrator) {
         Ok(()) => "the scene fits".to_owned(),
         Err(e) => e.to_string(),
     };
@@ -1041,8 +1116,29 @@ pub fn adapter_report(name: Option<&str>, model: &Model) -> Result<String, Strin
     ))
 }
 
+/// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
+fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
+    let per_mass = if integrator == Integrator::Implicit {
+        16 * IMPLICIT_VECTORS
+    } else {
+        48
+    };
+    per_mass * model.mass_count() as u64
+}
+
+/// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler with contacts
+/// their linearisation.
+fn deriv_bytes(model: &Model, integrator: Integrator) -> u64 {
+    let per_mass = if integrator == Integrator::Implicit && model.effects.has_contact() {
+        64
+    } else {
+        32
+    };
+    per_mass * model.mass_count() as u64
+}
+
 /// Refuse a scene beyond the adapter's limits with the numbers, instead of failing inside wgpu.
-fn check_fits(ctx: &GpuContext, model: &Model) -> Result<(), BackendError> {
+fn check_fits(ctx: &GpuContext, model: &Model, integrator: Integrator) -> Result<(), BackendError> {
     let n = model.mass_count() as u64;
     let ns = model.spring_count() as u64;
     let limit = ctx
@@ -1050,8 +1146,8 @@ fn check_fits(ctx: &GpuContext, model: &Model) -> Result<(), BackendError> {
         .max_storage_buffer_binding_size
         .min(ctx.limits.max_buffer_size);
     let largest = [
-        ("per-mass stage sums", 48 * n),
-        ("per-mass derivatives", 32 * n),
+        ("per-mass scratch", scratch_bytes(model, integrator)),
+        ("per-mass derivatives", deriv_bytes(model, integrator)),
         ("springs", 20 * ns),
         ("adjacency", 16 * ns),
     ];
@@ -1082,6 +1178,9 @@ impl Backend for GpuBackend {
 
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.advance_started.get_or_insert_with(Instant::now);
+        if self.solve.is_some() {
+            return self.advance_implicit(substeps);
+        }
         // One extra slot, the last, for the snapshot's reductions.
         self.reserve_stage_slots(SLOTS_PER_STEP * substeps + 1);
         let stages = self.stage_times(substeps);

@@ -62,7 +62,7 @@ impl GpuBackend {
             })?;
             status = self.submit_and_read_status(enc)?;
             while status.cg_active != 0 {
-                chunk = 2 * chunk;
+                chunk *= 2;
                 enc = self.encoder();
                 self.encode(&mut enc, |b, pass| b.encode_cg(pass, chunk, slot))?;
                 status = self.submit_and_read_status(enc)?;

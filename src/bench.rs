@@ -244,6 +244,7 @@ pub fn soak(
     let opts = crate::run::RunOptions {
         delivery: crate::sim::Delivery::Lossless,
         progress: false,
+        viewer: None,
     };
     let summary = crate::run::run(
         &loaded,

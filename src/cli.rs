@@ -45,7 +45,20 @@ pub enum Command {
         device: DeviceArgs,
         #[command(flatten)]
         rerun: rerun::clap::RerunArgs,
+        #[command(flatten)]
+        serve: ServeArgs,
     },
+}
+
+/// Where `--serve` listens (with Rerun's `--bind` address).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct ServeArgs {
+    /// With --serve: the port of the gRPC server the web viewer reads the recording from.
+    #[arg(long, default_value_t = 9876)]
+    pub grpc_port: u16,
+    /// With --serve: the port of the web viewer's page.
+    #[arg(long, default_value_t = 9090)]
+    pub web_viewer_port: u16,
 }
 
 #[derive(Debug, Subcommand)]

@@ -79,6 +79,17 @@ pub enum Error {
 
     #[error("rerun: {0}")]
     Rerun(String),
+
+    /// The live viewer went away and no file was being recorded beside it.
+    #[error(
+        "the viewer at {url} went away at frame {frame} ({why}); the run stopped there. To keep a run \
+         whatever the viewer does, record it as well with --save FILE (streaming and saving together)"
+    )]
+    ViewerGone {
+        url: String,
+        frame: u64,
+        why: String,
+    },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

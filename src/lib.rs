@@ -21,5 +21,6 @@ pub mod settings;
 pub mod sim;
 pub mod stability;
 pub mod state;
+pub mod viewer;
 
 pub use error::{Error, Result};

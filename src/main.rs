@@ -164,11 +164,18 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             solver,
             device: cli::DeviceArgs { backend, adapter },
             rerun,
+            serve,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
                 .context("parsing `run` arguments")?;
-            run(&scene, &solver, (backend, adapter), &rerun, run_matches)
+            run(
+                &scene,
+                &solver,
+                (backend, adapter),
+                (&rerun, &serve),
+                run_matches,
+            )
         }
     }
 }
@@ -229,76 +236,193 @@ fn explicit(m: &clap::ArgMatches, id: &str) -> bool {
 /// The sink a run records to, and how it treats a slow consumer.
 struct Sink {
     rec: rerun::RecordingStream,
-    _guard: rerun::clap::ServeGuard,
     delivery: Delivery,
     /// The file being written, when there is one.
     saved: Option<PathBuf>,
+    /// The live viewer, watched so that losing it follows the README's rule.
+    viewer: Option<hooke::run::ViewerWatch>,
+    /// `--serve`: the web viewer's server, kept up after the run until Ctrl-C.
+    serving: Option<Serving>,
 }
 
-/// With no sink flag Rerun spawns a viewer; where none can be spawned we record to a file instead
-/// and say so, so that a run is never lost.
+/// The served page's address (its server runs until the process ends).
+struct Serving {
+    page: String,
+}
+
+impl Sink {
+    fn file(rec: rerun::RecordingStream, saved: Option<PathBuf>) -> Self {
+        Self {
+            rec,
+            // A file or a pipe keeps every frame.
+            delivery: Delivery::Lossless,
+            saved,
+            viewer: None,
+            serving: None,
+        }
+    }
+}
+
+/// Where a run records, from Rerun's flags: `--stdout`; `--save FILE` alone; `--serve`; a live
+/// viewer (`--connect [URL]`, or a spawned one by default), with `--save FILE` also recording
+/// to that file. Where no viewer can be spawned we record to a file instead and say so, so that
+/// a run is never lost.
 fn open_sink(
     rerun_args: &rerun::clap::RerunArgs,
+    serve: &cli::ServeArgs,
     m: &clap::ArgMatches,
     scene_name: &str,
 ) -> anyhow::Result<Sink> {
     let blueprint = hooke::record::blueprint;
-    let saving = explicit(m, "save");
-    let to_stdout = explicit(m, "stdout");
-    if saving || to_stdout || explicit(m, "connect") || explicit(m, "serve") {
-        let (rec, guard) = rerun_args
+    let save = explicit(m, "save")
+        .then(|| m.get_one::<PathBuf>("save").cloned())
+        .flatten();
+    let connect = explicit(m, "connect");
+    if explicit(m, "stdout") || (save.is_some() && !connect) {
+        let (rec, _no_serving) = rerun_args
             .init_with_blueprint("hooke", blueprint())
             .context("starting the Rerun recording")?;
-        return Ok(Sink {
-            rec,
-            _guard: guard,
-            // A file or a pipe keeps every frame; a live viewer may miss some to keep up.
-            delivery: if saving || to_stdout {
-                Delivery::Lossless
-            } else {
-                Delivery::DropWhenBusy
-            },
-            saved: if saving {
-                m.get_one::<PathBuf>("save").cloned()
-            } else {
-                None
-            },
-        });
+        let saved = save.filter(|_| !explicit(m, "stdout"));
+        return Ok(Sink::file(rec, saved));
     }
-    let why = match viewer_unavailable() {
-        Some(why) => why,
-        None => match rerun_args.init_with_blueprint("hooke", blueprint()) {
-            Ok((rec, guard)) => {
+    if explicit(m, "serve") {
+        return serve_web_viewer(m, serve);
+    }
+    let url = if connect {
+        m.get_one::<String>("connect")
+            .cloned()
+            .unwrap_or_else(|| rerun::DEFAULT_CONNECT_URL.to_owned())
+    } else {
+        let spawned = match viewer_unavailable() {
+            Some(why) => Err(why),
+            None => rerun::spawn(&rerun::SpawnOptions::default())
+                .map_err(|e| format!("spawning the viewer failed: {e}")),
+        };
+        match spawned {
+            Ok(info) => {
                 eprintln!("streaming to a spawned Rerun viewer");
-                return Ok(Sink {
-                    rec,
-                    _guard: guard,
-                    delivery: Delivery::DropWhenBusy,
-                    saved: None,
-                });
+                format!("rerun+http://127.0.0.1:{}/proxy", info.port)
             }
-            Err(e) => format!("spawning the viewer failed: {e:#}"),
-        },
+            Err(why) => {
+                let path = PathBuf::from(format!("{scene_name}.rrd"));
+                eprintln!("{why}; recording to {} instead", path.display());
+                let rec = rerun::RecordingStreamBuilder::new("hooke")
+                    .with_blueprint(blueprint())
+                    .save(&path)
+                    .with_context(|| format!("creating {}", path.display()))?;
+                return Ok(Sink::file(rec, Some(path)));
+            }
+        }
     };
-    let path = PathBuf::from(format!("{scene_name}.rrd"));
-    eprintln!("{why}; recording to {} instead", path.display());
+    let (link, viewer_sink) =
+        hooke::viewer::ViewerLink::connect(&url, save.is_some()).map_err(anyhow::Error::msg)?;
+    let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = vec![viewer_sink];
+    if let Some(path) = &save {
+        let file = rerun::sink::FileSink::new(path)
+            .with_context(|| format!("creating {}", path.display()))?;
+        sinks.push(Box::new(file));
+    }
     let rec = rerun::RecordingStreamBuilder::new("hooke")
         .with_blueprint(blueprint())
-        .save(&path)
-        .with_context(|| format!("creating {}", path.display()))?;
+        .buffered()
+        .context("starting the Rerun recording")?;
+    rec.set_sinks(sinks);
     Ok(Sink {
         rec,
-        _guard: Default::default(),
-        delivery: Delivery::Lossless,
-        saved: Some(path),
+        // A live viewer may miss frames to keep up; a file beside it must not.
+        delivery: if save.is_some() {
+            Delivery::Lossless
+        } else {
+            Delivery::DropWhenBusy
+        },
+        viewer: Some(hooke::run::ViewerWatch {
+            link,
+            file: save.clone(),
+        }),
+        saved: save,
+        serving: None,
     })
+}
+
+/// `--serve`: the recording is served over gRPC and Rerun's web viewer over HTTP, from this
+/// machine (a server with no display, typically), and stays served after the run until Ctrl-C.
+fn serve_web_viewer(m: &clap::ArgMatches, serve: &cli::ServeArgs) -> anyhow::Result<Sink> {
+    let bind = m
+        .get_one::<String>("bind")
+        .cloned()
+        .unwrap_or_else(|| "0.0.0.0".to_owned());
+    let limit = m
+        .get_one::<String>("server_memory_limit")
+        .cloned()
+        .unwrap_or_else(|| "25%".to_owned());
+    let options = rerun::ServerOptions {
+        playback_behavior: rerun::PlaybackBehavior::from_newest_first(m.get_flag("newest_first")),
+        memory_limit: rerun::MemoryLimit::parse(&limit).map_err(|e| {
+            anyhow::anyhow!("--server-memory-limit {limit}: {e} (use e.g. 4GB or 25%)")
+        })?,
+        cors_allowed_origins: Vec::new(),
+    };
+    let rec = rerun::RecordingStreamBuilder::new("hooke")
+        .with_blueprint(hooke::record::blueprint())
+        .serve_grpc_opts(&bind, serve.grpc_port, options)
+        .with_context(|| {
+            format!(
+                "serving the recording over gRPC on {bind}:{} (is the port taken? choose another with --grpc-port)",
+                serve.grpc_port
+            )
+        })?;
+    let source = format!("rerun+http://localhost:{}/proxy", serve.grpc_port);
+    rerun::serve_web_viewer(rerun::web_viewer::WebViewerConfig {
+        bind_ip: bind.clone(),
+        web_port: serve.web_viewer_port.into(),
+        connect_to: vec![source.clone()],
+        open_browser: false,
+        ..Default::default()
+    })
+    .with_context(|| {
+        format!(
+            "serving the web viewer on {bind}:{} (is the port taken? choose another with --web-viewer-port)",
+            serve.web_viewer_port
+        )
+    })?
+    .detach();
+    let page = format!(
+        "http://localhost:{}/?url={}",
+        serve.web_viewer_port,
+        percent_encode(&source)
+    );
+    eprintln!(
+        "serving the web viewer at {page}\n  from another machine, forward both ports first: ssh -L {w}:localhost:{w} -L {g}:localhost:{g} THIS_HOST",
+        w = serve.web_viewer_port,
+        g = serve.grpc_port
+    );
+    Ok(Sink {
+        rec,
+        delivery: Delivery::DropWhenBusy,
+        saved: None,
+        viewer: None,
+        serving: Some(Serving { page }),
+    })
+}
+
+/// Every byte but ASCII letters and digits as %XX (a URL query value).
+fn percent_encode(s: &str) -> String {
+    s.bytes()
+        .map(|b| {
+            if b.is_ascii_alphanumeric() {
+                char::from(b).to_string()
+            } else {
+                format!("%{b:02X}")
+            }
+        })
+        .collect()
 }
 
 fn run(
     scene_arg: &str,
     solver: &cli::SolverArgs,
     (kind, adapter): (hooke::backend::BackendKind, Option<String>),
-    rerun_args: &rerun::clap::RerunArgs,
+    (rerun_args, serve): (&rerun::clap::RerunArgs, &cli::ServeArgs),
     m: &clap::ArgMatches,
 ) -> anyhow::Result<Outcome> {
     // With --stdout the recording owns standard output: messages go to stderr.
@@ -327,17 +451,25 @@ fn run(
         settings.substeps,
         settings.frames
     );
-    let sink = open_sink(rerun_args, m, &loaded.scene.name)?;
+    let sink = open_sink(rerun_args, serve, m, &loaded.scene.name)?;
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
         progress: std::io::stderr().is_terminal(),
+        viewer: sink.viewer.clone(),
     };
     // Ctrl-C or SIGTERM: the first stops stepping, records every frame already produced and
     // flushes the recording; a second one ends the process at once.
     let cancel = Arc::new(AtomicBool::new(false));
+    // After the run, with --serve, an interrupt just ends the serving.
+    let serving_only = Arc::new(AtomicBool::new(false));
     {
         let cancel = cancel.clone();
+        let serving_only = serving_only.clone();
         let installed = ctrlc::set_handler(move || {
+            if serving_only.load(std::sync::atomic::Ordering::SeqCst) {
+                cancel.store(true, std::sync::atomic::Ordering::SeqCst);
+                return;
+            }
             if cancel.swap(true, std::sync::atomic::Ordering::SeqCst) {
                 eprintln!("second interrupt: exiting without finishing the recording");
                 std::process::exit(130);
@@ -359,7 +491,7 @@ fn run(
         &settings,
         sink.rec.clone(),
         &opts,
-        cancel,
+        cancel.clone(),
     );
     if let Some(p) = &sink.saved {
         let open = format!("open it with `rerun {}`", p.display());
@@ -391,9 +523,19 @@ fn run(
             String::new()
         }
     );
-    Ok(if summary.cancelled {
-        Outcome::Interrupted
-    } else {
-        Outcome::Done
-    })
+    if summary.cancelled {
+        return Ok(Outcome::Interrupted);
+    }
+    if let Some(serving) = &sink.serving {
+        serving_only.store(true, std::sync::atomic::Ordering::SeqCst);
+        eprintln!(
+            "the recording stays served at {} until Ctrl-C",
+            serving.page
+        );
+        while !cancel.load(std::sync::atomic::Ordering::SeqCst) {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        eprintln!("stopped serving");
+    }
+    Ok(Outcome::Done)
 }

@@ -11,6 +11,7 @@ use crate::record::Recorder;
 use crate::scene::LoadedScene;
 use crate::settings::Settings;
 use crate::sim::{self, Delivery};
+use crate::viewer::{LinkState, ViewerLink};
 
 /// Snapshots in flight between the threads: enough to smooth out a slow log call, small enough
 /// that a large scene's snapshots do not pile up in memory.
@@ -21,6 +22,16 @@ pub struct RunOptions {
     pub delivery: Delivery,
     /// Draw a progress bar on a terminal.
     pub progress: bool,
+    /// The live viewer to watch, when streaming to one.
+    pub viewer: Option<ViewerWatch>,
+}
+
+/// A live viewer, and where the run goes on if it goes away.
+#[derive(Debug, Clone)]
+pub struct ViewerWatch {
+    pub link: ViewerLink,
+    /// The file recorded beside the viewer: the run finishes into it. Without one, the run stops.
+    pub file: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug)]
@@ -67,7 +78,7 @@ pub fn run(
     };
     progress.set_message(loaded.scene.name.clone());
 
-    let (outcome, recorded, log_error) = std::thread::scope(|scope| {
+    let (outcome, recorded, log_error, viewer_gone) = std::thread::scope(|scope| {
         let sim = std::thread::Builder::new()
             .name("hooke-sim".into())
             .spawn_scoped(scope, {
@@ -91,17 +102,40 @@ pub fn run(
             .name("hooke-record".into())
             .spawn_scoped(scope, || {
                 let mut recorded = 0u64;
+                let mut viewer_lost = false;
                 for snap in rx.iter() {
                     if let Err(e) = recorder.log_snapshot(&snap) {
                         // Dropping the receiver tells the simulation to stop.
-                        return (recorded, Some(e.to_string()));
+                        return (recorded, Some(e.to_string()), None);
                     }
                     recorded += 1;
                     progress.inc(1);
+                    // A lost viewer is said once; then the run finishes into the file, or stops.
+                    if let Some(w) = opts.viewer.as_ref().filter(|_| !viewer_lost)
+                        && let LinkState::Gone(why) = w.link.state()
+                    {
+                        viewer_lost = true;
+                        let Some(file) = &w.file else {
+                            let gone = Error::ViewerGone {
+                                url: w.link.url().to_owned(),
+                                frame: snap.frame,
+                                why,
+                            };
+                            return (recorded, None, Some(gone));
+                        };
+                        progress.suspend(|| {
+                            eprintln!(
+                                "the viewer at {} went away at frame {} ({why}); recording the rest of the run to {} only",
+                                w.link.url(),
+                                snap.frame,
+                                file.display()
+                            )
+                        });
+                    }
                     // Back to the simulation for reuse; if its queue is full, just drop it.
                     let _ = back_tx.try_send(snap);
                 }
-                (recorded, None)
+                (recorded, None, None)
             });
         match (sim, rec_thread) {
             (Ok(s), Ok(r)) => {
@@ -112,14 +146,21 @@ pub fn run(
                     .join()
                     .map_err(|_| "the recorder thread panicked".to_owned());
                 match (outcome, rec_out) {
-                    (Ok(o), Ok((n, err))) => (Ok(o), n, err),
-                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
+                    (Ok(o), Ok((n, err, gone))) => (Ok(o), n, err, gone),
+                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None, None),
                 }
             }
-            (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
+            (Err(e), _) | (_, Err(e)) => {
+                (Err(format!("cannot start a thread: {e}")), 0, None, None)
+            }
         }
     });
     progress.finish_and_clear();
+    if let Some(gone) = viewer_gone {
+        // Nothing more can reach that viewer; do not wait for it.
+        let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
+        return Err(gone);
+    }
     // Whatever happened, what was logged reaches the sink before we report.
     rec.flush_blocking().map_err(|e| {
         Error::Rerun(format!(

@@ -561,3 +561,97 @@ fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
         assert!(err.contains(needle), "`{needle}` missing from: {err}");
     }
 }
+
+/// A GPU backend whose device is lost (as a driver reset loses it) before its `at`-th frame.
+struct LosesDevice {
+    gpu: GpuBackend,
+    at: u32,
+    advances: u32,
+}
+
+impl hooke::backend::Backend for LosesDevice {
+    fn describe(&self) -> String {
+        self.gpu.describe()
+    }
+    fn advance(
+        &mut self,
+        substeps: u32,
+    ) -> Result<hooke::state::StepStats, hooke::backend::BackendError> {
+        self.advances += 1;
+        if self.advances == self.at {
+            self.gpu.lose_device();
+        }
+        self.gpu.advance(substeps)
+    }
+    fn request_snapshot(
+        &mut self,
+        frame: u64,
+        stats: hooke::state::StepStats,
+    ) -> Result<(), hooke::backend::BackendError> {
+        self.gpu.request_snapshot(frame, stats)
+    }
+    fn collect_snapshot(
+        &mut self,
+    ) -> Result<Option<hooke::state::Snapshot>, hooke::backend::BackendError> {
+        self.gpu.collect_snapshot()
+    }
+    fn state(&mut self) -> Result<State, hooke::backend::BackendError> {
+        self.gpu.state()
+    }
+}
+
+/// A device lost mid-run ends the run with one clear message (what happened, what to do), and
+/// every frame produced before the loss reaches the recorder, in order.
+#[test]
+fn a_lost_device_ends_the_run_clearly_and_keeps_the_frames_before_it() {
+    if !have_adapter() {
+        return;
+    }
+    let (model, dt) = scene_model("hair");
+    let mut be = LosesDevice {
+        gpu: ok(GpuBackend::new(model, Integrator::SemiImplicit, dt, None)),
+        at: 8,
+        advances: 0,
+    };
+    let (tx, rx) = crossbeam_channel::unbounded();
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let out = hooke::sim::simulate(
+        &mut be,
+        100,
+        5,
+        &tx,
+        hooke::sim::Delivery::Lossless,
+        &cancel,
+        None,
+    );
+    drop(tx);
+    let frames: Vec<u64> = rx.iter().map(|s| s.frame).collect();
+    let Some(hooke::backend::BackendError::Device(msg)) = out.failed else {
+        panic!("expected a device error, got {:?}", out.failed);
+    };
+    assert!(
+        msg.contains("device was destroyed") && msg.contains("--backend cpu"),
+        "{msg}"
+    );
+    assert!(!msg.contains('\n'), "one line: {msg}");
+    let n = frames.len() as u64;
+    assert!(n >= 6, "only {n} frames before the loss at frame 8");
+    assert_eq!(
+        frames,
+        (0..n).collect::<Vec<_>>(),
+        "frames lost or out of order"
+    );
+}
+
+/// Out of GPU memory, reported asynchronously by the driver, reads as what to do about it.
+#[test]
+fn out_of_gpu_memory_says_what_to_do() {
+    let e = wgpu::Error::OutOfMemory {
+        source: Box::new(std::io::Error::other("VK_ERROR_OUT_OF_DEVICE_MEMORY")),
+    };
+    let msg = hooke::gpu::describe_error(&e);
+    assert!(
+        msg.contains("ran out of memory") && msg.contains("--backend cpu"),
+        "{msg}"
+    );
+}

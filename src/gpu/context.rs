@@ -41,6 +41,29 @@ pub fn adapters() -> Vec<wgpu::Adapter> {
     all
 }
 
+/// What an asynchronous device error means for the user.
+pub fn describe_error(e: &wgpu::Error) -> String {
+    match e {
+        wgpu::Error::OutOfMemory { .. } => format!(
+            "the GPU ran out of memory ({e}). Free GPU memory (other processes: nvidia-smi), \
+             use a smaller grid, or run with --backend cpu"
+        ),
+        _ => e.to_string(),
+    }
+}
+
+/// What a lost device means for the user.
+pub fn describe_loss(reason: wgpu::DeviceLostReason, message: &str) -> String {
+    let why = match reason {
+        wgpu::DeviceLostReason::Destroyed => "the device was destroyed".to_owned(),
+        wgpu::DeviceLostReason::Unknown => format!("the device was lost: {message}"),
+    };
+    format!(
+        "{why}. The driver may have reset or the GPU gone away; check it (nvidia-smi, dmesg) and \
+         run again, or run with --backend cpu"
+    )
+}
+
 impl GpuContext {
     /// Open the best adapter, or the first whose name contains `name` (case-insensitive).
     pub fn open(name: Option<&str>) -> Result<Self, String> {
@@ -84,9 +107,16 @@ impl GpuContext {
         let sink = errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
+                v.push(describe_error(&e));
             }
         }));
+        // A reset driver, a removed card or a destroyed device: later calls fail; say why first.
+        let sink = errors.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut v) = sink.lock() {
+                v.insert(0, describe_loss(reason, &message));
+            }
+        });
         Ok(Self {
             device,
             queue,
@@ -99,6 +129,11 @@ impl GpuContext {
 
     pub fn describe(&self) -> String {
         describe(&self.info)
+    }
+
+    /// Lose the device on purpose, as a driver reset would (for fault tests).
+    pub fn lose_device(&self) {
+        self.device.destroy();
     }
 
     /// The first error the device reported since the last call, if any.

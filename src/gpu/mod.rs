@@ -8,7 +8,7 @@ mod implicit;
 mod kernels;
 pub mod layout;
 
-pub use context::{GpuContext, REQUIRE_ADAPTER_ENV, adapters};
+pub use context::{GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error, describe_loss};
 pub use kernels::programs;
 
 use std::sync::Arc;
@@ -448,6 +448,12 @@ impl GpuBackend {
         })
     }
 
+    /// Lose the device on purpose, as a driver reset would: for tests of what a run does then.
+    #[doc(hidden)]
+    pub fn lose_device(&self) {
+        self.ctx.lose_device();
+    }
+
     fn check_device(&self) -> Result<(), BackendError> {
         match self.ctx.take_error() {
             Some(e) => Err(BackendError::Device(format!(
@@ -828,11 +834,16 @@ impl GpuBackend {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        let lost = |e: String| {
-            BackendError::Device(format!(
+        // A lost device fails the mapping; its own message says more than the mapping's.
+        let lost = |e: String| match self.ctx.take_error() {
+            Some(cause) => BackendError::Device(format!(
+                "the GPU reported an error on {}: {cause}",
+                self.ctx.describe()
+            )),
+            None => BackendError::Device(format!(
                 "reading back from {} failed: {e}",
                 self.ctx.describe()
-            ))
+            )),
         };
         self.ctx
             .device

@@ -1,0 +1,108 @@
+//! The live viewer's connection, watched so that a run whose viewer goes away says so once and
+//! follows one rule (README, "When the viewer goes away"): with a file named by `--save` as well,
+//! the run finishes into that file; with no file, it stops cleanly after the current frame.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use rerun::sink::{GrpcSink, GrpcSinkConnectionState, LogSink, SinkFlushError};
+
+/// How long a viewer may take to accept the connection before it counts as absent.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A gRPC connection to a viewer, shared between the recording stream and the recorder thread.
+#[derive(Clone)]
+pub struct ViewerLink {
+    sink: Arc<GrpcSink>,
+    url: String,
+}
+
+impl std::fmt::Debug for ViewerLink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ViewerLink")
+            .field("url", &self.url)
+            .finish()
+    }
+}
+
+/// What became of the viewer.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LinkState {
+    /// Connected, or still connecting within [`CONNECT_TIMEOUT`].
+    Up,
+    /// Gone, and why.
+    Gone(String),
+}
+
+impl ViewerLink {
+    /// Start connecting to the viewer at `url` (`rerun+http://HOST:PORT/proxy`); returns the link
+    /// and the sink to give the recording stream. `tolerate_loss`: a file is recorded as well, so
+    /// a lost viewer is no error when the recording is flushed.
+    pub fn connect(url: &str, tolerate_loss: bool) -> Result<(Self, Box<dyn LogSink>), String> {
+        let uri = url.parse().map_err(|e| {
+            format!(
+                "`{url}` is not a viewer address ({e}): use rerun+http://HOST:PORT/proxy, e.g. rerun+http://127.0.0.1:9876/proxy"
+            )
+        })?;
+        let sink = Arc::new(GrpcSink::new(uri));
+        let link = Self {
+            sink: sink.clone(),
+            url: url.to_owned(),
+        };
+        let shared = SharedSink {
+            link: link.clone(),
+            tolerate_loss,
+        };
+        Ok((link, Box::new(shared)))
+    }
+
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    pub fn state(&self) -> LinkState {
+        match self.sink.status() {
+            GrpcSinkConnectionState::Connected => LinkState::Up,
+            GrpcSinkConnectionState::Connecting { started } => {
+                if started.elapsed() > CONNECT_TIMEOUT {
+                    LinkState::Gone(format!(
+                        "no viewer accepted the connection within {} s",
+                        CONNECT_TIMEOUT.as_secs()
+                    ))
+                } else {
+                    LinkState::Up
+                }
+            }
+            GrpcSinkConnectionState::Disconnected(Ok(())) => {
+                LinkState::Gone("the viewer closed the connection".to_owned())
+            }
+            GrpcSinkConnectionState::Disconnected(Err(e)) => {
+                LinkState::Gone(format!("the connection broke: {e}"))
+            }
+        }
+    }
+}
+
+/// The recording stream's side of the link.
+struct SharedSink {
+    link: ViewerLink,
+    tolerate_loss: bool,
+}
+
+impl LogSink for SharedSink {
+    fn send(&self, msg: rerun::log::LogMsg) {
+        self.link.sink.send(msg);
+    }
+
+    fn flush_blocking(&self, timeout: Duration) -> Result<(), SinkFlushError> {
+        if self.tolerate_loss && self.link.state() != LinkState::Up {
+            // Reported by the recorder when it happened; the file has everything.
+            return Ok(());
+        }
+        self.link.sink.flush_blocking(timeout)
+    }
+
+    fn default_batcher_config(&self) -> rerun::log::ChunkBatcherConfig {
+        self.link.sink.default_batcher_config()
+    }
+}

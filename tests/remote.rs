@@ -369,3 +369,56 @@ fn serve_hosts_the_web_viewer_and_the_recording() {
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("stopped serving"), "{err}");
 }
+
+/// A viewer slower than the simulation never stalls it: frames it cannot take are dropped for
+/// display and counted, every frame is accounted for, and a file (lossless) gets every frame.
+#[test]
+fn a_slow_viewer_never_stalls_the_simulation_and_a_file_drops_nothing() {
+    use hooke::sim::{Delivery, simulate};
+    let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
+    let model = std::sync::Arc::new(hooke::model::build(&loaded.scene));
+    let frames = 200u64;
+    for delivery in [Delivery::DropWhenBusy, Delivery::Lossless] {
+        let mut be = hooke::cpu::CpuBackend::new(
+            model.clone(),
+            hooke::integrator::Integrator::SemiImplicit,
+            1e-3,
+        );
+        let (tx, rx) = crossbeam_channel::bounded::<hooke::state::Snapshot>(2);
+        // The "viewer": takes a frame every 5 ms, far slower than the simulation.
+        let viewer = std::thread::spawn(move || {
+            let mut got = Vec::new();
+            for s in rx.iter() {
+                got.push(s.frame);
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            got
+        });
+        let cancel = std::sync::atomic::AtomicBool::new(false);
+        let out = simulate(&mut be, frames, 5, &tx, delivery, &cancel, None);
+        drop(tx);
+        let got = viewer.join().unwrap_or_else(|_| panic!("viewer thread"));
+        assert!(out.failed.is_none() && !out.cancelled);
+        assert_eq!(out.frames_sent, got.len() as u64);
+        assert_eq!(
+            out.frames_sent + out.frames_dropped,
+            frames + 1,
+            "{delivery:?}"
+        );
+        assert!(
+            got.windows(2).all(|w| w[0] < w[1]),
+            "{delivery:?}: out of order"
+        );
+        match delivery {
+            Delivery::DropWhenBusy => assert!(
+                out.frames_dropped > frames / 2,
+                "the slow viewer should have missed most frames, missed {}",
+                out.frames_dropped
+            ),
+            Delivery::Lossless => {
+                assert_eq!(out.frames_dropped, 0);
+                assert_eq!(got, (0..=frames).collect::<Vec<_>>());
+            }
+        }
+    }
+}

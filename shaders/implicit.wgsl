@@ -61,13 +61,18 @@ struct Scratch {
 var<workgroup> sum_sh: array<vec4<f32>, 64>;
 var<workgroup> flag_sh: u32;
 
-// The workgroup's total of `value` (every thread gets it). Call from uniform control flow.
-fn workgroup_sum(lid: u32, value: vec4<f32>) -> vec4<f32> {
+// The workgroup's sum (or max, per component) of `value`; every thread gets it. Call from uniform
+// control flow.
+fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
     sum_sh[lid] = value;
     workgroupBarrier();
     for (var s = WORKGROUP / 2u; s > 0u; s >>= 1u) {
         if (lid < s) {
-            sum_sh[lid] += sum_sh[lid + s];
+            if (take_max) {
+                sum_sh[lid] = max(sum_sh[lid], sum_sh[lid + s]);
+            } else {
+                sum_sh[lid] += sum_sh[lid + s];
+            }
         }
         workgroupBarrier();
     }
@@ -76,18 +81,13 @@ fn workgroup_sum(lid: u32, value: vec4<f32>) -> vec4<f32> {
     return total;
 }
 
-fn workgroup_max(lid: u32, value: vec4<f32>) -> vec4<f32> {
-    sum_sh[lid] = value;
-    workgroupBarrier();
-    for (var s = WORKGROUP / 2u; s > 0u; s >>= 1u) {
-        if (lid < s) {
-            sum_sh[lid] = max(sum_sh[lid], sum_sh[lid + s]);
-        }
-        workgroupBarrier();
+// A per-mass pass's partial for its workgroup, reduced over the workgroup and stored by its first
+// thread. Call from uniform control flow.
+fn store_partial(lid: u32, wid: vec3<u32>, groups: vec3<u32>, value: vec4<f32>, take_max: bool) {
+    let total = workgroup_reduce(lid, value, take_max);
+    if (lid == 0u) {
+        scratch.partials[group_index(wid, groups)] = total;
     }
-    let total = sum_sh[0];
-    workgroupBarrier();
-    return total;
 }
 
 fn group_index(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
@@ -105,10 +105,7 @@ fn total_of_partials(lid: u32, take_max: bool) -> vec4<f32> {
             acc += scratch.partials[g];
         }
     }
-    if (take_max) {
-        return workgroup_max(lid, acc);
-    }
-    return workgroup_sum(lid, acc);
+    return workgroup_reduce(lid, acc, take_max);
 }
 
 // Whether the current solve runs, read once by the workgroup (a uniform value for the barriers).
@@ -208,10 +205,7 @@ fn implicit_rhs(
         work[block(DIAGONAL, i)] = vec4<f32>(diag, 0.0);
         partial = vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
     }
-    let total = workgroup_sum(lid, partial);
-    if (lid == 0u) {
-        scratch.partials[group_index(wid, groups)] = total;
-    }
+    store_partial(lid, wid, groups, partial, false);
 }
 
 // The start of a step's first solve: no residual scale yet, nothing done.
@@ -283,10 +277,7 @@ fn apply_system(
         work[block(PRODUCT, i)] = vec4<f32>(out, 0.0);
         partial = vec4<f32>(dot(pi, out), 0.0, 0.0, 0.0);
     }
-    let total = workgroup_sum(lid, partial);
-    if (lid == 0u) {
-        scratch.partials[group_index(wid, groups)] = total;
-    }
+    store_partial(lid, wid, groups, partial, false);
 }
 
 // α = r·z / p·Ap; a solve whose p·Ap is not positive and finite stops where it is.
@@ -333,10 +324,7 @@ fn cg_update(
         work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
         partial = vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
     }
-    let total = workgroup_sum(lid, partial);
-    if (lid == 0u) {
-        scratch.partials[group_index(wid, groups)] = total;
-    }
+    store_partial(lid, wid, groups, partial, false);
 }
 
 // β = r·z (new) / r·z (old), and whether the solve goes on.
@@ -393,10 +381,7 @@ fn newton_update(
         work[block(DV_TOTAL, i)] = vec4<f32>(total, 0.0);
         partial = vec4<f32>(length(dv), length(total), 0.0, 0.0);
     }
-    let most = workgroup_max(lid, partial);
-    if (lid == 0u) {
-        scratch.partials[group_index(wid, groups)] = most;
-    }
+    store_partial(lid, wid, groups, partial, true);
 }
 
 // Newton stops when its update is small against Δv (or Δv is below 1e-7 m/s).

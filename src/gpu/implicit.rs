@@ -41,53 +41,33 @@ impl GpuBackend {
 
     /// One backward Euler step; returns the solver's status at its end.
     fn implicit_step(&mut self, slot: u32) -> Result<SolverStatus, BackendError> {
-        let mut enc = self.encoder();
-        self.encode(&mut enc, |b, pass| {
-            b.dispatch_named(pass, Named::ImplicitBegin, slot)?;
-            b.dispatch_named(pass, Named::SolverBegin, slot)
-        })?;
+        let mut enc = self.encoder("implicit step");
+        self.encode(&mut enc, |b, pass| b.dispatch_all(pass, &BEGIN, slot))?;
         let mut status = SolverStatus::default();
         for _ in 0..NEWTON_MAX_ITERATIONS {
             let mut chunk = self.solve.as_ref().map_or(MIN_CHUNK, |s| s.chunk);
             self.encode(&mut enc, |b, pass| {
-                for k in [
-                    Named::ImplicitIterate,
-                    Named::ComputeForces,
-                    Named::ImplicitRhs,
-                    Named::CgBegin,
-                ] {
-                    b.dispatch_named(pass, k, slot)?;
-                }
+                b.dispatch_all(pass, &NEWTON_BEGIN, slot)?;
                 b.encode_cg(pass, chunk, slot)
             })?;
             status = self.submit_and_read_status(enc)?;
             while status.cg_active != 0 {
                 chunk *= 2;
-                enc = self.encoder();
+                enc = self.encoder("implicit step");
                 self.encode(&mut enc, |b, pass| b.encode_cg(pass, chunk, slot))?;
                 status = self.submit_and_read_status(enc)?;
             }
             if let Some(s) = self.solve.as_mut() {
                 s.chunk = status.iterations.max(MIN_CHUNK);
             }
-            enc = self.encoder();
+            enc = self.encoder("implicit step");
             if status.converged != 0 {
                 break;
             }
         }
-        self.encode(&mut enc, |b, pass| {
-            b.dispatch_named(pass, Named::ImplicitFinal, slot)
-        })?;
+        self.encode(&mut enc, |b, pass| b.dispatch_all(pass, &END, slot))?;
         self.ctx.queue.submit([enc.finish()]);
         Ok(status)
-    }
-
-    fn encoder(&self) -> wgpu::CommandEncoder {
-        self.ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("implicit step"),
-            })
     }
 
     /// Record `body` in one compute pass of `enc`.
@@ -111,18 +91,20 @@ impl GpuBackend {
         slot: u32,
     ) -> Result<(), BackendError> {
         for _ in 0..iterations {
-            for k in [
-                Named::ApplySystem,
-                Named::CgAlpha,
-                Named::CgUpdate,
-                Named::CgBeta,
-                Named::CgDirection,
-            ] {
-                self.dispatch_named(pass, k, slot)?;
-            }
+            self.dispatch_all(pass, &CG_ITERATION, slot)?;
         }
-        self.dispatch_named(pass, Named::NewtonUpdate, slot)?;
-        self.dispatch_named(pass, Named::NewtonEnd, slot)
+        self.dispatch_all(pass, &NEWTON_END, slot)
+    }
+
+    fn dispatch_all(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        kernels: &[Named],
+        slot: u32,
+    ) -> Result<(), BackendError> {
+        kernels
+            .iter()
+            .try_for_each(|&k| self.dispatch_named(pass, k, slot))
     }
 
     fn dispatch_named(
@@ -209,5 +191,55 @@ enum Named {
     ImplicitFinal,
 }
 
+impl Named {
+    fn name(self) -> &'static str {
+        match self {
+            Named::ImplicitBegin => "implicit_begin",
+            Named::SolverBegin => "solver_begin",
+            Named::ImplicitIterate => "implicit_iterate",
+            Named::ComputeForces => "compute_forces",
+            Named::ImplicitRhs => "implicit_rhs",
+            Named::CgBegin => "cg_begin",
+            Named::ApplySystem => "apply_system",
+            Named::CgAlpha => "cg_alpha",
+            Named::CgUpdate => "cg_update",
+            Named::CgBeta => "cg_beta",
+            Named::CgDirection => "cg_direction",
+            Named::NewtonUpdate => "newton_update",
+            Named::NewtonEnd => "newton_end",
+            Named::ImplicitFinal => "implicit_final",
+        }
+    }
+}
+
+/// A step's passes, in order: BEGIN, then per Newton iteration NEWTON_BEGIN, CG_ITERATION
+/// repeated, NEWTON_END; then END.
+const BEGIN: [Named; 2] = [Named::ImplicitBegin, Named::SolverBegin];
+const NEWTON_BEGIN: [Named; 4] = [
+    Named::ImplicitIterate,
+    Named::ComputeForces,
+    Named::ImplicitRhs,
+    Named::CgBegin,
+];
+const CG_ITERATION: [Named; 5] = [
+    Named::ApplySystem,
+    Named::CgAlpha,
+    Named::CgUpdate,
+    Named::CgBeta,
+    Named::CgDirection,
+];
+const NEWTON_END: [Named; 2] = [Named::NewtonUpdate, Named::NewtonEnd];
+const END: [Named; 1] = [Named::ImplicitFinal];
+
 /// For `hooke check`: the passes of one implicit step, the repeated parts in brackets.
-pub const STEP_PASSES: &str = "implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final";
+pub fn step_passes() -> String {
+    let names = |ks: &[Named]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" → ");
+    format!(
+        "{} → [Newton: {} → [CG: {}] → {}] → {}",
+        names(&BEGIN),
+        names(&NEWTON_BEGIN),
+        names(&CG_ITERATION),
+        names(&NEWTON_END),
+        names(&END)
+    )
+}

@@ -8,7 +8,7 @@ mod implicit;
 mod kernels;
 pub mod layout;
 
-pub use context::{GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error, describe_loss};
+pub use context::{GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error};
 pub use kernels::programs;
 
 use std::sync::Arc;
@@ -464,6 +464,12 @@ impl GpuBackend {
         }
     }
 
+    fn encoder(&self, label: &'static str) -> wgpu::CommandEncoder {
+        self.ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
+    }
+
     /// Make room for `slots` stage slots (grows, never shrinks).
     fn reserve_stage_slots(&mut self, slots: u32) {
         if slots <= self.stage_slots {
@@ -756,12 +762,7 @@ impl GpuBackend {
                 ..Stage::default()
             }],
         );
-        let mut enc = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("snapshot"),
-            });
+        let mut enc = self.encoder("snapshot");
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("reduce"),
@@ -1015,16 +1016,13 @@ fn step_plan(integrator: Integrator, has_contact: bool, prime: bool) -> Vec<(Ker
 
 /// For `hooke check`: the kernels one GPU step dispatches, in order, and the effects compiled into
 /// them (absent effects are specialised away and cost nothing).
-pub fn step_passes(
-    model: &Model,
-    integrator: Integrator,
-) -> (Vec<&'static str>, Vec<&'static str>) {
+pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&'static str>) {
     let passes = if integrator == Integrator::Implicit {
-        vec![implicit::STEP_PASSES]
+        vec![implicit::step_passes()]
     } else {
         step_plan(integrator, model.effects.has_contact(), false)
             .into_iter()
-            .map(|(k, _)| k.name())
+            .map(|(k, _)| k.name().to_owned())
             .collect()
     };
     let effects = kernels::effect_constants(model)
@@ -1197,12 +1195,7 @@ impl Backend for GpuBackend {
         let stages = self.stage_times(substeps);
         let t = self.time_after(substeps);
         self.write_slots(0, &stages);
-        let mut enc = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("steps"),
-            });
+        let mut enc = self.encoder("steps");
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("steps"),

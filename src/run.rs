@@ -78,7 +78,7 @@ pub fn run(
     };
     progress.set_message(loaded.scene.name.clone());
 
-    let (outcome, recorded, log_error, viewer_gone) = std::thread::scope(|scope| {
+    let (outcome, recorded, recorder_error) = std::thread::scope(|scope| {
         let sim = std::thread::Builder::new()
             .name("hooke-sim".into())
             .spawn_scoped(scope, {
@@ -101,12 +101,15 @@ pub fn run(
         let rec_thread = std::thread::Builder::new()
             .name("hooke-record".into())
             .spawn_scoped(scope, || {
+                // Owned here, so that returning early drops it: the simulation then stops at
+                // its next frame instead of stepping on with nobody to record.
+                let rx = rx;
                 let mut recorded = 0u64;
                 let mut viewer_lost = false;
                 for snap in rx.iter() {
                     if let Err(e) = recorder.log_snapshot(&snap) {
                         // Dropping the receiver tells the simulation to stop.
-                        return (recorded, Some(e.to_string()), None);
+                        return (recorded, Some(Error::RecorderGone(e.to_string())));
                     }
                     recorded += 1;
                     progress.inc(1);
@@ -121,7 +124,7 @@ pub fn run(
                                 frame: snap.frame,
                                 why,
                             };
-                            return (recorded, None, Some(gone));
+                            return (recorded, Some(gone));
                         };
                         progress.suspend(|| {
                             eprintln!(
@@ -135,7 +138,7 @@ pub fn run(
                     // Back to the simulation for reuse; if its queue is full, just drop it.
                     let _ = back_tx.try_send(snap);
                 }
-                (recorded, None, None)
+                (recorded, None)
             });
         match (sim, rec_thread) {
             (Ok(s), Ok(r)) => {
@@ -146,17 +149,15 @@ pub fn run(
                     .join()
                     .map_err(|_| "the recorder thread panicked".to_owned());
                 match (outcome, rec_out) {
-                    (Ok(o), Ok((n, err, gone))) => (Ok(o), n, err, gone),
-                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None, None),
+                    (Ok(o), Ok((n, err))) => (Ok(o), n, err),
+                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
                 }
             }
-            (Err(e), _) | (_, Err(e)) => {
-                (Err(format!("cannot start a thread: {e}")), 0, None, None)
-            }
+            (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
         }
     });
     progress.finish_and_clear();
-    if let Some(gone) = viewer_gone {
+    if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
         // Nothing more can reach that viewer; do not wait for it.
         let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
         return Err(gone);
@@ -169,8 +170,8 @@ pub fn run(
         ))
     })?;
     let outcome = outcome.map_err(Error::Rerun)?;
-    if let Some(e) = log_error {
-        return Err(Error::RecorderGone(e));
+    if let Some(e) = recorder_error {
+        return Err(e);
     }
     if let Some(e) = outcome.failed {
         return Err(Error::Backend(e));

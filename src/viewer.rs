@@ -2,7 +2,7 @@
 //! follows one rule (README, "When the viewer goes away"): with a file named by `--save` as well,
 //! the run finishes into that file; with no file, it stops cleanly after the current frame.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use rerun::sink::{GrpcSink, GrpcSinkConnectionState, LogSink, SinkFlushError};
@@ -28,8 +28,9 @@ impl std::fmt::Debug for ViewerLink {
 /// What became of the viewer.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LinkState {
-    /// Connected, or still connecting within [`CONNECT_TIMEOUT`].
     Up,
+    /// Still connecting, within [`CONNECT_TIMEOUT`].
+    Connecting,
     /// Gone, and why.
     Gone(String),
 }
@@ -52,6 +53,7 @@ impl ViewerLink {
         let shared = SharedSink {
             link: link.clone(),
             tolerate_loss,
+            waiting: Mutex::new(Vec::new()),
         };
         Ok((link, Box::new(shared)))
     }
@@ -70,7 +72,7 @@ impl ViewerLink {
                         CONNECT_TIMEOUT.as_secs()
                     ))
                 } else {
-                    LinkState::Up
+                    LinkState::Connecting
                 }
             }
             GrpcSinkConnectionState::Disconnected(Ok(())) => {
@@ -83,23 +85,58 @@ impl ViewerLink {
     }
 }
 
-/// The recording stream's side of the link.
+/// The recording stream's side of the link. Rerun's gRPC sink holds at most 100 messages until
+/// it connects and then blocks the sender, for ever if no viewer comes; so messages wait here
+/// until it connects, and are dropped once the viewer is gone (the recorder says so). Sending
+/// never blocks on an absent viewer.
 struct SharedSink {
     link: ViewerLink,
     tolerate_loss: bool,
+    waiting: Mutex<Vec<rerun::log::LogMsg>>,
+}
+
+impl SharedSink {
+    fn waiting(&self) -> Vec<rerun::log::LogMsg> {
+        self.waiting
+            .lock()
+            .map(|mut w| std::mem::take(&mut *w))
+            .unwrap_or_default()
+    }
 }
 
 impl LogSink for SharedSink {
     fn send(&self, msg: rerun::log::LogMsg) {
-        self.link.sink.send(msg);
+        match self.link.state() {
+            LinkState::Up => {
+                self.link.sink.send_all(self.waiting());
+                self.link.sink.send(msg);
+            }
+            LinkState::Connecting => {
+                if let Ok(mut w) = self.waiting.lock() {
+                    w.push(msg);
+                }
+            }
+            LinkState::Gone(_) => {}
+        }
     }
 
     fn flush_blocking(&self, timeout: Duration) -> Result<(), SinkFlushError> {
-        if self.tolerate_loss && self.link.state() != LinkState::Up {
-            // Reported by the recorder when it happened; the file has everything.
-            return Ok(());
+        while self.link.state() == LinkState::Connecting {
+            std::thread::sleep(Duration::from_millis(50));
         }
-        self.link.sink.flush_blocking(timeout)
+        match self.link.state() {
+            LinkState::Up => {
+                self.link.sink.send_all(self.waiting());
+                self.link.sink.flush_blocking(timeout)
+            }
+            // Reported by the recorder when it happened; the file has everything.
+            _ if self.tolerate_loss => Ok(()),
+            LinkState::Gone(why) => Err(SinkFlushError::failed(format!(
+                "the viewer at {} went away: {why}",
+                self.link.url
+            ))),
+            LinkState::Connecting => Ok(()),
+        }
     }
 
     fn default_batcher_config(&self) -> rerun::log::ChunkBatcherConfig {

@@ -7,6 +7,9 @@ override HAS_DRAG: bool = false;
 override HAS_GROUND: bool = false;
 override HAS_SPHERES: bool = false;
 override HAS_DAMPING: bool = false;
+// Springs that change during a run: the post-step update_springs pass (shaders/springs.wgsl).
+override HAS_PLASTICITY: bool = false;
+override HAS_TEARING: bool = false;
 // Implicit Euler: compute_forces also linearises the contacts, and the solver's stopping rules
 // (set from src/cpu/implicit.rs, so both backends stop alike).
 override IMPLICIT: bool = false;
@@ -55,6 +58,22 @@ struct Spring {
     rest: f32,
     stiffness: f32,
     damping: f32,
+}
+
+// A broken spring has neither stiffness nor damping (as Spring::is_broken in src/model.rs).
+fn is_broken(s: Spring) -> bool {
+    return s.stiffness == 0.0 && s.damping == 0.0;
+}
+
+// compute_strain's value for a broken spring (the host reads it as NaN: no strain).
+const BROKEN_STRAIN: f32 = -3.4028235e38;
+
+// Per spring, when some body has plasticity or tearing (as SpringLimits in src/model.rs).
+struct SpringLimits {
+    yield_strain: f32,
+    relax: f32,
+    break_strain: f32,
+    creep_per_s: f32,
 }
 
 struct Neighbor {

@@ -54,6 +54,10 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     for (var e = offsets[i]; e < end; e++) {
         let nb = neighbors[e];
         let s = springs[nb.spring];
+        // A broken spring exerts nothing; skipping it saves reading the other end.
+        if (HAS_TEARING && is_broken(s)) {
+            continue;
+        }
         let d = xi - x_in[nb.other].xyz;
         let len = length(d);
         if (len <= MIN_SPRING_LENGTH) {

@@ -11,7 +11,8 @@
 @group(0) @binding(6) var<storage, read> ledger: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> strain: array<f32>;
 // Per workgroup: [3g] (kinetic, elastic, gravity, contact), [3g+1] ledger, [3g+2] (max speed,
-// count of masses with a non-finite state, 0, 0).
+// count of masses with a non-finite state, energy let go by plasticity and tearing (written by
+// sum_spring_work in springs.wgsl), 0).
 @group(0) @binding(8) var<storage, read_write> partials: array<vec4<f32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
 
@@ -20,6 +21,10 @@ fn compute_strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let s = thread_index(gid, groups);
     if (s >= params.spring_count) { return; }
     let sp = springs[s];
+    if (HAS_TEARING && is_broken(sp)) {
+        strain[s] = BROKEN_STRAIN;
+        return;
+    }
     let len = distance(x[sp.a].xyz, x[sp.b].xyz);
     strain[s] = (len - sp.rest) / max(sp.rest, 1.17549435e-38);
 }

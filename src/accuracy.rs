@@ -98,7 +98,7 @@ fn run(
 
 /// The energy against which a run's balance drift is judged: the initial mechanical energy.
 fn energy_scale(model: &Model) -> f64 {
-    let e0 = crate::cpu::compute_energies(model, &model.initial);
+    let e0 = crate::cpu::compute_energies(model, &model.springs, &model.initial);
     e0.total_j().abs().max(e0.kinetic_j).max(1e-6)
 }
 

@@ -100,6 +100,27 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
         );
         any = true;
     }
+    for b in &model.bodies {
+        let Some(l) = model.limits.get(b.springs.start as usize) else {
+            continue;
+        };
+        if l.yield_strain.is_finite() {
+            let _ = writeln!(
+                s,
+                "    plasticity of '{}': yield strain {}, creep {} /s",
+                b.name, l.yield_strain, l.creep_per_s
+            );
+            any = true;
+        }
+        if l.break_strain.is_finite() {
+            let _ = writeln!(
+                s,
+                "    tearing of '{}': springs break past strain {}",
+                b.name, l.break_strain
+            );
+            any = true;
+        }
+    }
     if !any {
         let _ = writeln!(s, "    none");
     }

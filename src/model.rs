@@ -19,6 +19,29 @@ pub struct Spring {
     pub damping_n_s_per_m: f32,
 }
 
+impl Spring {
+    /// A broken spring (tearing) has neither stiffness nor damping: it exerts nothing, and the
+    /// force passes skip it. Scene springs always have stiffness, so nothing else looks like this.
+    #[inline(always)]
+    pub fn is_broken(&self) -> bool {
+        self.stiffness_n_per_m == 0.0 && self.damping_n_s_per_m == 0.0
+    }
+}
+
+/// What may happen to one spring during a run: plastic flow past `yield_strain` and breaking
+/// past `break_strain` (infinite when the body has no such effect). Same layout as
+/// `SpringLimits` in `shaders/common.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SpringLimits {
+    pub yield_strain: f32,
+    /// Fraction of the way to the yield length the rest length moves in one step:
+    /// 1 − exp(−creep_per_s · dt), 0 without plasticity. Set per dt by [`Model::spring_limits`].
+    pub relax: f32,
+    pub break_strain: f32,
+    pub creep_per_s: f32,
+}
+
 /// One entry of a mass's adjacency: the spring and the mass at its other end.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -107,9 +130,17 @@ pub struct Effects {
     pub air_drag_per_s: Option<f32>,
     pub ground: Option<GroundCollider>,
     pub spheres: Vec<SphereCollider>,
+    /// Some body's springs flow plastically.
+    pub plasticity: bool,
+    /// Some body's springs may break.
+    pub tearing: bool,
 }
 
 impl Effects {
+    /// Springs change during the run (plasticity or tearing): a post-step spring pass runs.
+    pub fn springs_change(&self) -> bool {
+        self.plasticity || self.tearing
+    }
     pub fn has_contact(&self) -> bool {
         self.ground.is_some() || !self.spheres.is_empty()
     }
@@ -180,6 +211,8 @@ pub struct Model {
     pub adjacency: Adjacency,
     pub effects: Effects,
     pub initial: State,
+    /// Per spring, when some body has plasticity or tearing; empty otherwise.
+    pub limits: Vec<SpringLimits>,
 }
 
 impl Model {
@@ -194,6 +227,21 @@ impl Model {
     }
     pub fn springs_of_kind(&self, kind: SpringKindTag) -> usize {
         self.spring_kind.iter().filter(|&&k| k == kind).count()
+    }
+    /// The springs' limits with the relaxation of one step of `dt_secs` filled in (f32 from f64,
+    /// the same on both backends).
+    pub fn spring_limits(&self, dt_secs: f64) -> Vec<SpringLimits> {
+        self.limits
+            .iter()
+            .map(|l| SpringLimits {
+                relax: if l.creep_per_s > 0.0 {
+                    (-(-f64::from(l.creep_per_s) * dt_secs).exp_m1()) as f32
+                } else {
+                    0.0
+                },
+                ..*l
+            })
+            .collect()
     }
     /// The body that mass `i` belongs to, and its index within that body.
     pub fn body_of_mass(&self, i: u32) -> Option<(&BodyInfo, u32)> {
@@ -215,6 +263,7 @@ pub struct ModelBuilder {
     springs: Vec<Spring>,
     kinds: Vec<SpringKindTag>,
     effects: Effects,
+    limits: Vec<SpringLimits>,
 }
 
 impl ModelBuilder {
@@ -285,6 +334,19 @@ impl ModelBuilder {
         self.kinds.truncate(first);
         self.springs.extend(springs);
         self.kinds.extend(kinds);
+        if !self.limits.is_empty() {
+            let limits: Vec<SpringLimits> = order.iter().map(|&i| self.limits[i]).collect();
+            self.limits.truncate(first);
+            self.limits.extend(limits);
+        }
+    }
+
+    /// Give springs `first..` the same limits (others get none, meaning never yield or break).
+    pub fn limit_springs_from(&mut self, first: usize, limits: SpringLimits) {
+        self.limits.resize(self.springs.len(), NO_LIMITS);
+        for l in &mut self.limits[first..] {
+            *l = limits;
+        }
     }
 
     pub fn effects(&mut self, effects: Effects) -> &mut Self {
@@ -316,7 +378,14 @@ impl ModelBuilder {
             .map(|(&m, &p)| if p { 0.0 } else { 1.0 / m })
             .collect();
         let adjacency = Adjacency::build(self.mass_kg.len(), &self.springs);
+        if !self.limits.is_empty() {
+            self.limits.resize(self.springs.len(), NO_LIMITS);
+        }
+        let yields = |l: &SpringLimits| l.yield_strain.is_finite();
+        self.effects.plasticity = self.limits.iter().any(yields);
+        self.effects.tearing = self.limits.iter().any(|l| l.break_strain.is_finite());
         Model {
+            limits: self.limits,
             bodies: self.bodies,
             mass_kg: self.mass_kg,
             inv_mass,
@@ -328,6 +397,14 @@ impl ModelBuilder {
         }
     }
 }
+
+/// Limits of a spring that neither yields nor breaks.
+pub const NO_LIMITS: SpringLimits = SpringLimits {
+    yield_strain: f32::INFINITY,
+    relax: 0.0,
+    break_strain: f32::INFINITY,
+    creep_per_s: 0.0,
+};
 
 /// Grid offsets of each spring kind, one per pair (the positive half of each direction).
 fn kind_offsets(kind: SpringKindTag) -> &'static [[i32; 3]] {
@@ -443,6 +520,17 @@ pub fn build(scene: &Scene) -> Model {
         // Order the body's springs by the masses they join, kinds interleaved, so that a mass's
         // springs (and its neighbours') sit close together in memory for the force passes.
         let first = mb.body_spring_start();
+        if body.plasticity.is_some() || body.tearing.is_some() {
+            mb.limit_springs_from(
+                first,
+                SpringLimits {
+                    yield_strain: body.plasticity.map_or(f32::INFINITY, |p| p.yield_strain),
+                    relax: 0.0,
+                    break_strain: body.tearing.map_or(f32::INFINITY, |t| t.max_strain),
+                    creep_per_s: body.plasticity.map_or(0.0, |p| p.creep_per_s),
+                },
+            );
+        }
         mb.sort_springs_from(first);
         mb.end_body(&body.name, body.grid.clone());
     }
@@ -470,6 +558,7 @@ pub fn build(scene: &Scene) -> Model {
                 max_depth_m: skin.min(0.25 * s.radius_m),
             })
             .collect(),
+        ..Effects::default()
     });
     mb.build()
 }

@@ -69,7 +69,7 @@ const ENERGY_SERIES: [(&str, &str); 11] = [
     ("energy/elastic", "elastic (springs)"),
     ("energy/gravity", "gravitational"),
     ("energy/contact", "contact (penalty)"),
-    ("energy/dissipated", "dissipated (damping + drag + contact)"),
+    ("energy/dissipated", "dissipated (all of the below)"),
     ("energy/dissipated_damping", "dissipated by spring damping"),
     ("energy/dissipated_drag", "dissipated by air drag"),
     (
@@ -91,6 +91,13 @@ pub struct Recorder {
     /// The implicit integrator's solver statistics are logged too.
     implicit: bool,
 }
+
+/// Logged only when the scene's springs yield or tear.
+const PLASTIC_SERIES: (&str, &str) = (
+    "energy/dissipated_plastic",
+    "let go by plastic flow and tearing",
+);
+const BROKEN_SERIES: (&str, &str) = ("stats/broken_springs", "broken springs (tearing)");
 
 impl Recorder {
     pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, strain_range: f32) -> Self {
@@ -140,11 +147,21 @@ impl Recorder {
                  | colour | strain |\n|---|---|\n\
                  | blue | −{r} or less (compressed) |\n| light grey | 0 (at rest) |\n| red | +{r} or more (stretched) |\n\n\
                  Set the range with `[view] strain_range` in the scene file. Pinned masses are black; \
-                 `stats/max_strain` plots the largest |strain| of each frame."
+                 `stats/max_strain` plots the largest |strain| of each frame. A spring that tore is \
+                 no longer drawn, and `stats/broken_springs` counts them over time."
             )),
         )?;
         for (path, name) in ENERGY_SERIES {
             rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
+        }
+        let fx = &self.model.effects;
+        for ((path, name), on) in [
+            (PLASTIC_SERIES, fx.springs_change()),
+            (BROKEN_SERIES, fx.tearing),
+        ] {
+            if on {
+                rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
+            }
         }
         for (path, name) in [
             ("stats/max_strain", "max |strain|"),
@@ -274,9 +291,14 @@ impl Recorder {
             strips.clear();
             colors.clear();
             for si in b.springs.clone() {
+                let strain = snap.strain[si as usize];
+                // A broken spring has no strain (NaN) and is not drawn, so the tear shows.
+                if strain.is_nan() {
+                    continue;
+                }
                 let s = &m.springs[si as usize];
                 strips.push([snap.positions[s.a as usize], snap.positions[s.b as usize]]);
-                let [r, g, bl] = strain_color(snap.strain[si as usize], self.strain_range);
+                let [r, g, bl] = strain_color(strain, self.strain_range);
                 colors.push(rerun::Color::from_rgb(r, g, bl));
             }
             rec.log(
@@ -316,6 +338,18 @@ impl Recorder {
         ];
         for ((path, _), v) in ENERGY_SERIES.iter().zip(values) {
             rec.log(*path, &rerun::Scalars::single(v))?;
+        }
+        if m.effects.springs_change() {
+            rec.log(
+                PLASTIC_SERIES.0,
+                &rerun::Scalars::single(e.ledger.plastic_j),
+            )?;
+        }
+        if m.effects.tearing {
+            rec.log(
+                BROKEN_SERIES.0,
+                &rerun::Scalars::single(snap.broken_springs() as f64),
+            )?;
         }
         let st = &snap.stats;
         rec.log(

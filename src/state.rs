@@ -16,6 +16,8 @@ pub struct Ledger {
     pub contact_j: f64,
     /// Work done on the system by moving colliders, J.
     pub collider_work_j: f64,
+    /// Elastic energy let go by plastic flow and by springs that broke, J.
+    pub plastic_j: f64,
 }
 
 /// Rates of the ledger's entries at one state (W). Combined by the integrators like derivatives.
@@ -44,7 +46,7 @@ impl Ledger {
         self.collider_work_j += dt * p.collider_w;
     }
     pub fn dissipated_j(&self) -> f64 {
-        self.damping_j + self.drag_j + self.contact_j
+        self.damping_j + self.drag_j + self.contact_j + self.plastic_j
     }
 }
 
@@ -117,7 +119,7 @@ pub struct Snapshot {
     pub time_secs: f64,
     pub steps: u64,
     pub positions: Vec<Vec3>,
-    /// (|x| − L) / L per spring.
+    /// (|x| − L) / L per spring; NaN for a broken spring.
     pub strain: Vec<f32>,
     pub energies: Energies,
     pub stats: StepStats,
@@ -126,8 +128,16 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
+    /// Largest |strain| of the intact springs.
     pub fn max_abs_strain(&self) -> f32 {
-        self.strain.iter().fold(0.0f32, |m, s| m.max(s.abs()))
+        self.strain
+            .iter()
+            .filter(|s| !s.is_nan())
+            .fold(0.0f32, |m, s| m.max(s.abs()))
+    }
+    /// Springs broken so far (tearing).
+    pub fn broken_springs(&self) -> usize {
+        self.strain.iter().filter(|s| s.is_nan()).count()
     }
 }
 

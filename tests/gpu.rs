@@ -442,6 +442,16 @@ fn shared_structs_match_their_wgsl_layout() {
                         std::mem::offset_of!(hooke::gpu::layout::SolverStatus, converged),
                     ),
                 ],
+                "SpringLimits" => vec![
+                    (
+                        "relax",
+                        std::mem::offset_of!(hooke::model::SpringLimits, relax),
+                    ),
+                    (
+                        "break_strain",
+                        std::mem::offset_of!(hooke::model::SpringLimits, break_strain),
+                    ),
+                ],
                 "Spring" => vec![
                     ("rest", std::mem::offset_of!(hooke::model::Spring, rest_m)),
                     (

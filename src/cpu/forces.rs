@@ -98,7 +98,12 @@ fn force_on_mass(
     let m = model.mass_kg[i];
     let mut f = Vec3::ZERO;
     let mut damping_w = 0.0f32;
+    let tearing = model.effects.tearing;
     for e in &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize] {
+        // A broken spring exerts nothing; skipping it saves reading the other end.
+        if tearing && e.spring.is_broken() {
+            continue;
+        }
         let j = e.other as usize;
         let (fs, pw) = spring_force(&e.spring, xi, x[j], vi, v[j]);
         f += fs;
@@ -149,11 +154,15 @@ fn force_on_mass(
 
 /// The CSR adjacency with each spring's parameters stored in the entry itself, in the same order
 /// as `model.adjacency`: the gather streams through one array instead of chasing a spring index
-/// per neighbour. (The GPU reads springs by index; its caches make that cheap.)
+/// per neighbour. (The GPU reads springs by index; its caches make that cheap.) It also holds the
+/// live springs, which plasticity and tearing change during a run.
 #[derive(Debug, Default)]
 pub struct Gather {
     offsets: Vec<u32>,
     entries: Vec<GatherEntry>,
+    springs: Vec<Spring>,
+    /// The two entries of each spring; only when springs change during the run.
+    entries_of: Vec<[u32; 2]>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -164,6 +173,16 @@ struct GatherEntry {
 
 impl Gather {
     pub fn new(model: &Model) -> Self {
+        let mut entries_of = Vec::new();
+        if model.effects.springs_change() {
+            entries_of = vec![[0u32; 2]; model.spring_count()];
+            let mut seen = vec![0u8; model.spring_count()];
+            for (e, nb) in model.adjacency.entries.iter().enumerate() {
+                let k = nb.spring as usize;
+                entries_of[k][usize::from(seen[k])] = e as u32;
+                seen[k] += 1;
+            }
+        }
         Self {
             offsets: model.adjacency.offsets.clone(),
             entries: model
@@ -175,6 +194,21 @@ impl Gather {
                     spring: model.springs[nb.spring as usize],
                 })
                 .collect(),
+            springs: model.springs.clone(),
+            entries_of,
+        }
+    }
+
+    /// The springs as they are now.
+    pub fn springs(&self) -> &[Spring] {
+        &self.springs
+    }
+
+    /// Replace spring `k` (a new rest length, or broken) everywhere the force pass reads it.
+    pub fn set_spring(&mut self, k: usize, spring: Spring) {
+        self.springs[k] = spring;
+        for e in self.entries_of[k] {
+            self.entries[e as usize].spring = spring;
         }
     }
 }

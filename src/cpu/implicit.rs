@@ -16,7 +16,7 @@
 use glam::Vec3;
 
 use super::forces::{Gather, compute_forces};
-use crate::model::{ContactModel, Model};
+use crate::model::{ContactModel, Model, Spring};
 use crate::state::{Power, State};
 
 /// Relative residual |r| / |b| at which each linear solve stops (f32 vectors: near their floor
@@ -160,8 +160,15 @@ fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out: &mu
     }
 }
 
-fn linearise(model: &Model, x: &[Vec3], t: f64, h: f32, lin: &mut Linearisation) {
-    for (terms, s) in lin.springs.iter_mut().zip(&model.springs) {
+fn linearise(
+    model: &Model,
+    springs: &[Spring],
+    x: &[Vec3],
+    t: f64,
+    h: f32,
+    lin: &mut Linearisation,
+) {
+    for (terms, s) in lin.springs.iter_mut().zip(springs) {
         let d = x[s.a as usize] - x[s.b as usize];
         let len = d.length();
         *terms = if len > f32::MIN_POSITIVE * 1e6 {
@@ -224,7 +231,7 @@ pub fn implicit_step(
             w.xk[i] = state.x[i] + h * w.vk[i];
         }
         power = compute_forces(model, gather, &w.xk, &w.vk, t_end, dt, &mut w.acc);
-        linearise(model, &w.xk, t_end, h, &mut w.lin);
+        linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
         // b = h f(x, v) − M Δv, and the system's diagonal for the preconditioner.
         let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
         for i in 0..n {

@@ -20,15 +20,18 @@ pub struct Scratch {
     /// Verlet's acceleration (and ledger rates) at the current state, from the previous step.
     verlet_cache: Option<Power>,
     gather: Gather,
+    /// Per spring with the relaxation of this dt, when springs change during the run.
+    limits: Vec<crate::model::SpringLimits>,
     /// Only for the implicit integrator.
     implicit: Option<super::implicit::ImplicitWork>,
 }
 
 impl Scratch {
-    pub fn new(model: &Model) -> Self {
+    pub fn new(model: &Model, dt_secs: f64) -> Self {
         let n = model.mass_count();
         Self {
             gather: Gather::new(model),
+            limits: model.spring_limits(dt_secs),
             implicit: None,
             acc: vec![Vec3::ZERO; n],
             xt: vec![Vec3::ZERO; n],
@@ -37,6 +40,18 @@ impl Scratch {
             sum_a: vec![Vec3::ZERO; n],
             verlet_cache: None,
         }
+    }
+}
+
+impl Scratch {
+    /// The springs as they are now.
+    pub fn springs(&self) -> &[crate::model::Spring] {
+        self.gather.springs()
+    }
+
+    /// Plastic flow and tearing after a step (see [`super::update_springs`]).
+    pub fn update_springs(&mut self, state: &mut State) {
+        state.ledger.plastic_j += super::update_springs(&self.limits, &mut self.gather, &state.x);
     }
 }
 

@@ -6,6 +6,7 @@ mod forces;
 mod implicit;
 mod integrate;
 mod reduce;
+mod springs;
 
 pub use collide::project_contacts;
 pub use forces::{Gather, PARALLEL_MIN_MASSES, compute_forces, contact_force, spring_force};
@@ -13,6 +14,7 @@ pub use implicit::{
     CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
 };
 pub use reduce::{compute_energies, compute_strain};
+pub use springs::update_springs;
 
 use crate::backend::{Backend, BackendError, find_divergence};
 use crate::integrator::Integrator;
@@ -34,7 +36,7 @@ impl CpuBackend {
     pub fn new(model: std::sync::Arc<Model>, integrator: Integrator, dt_secs: f64) -> Self {
         Self {
             state: model.initial.clone(),
-            scratch: integrate::Scratch::new(&model),
+            scratch: integrate::Scratch::new(&model, dt_secs),
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
             model,
@@ -67,6 +69,9 @@ impl Backend for CpuBackend {
             // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
             // which cannot know that one happened without a read-back.
             projections += project_contacts(&self.model, &mut self.state);
+            if self.model.effects.springs_change() {
+                self.scratch.update_springs(&mut self.state);
+            }
             if let Some(d) = find_divergence(
                 &self.model,
                 &self.state,
@@ -104,8 +109,9 @@ impl Backend for CpuBackend {
         snap.stats = stats;
         snap.positions.clear();
         snap.positions.extend_from_slice(&self.state.x);
-        compute_strain(&self.model, &self.state.x, &mut snap.strain);
-        snap.energies = compute_energies(&self.model, &self.state);
+        let springs = self.scratch.springs();
+        compute_strain(springs, &self.state.x, &mut snap.strain);
+        snap.energies = compute_energies(&self.model, springs, &self.state);
         snap.sphere_centers.clear();
         snap.sphere_centers
             .extend(self.model.effects.spheres.iter().map(|s| s.center_at(t)));

@@ -2,20 +2,25 @@
 
 use glam::Vec3;
 
-use crate::model::Model;
+use crate::model::{Model, Spring};
 use crate::state::{Energies, State};
 
-/// (|x| − L) / L for every spring.
-pub fn compute_strain(model: &Model, x: &[Vec3], out: &mut Vec<f32>) {
+/// (|x| − L) / L for every spring as it is now (`springs`: the live ones, whose rest lengths
+/// plasticity changes); NaN for a broken spring, which has no strain.
+pub fn compute_strain(springs: &[Spring], x: &[Vec3], out: &mut Vec<f32>) {
     out.clear();
-    out.extend(model.springs.iter().map(|s| {
+    out.extend(springs.iter().map(|s| {
+        if s.is_broken() {
+            return f32::NAN;
+        }
         let len = x[s.a as usize].distance(x[s.b as usize]);
         (len - s.rest_m) / s.rest_m.max(f32::MIN_POSITIVE)
     }));
 }
 
-/// Kinetic, elastic, gravitational and contact energy of a state, summed in f64.
-pub fn compute_energies(model: &Model, state: &State) -> Energies {
+/// Kinetic, elastic, gravitational and contact energy of a state, summed in f64, with the live
+/// `springs` (a broken one holds no energy).
+pub fn compute_energies(model: &Model, springs: &[Spring], state: &State) -> Energies {
     let (x, v) = (&state.x, &state.v);
     let mut e = Energies {
         ledger: state.ledger,
@@ -30,7 +35,7 @@ pub fn compute_energies(model: &Model, state: &State) -> Energies {
             e.gravity_j -= m * f64::from(g.dot(x[i]));
         }
     }
-    for s in &model.springs {
+    for s in springs {
         let stretch = f64::from(x[s.a as usize].distance(x[s.b as usize]) - s.rest_m);
         e.elastic_j += 0.5 * f64::from(s.stiffness_n_per_m) * stretch * stretch;
     }

@@ -65,7 +65,15 @@ impl GpuBackend {
                 break;
             }
         }
-        self.encode(&mut enc, |b, pass| b.dispatch_all(pass, &END, slot))?;
+        self.encode(&mut enc, |b, pass| {
+            b.dispatch_all(pass, &END, slot)?;
+            // The post-step passes every integrator shares (plasticity, tearing).
+            for (kernel, _) in b.step_plan(false) {
+                let (pipeline, group0, state) = b.kernel(kernel)?;
+                b.dispatch(pass, pipeline, group0, state, slot, b.groups(kernel));
+            }
+            Ok(())
+        })?;
         self.ctx.queue.submit([enc.finish()]);
         Ok(status)
     }
@@ -125,7 +133,7 @@ impl GpuBackend {
             Named::ImplicitIterate => (&p.implicit_iterate, &bg.integrate, None, self.mass_groups),
             Named::ImplicitFinal => (&p.implicit_final, &bg.integrate, None, self.mass_groups),
             Named::ComputeForces => {
-                let (pipeline, group0, _) = self.kernel(super::Kernel::Forces(StateIn::XtVt));
+                let (pipeline, group0, _) = self.kernel(super::Kernel::Forces(StateIn::XtVt))?;
                 (pipeline, group0, Some(&bg.state_xtvt), self.mass_groups)
             }
             Named::SolverBegin => (&p.solver_begin, s, None, one),

@@ -10,15 +10,17 @@ pub const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
 pub const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 pub const REDUCE: &str = include_str!("../../shaders/reduce.wgsl");
 pub const IMPLICIT: &str = include_str!("../../shaders/implicit.wgsl");
+pub const SPRINGS: &str = include_str!("../../shaders/springs.wgsl");
 
 /// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 5] {
+pub fn programs() -> [(&'static str, String); 6] {
     [
         ("forces.wgsl", format!("{COMMON}\n{FORCES}")),
         ("integrate.wgsl", format!("{COMMON}\n{INTEGRATE}")),
         ("collide.wgsl", format!("{COMMON}\n{COLLIDE}")),
         ("reduce.wgsl", format!("{COMMON}\n{REDUCE}")),
         ("implicit.wgsl", format!("{COMMON}\n{IMPLICIT}")),
+        ("springs.wgsl", format!("{COMMON}\n{SPRINGS}")),
     ]
 }
 
@@ -97,6 +99,8 @@ pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
             "HAS_DAMPING",
             flag(model.springs.iter().any(|s| s.damping_n_s_per_m != 0.0)),
         ),
+        ("HAS_PLASTICITY", flag(e.plasticity)),
+        ("HAS_TEARING", flag(e.tearing)),
     ]
 }
 
@@ -108,6 +112,7 @@ pub struct Layouts {
     pub collide: wgpu::BindGroupLayout,
     pub reduce: wgpu::BindGroupLayout,
     pub solve: wgpu::BindGroupLayout,
+    pub springs: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -151,6 +156,12 @@ impl Layouts {
                     Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
                 ],
             ),
+            // params, springs, limits, x, released, partials.
+            springs: layout(
+                device,
+                "springs",
+                &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
+            ),
         }
     }
 }
@@ -171,6 +182,13 @@ pub struct Pipelines {
     pub compute_energies: wgpu::ComputePipeline,
     /// Only for the implicit integrator.
     pub implicit: Option<ImplicitPipelines>,
+    /// Only when springs change during the run (plasticity, tearing).
+    pub springs: Option<SpringPipelines>,
+}
+
+pub struct SpringPipelines {
+    pub update_springs: wgpu::ComputePipeline,
+    pub sum_spring_work: wgpu::ComputePipeline,
 }
 
 /// Implicit Euler's kernels: the state-side ones in integrate.wgsl, the solve in implicit.wgsl.
@@ -196,6 +214,7 @@ impl Pipelines {
         l: &Layouts,
         constants: &[(&str, f64)],
         implicit: bool,
+        springs_change: bool,
     ) -> Self {
         let module = |(name, src): (&str, String)| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -203,11 +222,12 @@ impl Pipelines {
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             })
         };
-        let [forces, integrate, collide, reduce, solve] = programs();
+        let [forces, integrate, collide, reduce, solve, springs] = programs();
         let (forces, integrate) = (module(forces), module(integrate));
         let (collide, reduce) = (module(collide), module(reduce));
         // Implicit Euler's solve compiles only for that integrator.
         let solve = implicit.then(|| module(solve));
+        let springs = springs_change.then(|| module(springs));
         let pipeline_layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(label),
@@ -267,6 +287,13 @@ impl Pipelines {
                     cg_direction: make(&solve_layout, &solve, "cg_direction"),
                     newton_update: make(&solve_layout, &solve, "newton_update"),
                     newton_end: make(&solve_layout, &solve, "newton_end"),
+                }
+            }),
+            springs: springs.map(|springs| {
+                let layout = pipeline_layout("springs", &[Some(&l.springs), None, Some(&l.stage)]);
+                SpringPipelines {
+                    update_springs: make(&layout, &springs, "update_springs"),
+                    sum_spring_work: make(&layout, &springs, "sum_spring_work"),
                 }
             }),
         }

@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-pub use crate::model::{Neighbor, Spring};
+pub use crate::model::{Neighbor, Spring, SpringLimits};
 
 /// Scene-wide constants (`Params` in WGSL).
 #[repr(C)]
@@ -73,7 +73,8 @@ pub struct SolverStatus {
 }
 
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 7] = [
+pub const SHARED_STRUCTS: [(&str, usize); 8] = [
+    ("SpringLimits", std::mem::size_of::<SpringLimits>()),
     ("Solver", std::mem::size_of::<SolverStatus>()),
     ("Params", std::mem::size_of::<Params>()),
     ("Stage", std::mem::size_of::<Stage>()),

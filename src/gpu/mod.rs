@@ -19,7 +19,7 @@ use wgpu::util::DeviceExt as _;
 
 use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
 use crate::integrator::Integrator;
-use crate::model::Model;
+use crate::model::{Effects, Model};
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
 use kernels::{Layouts, Pipelines, groups_for};
 use layout::{Params, SolverStatus, Sphere, Stage};
@@ -42,6 +42,8 @@ struct Buffers {
 }
 
 struct BindGroups {
+    /// Only when springs change during the run (plasticity, tearing).
+    springs: Option<wgpu::BindGroup>,
     forces_model: wgpu::BindGroup,
     state_xv: wgpu::BindGroup,
     state_xtvt: wgpu::BindGroup,
@@ -228,6 +230,19 @@ impl GpuBackend {
         let xt = zeros("xt", 16 * n);
         let vt = zeros("vt", 16 * n);
         let deriv = zeros("deriv", deriv_bytes(&model, integrator) as usize);
+        // Plasticity and tearing: each spring's limits, and the energy it let go since the last
+        // snapshot.
+        let spring_state = model.effects.springs_change().then(|| {
+            (
+                storage(
+                    device,
+                    "spring limits",
+                    bytemuck::cast_slice(&model.spring_limits(dt_secs)),
+                    wgpu::BufferUsages::empty(),
+                ),
+                zeros("released", 4 * ns),
+            )
+        });
         let sums = zeros("sums", scratch_bytes(&model, integrator) as usize);
         let ledger = zeros("ledger", 16 * n);
         let counters = zeros("counters", 16);
@@ -270,6 +285,7 @@ impl GpuBackend {
             &layouts,
             &kernels::constants(&model, integrator),
             implicit,
+            spring_state.is_some(),
         );
         let bg_of = |layout: &wgpu::BindGroupLayout, label: &str, bufs: &[&wgpu::Buffer]| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -280,6 +296,13 @@ impl GpuBackend {
         };
         let stage_bg = Self::stage_bind_group(device, &layouts, &stage);
         let bg = BindGroups {
+            springs: spring_state.as_ref().map(|(limits, released)| {
+                bg_of(
+                    &layouts.springs,
+                    "springs",
+                    &[&params_buf, &springs, limits, &x, released, &partials],
+                )
+            }),
             forces_model: bg_of(
                 &layouts.forces_model,
                 "forces model",
@@ -391,7 +414,10 @@ impl GpuBackend {
         .sum::<u64>()
             + solve
                 .as_ref()
-                .map_or(0, |s| s.scratch.size() + s.status.size());
+                .map_or(0, |s| s.scratch.size() + s.status.size())
+            + spring_state
+                .as_ref()
+                .map_or(0, |(l, r)| l.size() + r.size());
         let backend = Self {
             ctx,
             model,
@@ -523,19 +549,21 @@ impl GpuBackend {
     }
 
     fn step_plan(&self, prime: bool) -> Vec<(Kernel, u32)> {
-        step_plan(self.integrator, self.model.effects.has_contact(), prime)
+        step_plan(self.integrator, &self.model.effects, prime)
     }
 
-    fn kernel(
-        &self,
-        k: Kernel,
-    ) -> (
-        &wgpu::ComputePipeline,
-        &wgpu::BindGroup,
-        Option<&wgpu::BindGroup>,
-    ) {
-        let (p, bg) = (&self.pipelines, &self.bg);
+    /// Workgroups of a dispatch of `k`: one thread per mass, or per spring.
+    fn groups(&self, k: Kernel) -> (u32, u32) {
         match k {
+            Kernel::UpdateSprings => self.spring_groups,
+            _ => self.mass_groups,
+        }
+    }
+
+    /// The pipeline and bind groups (model, and state for a force pass) of a dispatch of `k`.
+    fn kernel(&self, k: Kernel) -> Result<Bound<'_>, BackendError> {
+        let (p, bg) = (&self.pipelines, &self.bg);
+        Ok(match k {
             Kernel::Forces(s) => (
                 &p.compute_forces,
                 &bg.forces_model,
@@ -555,11 +583,24 @@ impl GpuBackend {
             Kernel::VerletDrift => (&p.verlet_drift, &bg.integrate, None),
             Kernel::VerletKick => (&p.verlet_kick, &bg.integrate, None),
             Kernel::ProjectContacts => (&p.project_contacts, &bg.collide, None),
-        }
+            Kernel::UpdateSprings => match (&p.springs, &bg.springs) {
+                (Some(p), Some(bg)) => (&p.update_springs, bg, None),
+                _ => {
+                    return Err(BackendError::Device(
+                        "internal: update_springs planned for a scene without plasticity or tearing"
+                            .to_owned(),
+                    ));
+                }
+            },
+        })
     }
 
     /// Encode `substeps` steps into one pass; slot `4k + j` holds stage j of step k.
-    fn encode_steps(&mut self, pass: &mut wgpu::ComputePass<'_>, substeps: u32) {
+    fn encode_steps(
+        &mut self,
+        pass: &mut wgpu::ComputePass<'_>,
+        substeps: u32,
+    ) -> Result<(), BackendError> {
         let warm = self.step_plan(false);
         for k in 0..substeps {
             let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
@@ -569,18 +610,19 @@ impl GpuBackend {
                 warm.clone()
             };
             for (kernel, rel) in plan {
-                let (pipeline, g0, state) = self.kernel(kernel);
+                let (pipeline, g0, state) = self.kernel(kernel)?;
                 self.dispatch(
                     pass,
                     pipeline,
                     g0,
                     state,
                     SLOTS_PER_STEP * k + rel,
-                    self.mass_groups,
+                    self.groups(kernel),
                 );
             }
             self.verlet_primed = true;
         }
+        Ok(())
     }
 
     /// Compulsory memory traffic of one step: every buffer a kernel touches, read (and written)
@@ -605,6 +647,8 @@ impl GpuBackend {
                 Kernel::VerletDrift => n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
                 Kernel::VerletKick => n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
                 Kernel::ProjectContacts => n * (4 * 16 + 8) + spheres,
+                // Spring and limits read; two ends; rest length and released energy written.
+                Kernel::UpdateSprings => ns * (20 + 16 + 2 * 16 + 4 + 2 * 4),
             })
             .sum()
     }
@@ -672,8 +716,8 @@ impl GpuBackend {
                     end_of_pass_write_index: Some(2 * q as u32 + 1),
                 }),
             });
-            let (pipeline, g0, state) = self.kernel(*kernel);
-            self.dispatch(&mut pass, pipeline, g0, state, *slot, self.mass_groups);
+            let (pipeline, g0, state) = self.kernel(*kernel)?;
+            self.dispatch(&mut pass, pipeline, g0, state, *slot, self.groups(*kernel));
         }
         enc.resolve_query_set(&queries, 0..count, &resolve, 0);
         enc.copy_buffer_to_buffer(&resolve, 0, &read, 0, bytes);
@@ -786,6 +830,16 @@ impl GpuBackend {
                 slot,
                 self.energy_groups,
             );
+            if let (Some(p), Some(bg)) = (&self.pipelines.springs, &self.bg.springs) {
+                self.dispatch(
+                    &mut pass,
+                    &p.sum_spring_work,
+                    bg,
+                    None,
+                    slot,
+                    self.energy_groups,
+                );
+            }
         }
         let (x_off, v_off) = (0u64, 16 * n);
         let strain_off = 32 * n;
@@ -897,12 +951,14 @@ impl GpuBackend {
             let mut sum = [0.0f64; 8];
             let mut max_speed = 0.0f32;
             let mut bad = 0.0f32;
+            let mut released = 0.0f64;
             for p in partials.chunks_exact(12) {
                 for (s, q) in sum.iter_mut().zip(&p[..8]) {
                     *s += f64::from(*q);
                 }
                 max_speed = max_speed.max(p[8]);
                 bad += p[9];
+                released += f64::from(p[10]);
             }
             let counters: &[u32] =
                 bytemuck::cast_slice(&data[counters_off as usize..counters_off as usize + 16]);
@@ -924,8 +980,15 @@ impl GpuBackend {
                 strain: {
                     strain.clear();
                     strain.extend_from_slice(f32s(strain_off, ns));
+                    if self.model.effects.tearing {
+                        // compute_strain's mark of a broken spring (BROKEN_STRAIN in the WGSL).
+                        for s in strain.iter_mut().filter(|s| **s == -f32::MAX) {
+                            *s = f32::NAN;
+                        }
+                    }
                     strain
                 },
+                released,
                 energy: [sum[0], sum[1], sum[2], sum[3]],
                 ledger: [sum[4], sum[5], sum[6], sum[7]],
                 max_speed,
@@ -939,6 +1002,7 @@ impl GpuBackend {
         self.ledger.drag_j += out.ledger[1];
         self.ledger.contact_j += out.ledger[2];
         self.ledger.collider_work_j += out.ledger[3];
+        self.ledger.plastic_j += out.released;
         Ok(out)
     }
 
@@ -977,8 +1041,9 @@ impl GpuBackend {
 }
 
 /// The dispatches of one step, with their stage slot relative to the step's first slot.
-/// `prime`: Verlet's first step also evaluates a(x_0). Implicit Euler has none (CPU only).
-fn step_plan(integrator: Integrator, has_contact: bool, prime: bool) -> Vec<(Kernel, u32)> {
+/// `prime`: Verlet's first step also evaluates a(x_0). Implicit Euler's solve is planned in
+/// `implicit.rs`; only the post-step passes are here for it.
+fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<(Kernel, u32)> {
     use Kernel::*;
     let mut plan = match integrator {
         Integrator::Euler => vec![(Forces(StateIn::XV), 0), (EulerUpdate, 0)],
@@ -1008,8 +1073,11 @@ fn step_plan(integrator: Integrator, has_contact: bool, prime: bool) -> Vec<(Ker
         }
         Integrator::Implicit => Vec::new(),
     };
-    if has_contact && integrator != Integrator::Implicit {
+    if effects.has_contact() && integrator != Integrator::Implicit {
         plan.push((ProjectContacts, 3));
+    }
+    if effects.springs_change() {
+        plan.push((UpdateSprings, 3));
     }
     plan
 }
@@ -1017,14 +1085,16 @@ fn step_plan(integrator: Integrator, has_contact: bool, prime: bool) -> Vec<(Ker
 /// For `hooke check`: the kernels one GPU step dispatches, in order, and the effects compiled into
 /// them (absent effects are specialised away and cost nothing).
 pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&'static str>) {
-    let passes = if integrator == Integrator::Implicit {
+    let mut passes = if integrator == Integrator::Implicit {
         vec![implicit::step_passes()]
     } else {
-        step_plan(integrator, model.effects.has_contact(), false)
-            .into_iter()
-            .map(|(k, _)| k.name().to_owned())
-            .collect()
+        Vec::new()
     };
+    passes.extend(
+        step_plan(integrator, &model.effects, false)
+            .into_iter()
+            .map(|(k, _)| k.name().to_owned()),
+    );
     let effects = kernels::effect_constants(model)
         .into_iter()
         .filter(|(_, on)| *on != 0.0)
@@ -1032,6 +1102,13 @@ pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&
         .collect();
     (passes, effects)
 }
+
+/// A dispatch's pipeline, its group-0 bind group and, for a force pass, the state it reads.
+type Bound<'a> = (
+    &'a wgpu::ComputePipeline,
+    &'a wgpu::BindGroup,
+    Option<&'a wgpu::BindGroup>,
+);
 
 /// What a dispatch runs (names as in the WGSL).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -1047,6 +1124,7 @@ enum Kernel {
     VerletDrift,
     VerletKick,
     ProjectContacts,
+    UpdateSprings,
 }
 
 /// Which state a force evaluation reads.
@@ -1071,6 +1149,7 @@ impl Kernel {
             Kernel::VerletDrift => "verlet_drift",
             Kernel::VerletKick => "verlet_kick",
             Kernel::ProjectContacts => "project_contacts",
+            Kernel::UpdateSprings => "update_springs",
         }
     }
 }
@@ -1092,6 +1171,8 @@ struct ReadBack {
     strain: Vec<f32>,
     energy: [f64; 4],
     ledger: [f64; 4],
+    /// Energy let go by plasticity and tearing since the last read-back.
+    released: f64,
     max_speed: f32,
     non_finite: bool,
     projections: u32,
@@ -1201,7 +1282,7 @@ impl Backend for GpuBackend {
                 label: Some("steps"),
                 timestamp_writes: None,
             });
-            self.encode_steps(&mut pass, substeps);
+            self.encode_steps(&mut pass, substeps)?;
         }
         self.ctx.queue.submit([enc.finish()]);
         self.time_secs = t;

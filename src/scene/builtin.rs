@@ -17,6 +17,7 @@ pub const BUILT_IN: &[BuiltIn] = built_in![
     "cloth",
     "jello",
     "jello-sphere",
+    "tear",
     "cloth-64",
     "cloth-256",
     "cloth-1024"

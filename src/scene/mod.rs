@@ -183,6 +183,34 @@ pub struct Body {
     pub pins: Vec<Vec<u32>>,
     #[serde(default)]
     pub springs: Springs,
+    /// Springs stretched or squeezed past a yield strain creep toward their current length.
+    #[serde(default)]
+    pub plasticity: Option<Plasticity>,
+    /// Springs stretched past a limit break for good.
+    #[serde(default)]
+    pub tearing: Option<Tearing>,
+}
+
+/// Plastic flow of a body's springs: past `yield_strain`, a spring's rest length relaxes toward
+/// the length at which its strain would be exactly `±yield_strain`, at rate `creep_per_s`
+/// (rest length `r` follows dr/dt = creep_per_s · (r* − r)). The elastic energy it lets go is
+/// dissipated (the ledger's plastic term).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plasticity {
+    /// |strain| below which a spring stays elastic, e.g. 0.05.
+    pub yield_strain: f32,
+    /// How fast the rest length follows past yield (1/s); large values make flow instantaneous.
+    pub creep_per_s: f32,
+}
+
+/// Tearing: a spring whose strain exceeds `max_strain` breaks. A broken spring exerts no force,
+/// is no longer drawn, and never heals; its elastic energy at the break is dissipated.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tearing {
+    /// Strain (|x| − L) / L at which a spring breaks, e.g. 0.3.
+    pub max_strain: f32,
 }
 
 /// Which spring kinds the body has. Absent kinds are not built.

@@ -223,6 +223,40 @@ fn body(f: &str, b: &Body) -> Check {
     kind("structural", &b.springs.structural)?;
     kind("shear", &b.springs.shear)?;
     kind("bending", &b.springs.bending)?;
+    if let Some(p) = &b.plasticity {
+        positive(
+            &format!("{f}.plasticity.yield_strain"),
+            f64::from(p.yield_strain),
+        )?;
+        positive(
+            &format!("{f}.plasticity.creep_per_s"),
+            f64::from(p.creep_per_s),
+        )?;
+        if p.yield_strain >= 1.0 {
+            return fail(
+                format!("{f}.plasticity.yield_strain"),
+                format!(
+                    "must be below 1 (a spring squeezed by 100% has no length left), got {}",
+                    p.yield_strain
+                ),
+            );
+        }
+    }
+    if let Some(t) = &b.tearing {
+        positive(&format!("{f}.tearing.max_strain"), f64::from(t.max_strain))?;
+        if let Some(p) = &b.plasticity
+            && t.max_strain <= p.yield_strain
+        {
+            return fail(
+                format!("{f}.tearing.max_strain"),
+                format!(
+                    "is {} but plasticity.yield_strain is {}: springs would break before they yield; \
+                     make max_strain larger than yield_strain, or drop [plasticity]",
+                    t.max_strain, p.yield_strain
+                ),
+            );
+        }
+    }
     if dim == 1 && b.springs.shear.is_some() {
         return fail(
             format!("{f}.springs.shear"),

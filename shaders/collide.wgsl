@@ -1,7 +1,7 @@
 // project_contacts: the post-step safeguard against tunnelling. Mirrors src/cpu/collide.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(1) var<storage, read> colliders: array<Collider>;
 @group(0) @binding(2) var<storage, read> mass: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> v: array<vec4<f32>>;
@@ -48,13 +48,13 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if (HAS_GROUND) {
         project(&b, m, vec3<f32>(0.0, 1.0, 0.0), params.ground_height - b.x.y, params.ground_max_depth, vec3<f32>(0.0));
     }
-    if (HAS_SPHERES) {
-        for (var k = 0u; k < params.sphere_count; k++) {
-            let sp = spheres[k];
-            let r = b.x - (sp.center + sp.velocity * stage.time);
-            let dist = length(r);
-            if (dist > 0.0) {
-                project(&b, m, r / dist, sp.radius - dist, sp.max_depth, sp.velocity);
+    if (HAS_COLLIDERS) {
+        for (var k = 0u; k < params.collider_count; k++) {
+            let c = colliders[k];
+            let pose = stage.poses[k];
+            let p = penetration(c, pose.position.xyz, b.x);
+            if (p.w > 0.0) {
+                project(&b, m, p.xyz, p.w, c.max_depth, pose.velocity.xyz);
             }
         }
     }

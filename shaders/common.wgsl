@@ -5,7 +5,12 @@
 override HAS_GRAVITY: bool = false;
 override HAS_DRAG: bool = false;
 override HAS_GROUND: bool = false;
+// Collider shapes present (a scene with only spheres compiles no box or plane code).
 override HAS_SPHERES: bool = false;
+override HAS_BOXES: bool = false;
+override HAS_PLANES: bool = false;
+// Any of the three.
+override HAS_COLLIDERS: bool = false;
 override HAS_DAMPING: bool = false;
 // Springs that change during a run: the post-step update_springs pass (shaders/springs.wgsl).
 override HAS_PLASTICITY: bool = false;
@@ -24,7 +29,7 @@ const MIN_SPRING_LENGTH: f32 = 1.1754944e-32;
 struct Params {
     mass_count: u32,
     spring_count: u32,
-    sphere_count: u32,
+    collider_count: u32,
     runaway_speed: f32,
     gravity: vec3<f32>,
     drag_per_s: f32,
@@ -38,7 +43,17 @@ struct Params {
     _pad2: f32,
 }
 
-// One per dispatch that needs it, selected by a dynamic uniform offset.
+// Colliders per scene (MAX_COLLIDERS in src/scene/validate.rs).
+const MAX_COLLIDERS: u32 = 16u;
+
+// A collider's position and velocity at a stage's time (w unused).
+struct Pose {
+    position: vec4<f32>,
+    velocity: vec4<f32>,
+}
+
+// One per dispatch that needs it, selected by a dynamic uniform offset. The host fills in every
+// collider's pose at the stage's time (its scripted path, evaluated as the CPU does).
 struct Stage {
     time: f32,
     dt: f32,
@@ -50,6 +65,7 @@ struct Stage {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
+    poses: array<Pose, MAX_COLLIDERS>,
 }
 
 struct Spring {
@@ -81,15 +97,59 @@ struct Neighbor {
     other: u32,
 }
 
-struct Sphere {
-    center: vec3<f32>,
-    radius: f32,
-    velocity: vec3<f32>,
+const SPHERE: u32 = 0u;
+const BOX: u32 = 1u;
+const PLANE: u32 = 2u;
+
+// A collider's shape and contact; its pose is in the stage.
+struct Collider {
+    kind: u32,
     stiffness: f32,
     friction: f32,
     damping_ratio: f32,
+    // Sphere: (radius, 0, 0); box: half extents; plane: unit normal.
+    shape: vec4<f32>,
     max_depth: f32,
-    _pad: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+// Depth of x inside collider c placed at `center` and the outward normal, as (normal, depth);
+// depth ≤ 0 when outside. Mirrors Shape::penetration in src/model.rs, operation for operation.
+fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
+    let r = x - center;
+    if (HAS_SPHERES && c.kind == SPHERE) {
+        let dist = length(r);
+        let depth = c.shape.x - dist;
+        if (depth > 0.0 && dist > 0.0) {
+            return vec4<f32>(r / dist, depth);
+        }
+    } else if (HAS_BOXES && c.kind == BOX) {
+        let q = abs(r) - c.shape.xyz;
+        var axis = vec3<f32>(0.0, 0.0, 1.0);
+        var gap = q.z;
+        if (q.x >= q.y && q.x >= q.z) {
+            axis = vec3<f32>(1.0, 0.0, 0.0);
+            gap = q.x;
+        } else if (q.y >= q.z) {
+            axis = vec3<f32>(0.0, 1.0, 0.0);
+            gap = q.y;
+        }
+        var side = 1.0;
+        if (dot(r, axis) < 0.0) {
+            side = -1.0;
+        }
+        if (gap < 0.0) {
+            return vec4<f32>(axis * side, -gap);
+        }
+    } else if (HAS_PLANES && c.kind == PLANE) {
+        let depth = -dot(r, c.shape.xyz);
+        if (depth > 0.0) {
+            return vec4<f32>(c.shape.xyz, depth);
+        }
+    }
+    return vec4<f32>(0.0);
 }
 
 // Implicit Euler's per-mass vectors, each a block of mass_count vec4s in the per-mass scratch

@@ -5,7 +5,7 @@
 @group(0) @binding(1) var<storage, read> springs: array<Spring>;
 @group(0) @binding(2) var<storage, read> offsets: array<u32>;
 @group(0) @binding(3) var<storage, read> neighbors: array<Neighbor>;
-@group(0) @binding(4) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(4) var<storage, read> colliders: array<Collider>;
 // (mass, inverse mass; 0 when pinned)
 @group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
 // Per mass: [2i] acceleration, [2i+1] ledger rates (damping, drag, contact, collider work); with
@@ -101,20 +101,20 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
             }
         }
     }
-    if (HAS_SPHERES) {
-        for (var k = 0u; k < params.sphere_count; k++) {
-            let sp = spheres[k];
-            let r = xi - (sp.center + sp.velocity * stage.time);
-            let dist = length(r);
-            let depth = sp.radius - dist;
-            if (depth > 0.0 && dist > 0.0) {
-                let c = contact_force(sp.stiffness, sp.friction, sp.damping_ratio, depth, r / dist, vi - sp.velocity, m, stage.dt);
+    if (HAS_COLLIDERS) {
+        for (var k = 0u; k < params.collider_count; k++) {
+            let col = colliders[k];
+            let pose = stage.poses[k];
+            let p = penetration(col, pose.position.xyz, xi);
+            if (p.w > 0.0) {
+                let n = p.xyz;
+                let u = pose.velocity.xyz;
+                let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, m, stage.dt);
                 f += c.force;
                 contact_w += c.dissipated;
-                collider_w += dot(c.force, sp.velocity);
+                collider_w += dot(c.force, u);
                 if (IMPLICIT) {
-                    let n = r / dist;
-                    let s = h * h * sp.stiffness + h * 2.0 * sp.damping_ratio * sqrt(sp.stiffness * m);
+                    let s = h * h * col.stiffness + h * 2.0 * col.damping_ratio * sqrt(col.stiffness * m);
                     jac_diag += s * n * n;
                     jac_off += s * vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
                 }
@@ -122,7 +122,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         }
     }
     let w = mass[i].y;
-    if (IMPLICIT && (HAS_GROUND || HAS_SPHERES)) {
+    if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
         let n2 = 2u * params.mass_count;
         if (w == 0.0) {
             jac_diag = vec3<f32>(0.0);

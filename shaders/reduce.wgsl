@@ -4,7 +4,7 @@
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> springs: array<Spring>;
-@group(0) @binding(2) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(2) var<storage, read> colliders: array<Collider>;
 @group(0) @binding(3) var<storage, read> mass: array<vec2<f32>>;
 @group(0) @binding(4) var<storage, read> x: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> v: array<vec4<f32>>;
@@ -66,12 +66,12 @@ fn compute_energies(
                 e.w += 0.5 * params.ground_stiffness * d * d;
             }
         }
-        if (free && HAS_SPHERES) {
-            for (var k = 0u; k < params.sphere_count; k++) {
-                let sp = spheres[k];
-                let d = sp.radius - distance(xi, sp.center + sp.velocity * stage.time);
-                if (d > 0.0) {
-                    e.w += 0.5 * sp.stiffness * d * d;
+        if (free && HAS_COLLIDERS) {
+            for (var k = 0u; k < params.collider_count; k++) {
+                let c = colliders[k];
+                let p = penetration(c, stage.poses[k].position.xyz, xi);
+                if (p.w > 0.0) {
+                    e.w += 0.5 * c.stiffness * p.w * p.w;
                 }
             }
         }

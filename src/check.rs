@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{Model, SpringKindTag};
+use crate::model::{Model, Path, Shape, SpringKindTag};
 use crate::settings::Settings;
 use crate::stability::{stable_dts, stiffest_mode};
 
@@ -87,16 +87,37 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
         );
         any = true;
     }
-    for (i, sp) in e.spheres.iter().enumerate() {
+    for (i, c) in e.colliders.iter().enumerate() {
+        let shape = match c.shape {
+            Shape::Sphere { radius_m } => format!("radius {radius_m} m"),
+            Shape::Box { half_extents_m } => {
+                format!("half extents {:?} m", half_extents_m.to_array())
+            }
+            Shape::Plane { normal } => format!("normal {:?}", normal.to_array()),
+        };
+        let path = match &c.path {
+            Path::Linear {
+                start_m,
+                velocity_m_per_s,
+            } => format!(
+                "at {:?} m, velocity {:?} m/s",
+                start_m.to_array(),
+                velocity_m_per_s.to_array()
+            ),
+            Path::Keyframes(keys) => format!(
+                "on {} keyframes from {:.3} s to {:.3} s",
+                keys.len(),
+                keys.first().map_or(0.0, |k| k.0),
+                keys.last().map_or(0.0, |k| k.0)
+            ),
+        };
         let _ = writeln!(
             s,
-            "    sphere {i}: centre {:?} m, radius {} m, velocity {:?} m/s, stiffness {} N/m, friction {}, damping ratio {:.3}",
-            sp.center_m.to_array(),
-            sp.radius_m,
-            sp.velocity_m_per_s.to_array(),
-            sp.contact.stiffness_n_per_m,
-            sp.contact.friction,
-            sp.contact.damping_ratio
+            "    {} {i}: {shape}, {path}, stiffness {} N/m, friction {}, damping ratio {:.3}",
+            c.kind(),
+            c.contact.stiffness_n_per_m,
+            c.contact.friction,
+            c.contact.damping_ratio
         );
         any = true;
     }

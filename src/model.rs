@@ -107,20 +107,181 @@ pub struct GroundCollider {
     pub max_depth_m: f32,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SphereCollider {
-    pub center_m: Vec3,
+/// Where a collider is and how fast it moves at one instant.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Pose {
+    pub position_m: Vec3,
     pub velocity_m_per_s: Vec3,
-    pub radius_m: f32,
+}
+
+/// A collider's scripted motion.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Path {
+    /// From `start_m` at t = 0 at constant velocity (zero for a fixed collider).
+    Linear {
+        start_m: Vec3,
+        velocity_m_per_s: Vec3,
+    },
+    /// Piecewise linear through (time, position) keys in increasing time; held at the first key
+    /// before it and at the last after it.
+    Keyframes(Vec<(f64, Vec3)>),
+}
+
+impl Path {
+    /// Position and velocity at time `t` in f64 (the f64 reference solution uses this).
+    pub fn pose_at_f64(&self, t: f64) -> (glam::DVec3, glam::DVec3) {
+        match self {
+            Path::Linear {
+                start_m,
+                velocity_m_per_s,
+            } => (
+                start_m.as_dvec3() + velocity_m_per_s.as_dvec3() * t,
+                velocity_m_per_s.as_dvec3(),
+            ),
+            Path::Keyframes(keys) => {
+                let seg = keys.windows(2).find(|w| t < w[1].0);
+                match (seg, keys.first(), keys.last()) {
+                    (_, Some(first), _) if t <= first.0 => (first.1.as_dvec3(), glam::DVec3::ZERO),
+                    (Some(w), _, _) => {
+                        let (a, b) = (w[0].1.as_dvec3(), w[1].1.as_dvec3());
+                        let v = (b - a) / (w[1].0 - w[0].0);
+                        (a + v * (t - w[0].0), v)
+                    }
+                    (None, _, Some(last)) => (last.1.as_dvec3(), glam::DVec3::ZERO),
+                    _ => (glam::DVec3::ZERO, glam::DVec3::ZERO),
+                }
+            }
+        }
+    }
+
+    /// Pose at time `t`, evaluated in f64 and rounded once, so both backends (the GPU gets it
+    /// from the host in its stage uniform) see exactly the same collider.
+    pub fn pose_at(&self, t: f64) -> Pose {
+        let (p, v) = self.pose_at_f64(t);
+        Pose {
+            position_m: p.as_vec3(),
+            velocity_m_per_s: v.as_vec3(),
+        }
+    }
+
+    pub fn is_fixed(&self) -> bool {
+        match self {
+            Path::Linear {
+                velocity_m_per_s, ..
+            } => *velocity_m_per_s == Vec3::ZERO,
+            Path::Keyframes(keys) => keys.windows(2).all(|w| w[0].1 == w[1].1),
+        }
+    }
+}
+
+/// A collider's solid shape, about its pose's position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    Sphere {
+        radius_m: f32,
+    },
+    /// Axis-aligned.
+    Box {
+        half_extents_m: Vec3,
+    },
+    /// Solid on the side opposite the unit normal; the pose's position is a point on it.
+    Plane {
+        normal: Vec3,
+    },
+}
+
+impl Shape {
+    /// Depth of `x` inside the shape placed at `center`, and the outward unit normal, when inside.
+    /// Mirrors `penetration` in shaders/common.wgsl, operation for operation.
+    #[inline(always)]
+    pub fn penetration(&self, center: Vec3, x: Vec3) -> Option<(f32, Vec3)> {
+        let r = x - center;
+        match *self {
+            Shape::Sphere { radius_m } => {
+                let dist = r.length();
+                let depth = radius_m - dist;
+                (depth > 0.0 && dist > 0.0).then(|| (depth, r / dist))
+            }
+            Shape::Box { half_extents_m } => {
+                let q = r.abs() - half_extents_m;
+                // The face nearest the point: the axis where it is least deep (first on ties).
+                let (axis, gap) = if q.x >= q.y && q.x >= q.z {
+                    (Vec3::X, q.x)
+                } else if q.y >= q.z {
+                    (Vec3::Y, q.y)
+                } else {
+                    (Vec3::Z, q.z)
+                };
+                let side = if r.dot(axis) < 0.0 { -1.0 } else { 1.0 };
+                (gap < 0.0).then(|| (-gap, axis * side))
+            }
+            Shape::Plane { normal } => {
+                let depth = -r.dot(normal);
+                (depth > 0.0).then_some((depth, normal))
+            }
+        }
+    }
+}
+
+impl Shape {
+    /// [`Shape::penetration`] in f64, for the reference solution.
+    pub fn penetration_f64(
+        &self,
+        center: glam::DVec3,
+        x: glam::DVec3,
+    ) -> Option<(f64, glam::DVec3)> {
+        use glam::DVec3;
+        let r = x - center;
+        match *self {
+            Shape::Sphere { radius_m } => {
+                let dist = r.length();
+                let depth = f64::from(radius_m) - dist;
+                (depth > 0.0 && dist > 0.0).then(|| (depth, r / dist))
+            }
+            Shape::Box { half_extents_m } => {
+                let q = r.abs() - half_extents_m.as_dvec3();
+                let (axis, gap) = if q.x >= q.y && q.x >= q.z {
+                    (DVec3::X, q.x)
+                } else if q.y >= q.z {
+                    (DVec3::Y, q.y)
+                } else {
+                    (DVec3::Z, q.z)
+                };
+                let side = if r.dot(axis) < 0.0 { -1.0 } else { 1.0 };
+                (gap < 0.0).then(|| (-gap, axis * side))
+            }
+            Shape::Plane { normal } => {
+                let n = normal.as_dvec3();
+                let depth = -r.dot(n);
+                (depth > 0.0).then_some((depth, n))
+            }
+        }
+    }
+}
+
+/// A solid the masses collide with: a shape on a scripted path.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Collider {
+    pub shape: Shape,
+    pub path: Path,
     pub contact: ContactModel,
+    /// Penetration past which the post-step safeguard projects a mass back out.
     pub max_depth_m: f32,
 }
 
-impl SphereCollider {
-    /// Centre at time `t` on its scripted path.
-    pub fn center_at(&self, t: f64) -> Vec3 {
-        self.center_m + self.velocity_m_per_s * t as f32
+impl Collider {
+    pub fn kind(&self) -> &'static str {
+        match self.shape {
+            Shape::Sphere { .. } => "sphere",
+            Shape::Box { .. } => "box",
+            Shape::Plane { .. } => "plane",
+        }
     }
+}
+
+/// Every collider's pose at one instant.
+pub fn poses_at(colliders: &[Collider], t: f64) -> Vec<Pose> {
+    colliders.iter().map(|c| c.path.pose_at(t)).collect()
 }
 
 /// The effects present in the model. Absent ones are `None`/empty and cost nothing.
@@ -129,7 +290,8 @@ pub struct Effects {
     pub gravity_m_per_s2: Option<Vec3>,
     pub air_drag_per_s: Option<f32>,
     pub ground: Option<GroundCollider>,
-    pub spheres: Vec<SphereCollider>,
+    /// Spheres, boxes and planes, in the scene's order (spheres, then boxes, then planes).
+    pub colliders: Vec<Collider>,
     /// Some body's springs flow plastically.
     pub plasticity: bool,
     /// Some body's springs may break.
@@ -142,7 +304,10 @@ impl Effects {
         self.plasticity || self.tearing
     }
     pub fn has_contact(&self) -> bool {
-        self.ground.is_some() || !self.spheres.is_empty()
+        self.ground.is_some() || !self.colliders.is_empty()
+    }
+    pub fn has_shape(&self, f: impl Fn(&Shape) -> bool) -> bool {
+        self.colliders.iter().any(|c| f(&c.shape))
     }
 }
 
@@ -547,20 +712,58 @@ pub fn build(scene: &Scene) -> Model {
             contact: ContactModel::from_scene(g.contact()),
             max_depth_m: skin,
         }),
-        spheres: e
-            .spheres
-            .iter()
-            .map(|s| SphereCollider {
-                center_m: Vec3::from(s.center_m),
-                velocity_m_per_s: Vec3::from(s.velocity_m_per_s),
-                radius_m: s.radius_m,
-                contact: ContactModel::from_scene(s.contact()),
-                max_depth_m: skin.min(0.25 * s.radius_m),
-            })
-            .collect(),
+        colliders: colliders(e, skin),
         ..Effects::default()
     });
     mb.build()
+}
+
+fn path_of(center_m: Option<[f32; 3]>, velocity: [f32; 3], keys: &[scene::Keyframe]) -> Path {
+    if keys.is_empty() {
+        Path::Linear {
+            start_m: Vec3::from(center_m.unwrap_or_default()),
+            velocity_m_per_s: Vec3::from(velocity),
+        }
+    } else {
+        Path::Keyframes(
+            keys.iter()
+                .map(|k| (k.time_secs, Vec3::from(k.center_m)))
+                .collect(),
+        )
+    }
+}
+
+/// The scene's colliders; `skin` is the largest safeguard depth (half the finest grid spacing).
+fn colliders(e: &scene::Effects, skin: f32) -> Vec<Collider> {
+    let spheres = e.spheres.iter().map(|s| Collider {
+        shape: Shape::Sphere {
+            radius_m: s.radius_m,
+        },
+        path: path_of(s.center_m, s.velocity_m_per_s, &s.keyframes),
+        contact: ContactModel::from_scene(s.contact()),
+        max_depth_m: skin.min(0.25 * s.radius_m),
+    });
+    let boxes = e.boxes.iter().map(|b| {
+        let h = Vec3::from(b.half_extents_m);
+        Collider {
+            shape: Shape::Box { half_extents_m: h },
+            path: path_of(b.center_m, b.velocity_m_per_s, &b.keyframes),
+            contact: ContactModel::from_scene(b.contact()),
+            max_depth_m: skin.min(0.25 * h.min_element()),
+        }
+    });
+    let planes = e.planes.iter().map(|p| Collider {
+        shape: Shape::Plane {
+            normal: Vec3::from(p.normal).normalize(),
+        },
+        path: Path::Linear {
+            start_m: Vec3::from(p.point_m),
+            velocity_m_per_s: Vec3::ZERO,
+        },
+        contact: ContactModel::from_scene(p.contact()),
+        max_depth_m: skin,
+    });
+    spheres.chain(boxes).chain(planes).collect()
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use rerun::RecordingStream;
 
-use crate::model::Model;
+use crate::model::{Model, Shape};
 use crate::settings::Settings;
 use crate::state::Snapshot;
 
@@ -90,6 +90,16 @@ pub struct Recorder {
     colors: Vec<Vec<rerun::Color>>,
     /// The implicit integrator's solver statistics are logged too.
     implicit: bool,
+    /// `world/colliders/<kind>_<k>`, k counting colliders of one kind.
+    collider_paths: Vec<String>,
+}
+
+/// Lowest and highest corner of a set of points.
+fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
+    x.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    )
 }
 
 /// Logged only when the scene's springs yield or tear.
@@ -111,6 +121,17 @@ impl Recorder {
             .iter()
             .map(|b| Vec::with_capacity(b.springs.len()))
             .collect();
+        let mut counts = std::collections::HashMap::new();
+        let collider_paths = model
+            .effects
+            .colliders
+            .iter()
+            .map(|c| {
+                let k = counts.entry(c.kind()).or_insert(0);
+                *k += 1;
+                format!("world/colliders/{}_{}", c.kind(), *k - 1)
+            })
+            .collect();
         Self {
             rec,
             model,
@@ -118,6 +139,7 @@ impl Recorder {
             strips,
             colors,
             implicit: false,
+            collider_paths,
         }
     }
 
@@ -216,10 +238,7 @@ impl Recorder {
         if let Some(g) = &m.effects.ground {
             // A grid of lines at the ground height, half a metre beyond the bodies' starting extent,
             // so that the viewer frames the scene rather than the floor.
-            let (lo, hi) = m.initial.x.iter().fold(
-                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
+            let (lo, hi) = extent(&m.initial.x);
             let step = 0.25f32;
             let x0 = ((lo.x - 0.5) / step).floor() as i32;
             let x1 = ((hi.x + 0.5) / step).ceil() as i32;
@@ -253,20 +272,45 @@ impl Recorder {
                     .with_radii([0.002]),
             )?;
         }
-        for (i, s) in m.effects.spheres.iter().enumerate() {
-            let sphere = rerun::Ellipsoids3D::from_centers_and_radii([s.center_m], [s.radius_m])
-                .with_colors([rerun::Color::from_unmultiplied_rgba(90, 140, 200, 255)])
-                .with_fill_mode(rerun::FillMode::Solid);
-            if s.velocity_m_per_s == Vec3::ZERO {
-                rec.log_static(format!("world/colliders/sphere_{i}"), &sphere)?;
-            } else {
-                rec.log_static(
-                    format!("world/colliders/sphere_{i}"),
-                    &rerun::Ellipsoids3D::update_fields()
-                        .with_half_sizes([[s.radius_m; 3]])
-                        .with_colors([rerun::Color::from_rgb(90, 140, 200)])
+        let blue = rerun::Color::from_rgb(90, 140, 200);
+        for (c, path) in m.effects.colliders.iter().zip(&self.collider_paths) {
+            // The shape once; a moving collider's position on the timelines (log_snapshot).
+            let start = c.path.pose_at(0.0).position_m;
+            match c.shape {
+                Shape::Sphere { radius_m } => rec.log_static(
+                    path.as_str(),
+                    &rerun::Ellipsoids3D::from_centers_and_radii([start], [radius_m])
+                        .with_colors([blue])
                         .with_fill_mode(rerun::FillMode::Solid),
-                )?;
+                )?,
+                Shape::Box { half_extents_m } => rec.log_static(
+                    path.as_str(),
+                    &rerun::Boxes3D::from_centers_and_half_sizes([start], [half_extents_m])
+                        .with_colors([blue])
+                        .with_fill_mode(rerun::FillMode::Solid),
+                )?,
+                Shape::Plane { normal } => {
+                    // A square of lines about the plane's point, as wide as the scene's extent.
+                    let (lo, hi) = extent(&m.initial.x);
+                    let half = (0.5 * (hi - lo).length() + 0.5).min(10.0);
+                    let u = normal.any_orthonormal_vector();
+                    let w = normal.cross(u);
+                    let lines: Vec<[Vec3; 2]> = (-4..=4)
+                        .flat_map(|k| {
+                            let s = half * k as f32 / 4.0;
+                            [
+                                [start + s * u - half * w, start + s * u + half * w],
+                                [start + s * w - half * u, start + s * w + half * u],
+                            ]
+                        })
+                        .collect();
+                    rec.log_static(
+                        path.as_str(),
+                        &rerun::LineStrips3D::new(lines)
+                            .with_colors([blue])
+                            .with_radii([0.003]),
+                    )?
+                }
             }
         }
         Ok(())
@@ -308,18 +352,26 @@ impl Recorder {
                     .with_colors(colors.iter().copied()),
             )?;
         }
-        for (i, (s, c)) in m
+        for ((c, p), path) in m
             .effects
-            .spheres
+            .colliders
             .iter()
-            .zip(&snap.sphere_centers)
-            .enumerate()
+            .zip(&snap.collider_positions)
+            .zip(&self.collider_paths)
         {
-            if s.velocity_m_per_s != Vec3::ZERO {
-                rec.log(
-                    format!("world/colliders/sphere_{i}"),
-                    &rerun::Ellipsoids3D::update_fields().with_centers([*c]),
-                )?;
+            if c.path.is_fixed() {
+                continue;
+            }
+            match c.shape {
+                Shape::Sphere { .. } => rec.log(
+                    path.as_str(),
+                    &rerun::Ellipsoids3D::update_fields().with_centers([*p]),
+                )?,
+                Shape::Box { .. } => rec.log(
+                    path.as_str(),
+                    &rerun::Boxes3D::update_fields().with_centers([*p]),
+                )?,
+                Shape::Plane { .. } => {}
             }
         }
         let e = &snap.energies;

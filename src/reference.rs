@@ -52,11 +52,8 @@ impl Reference {
     fn acceleration(&self, x: &[DVec3], v: &[DVec3], t: f64, dt: f64) -> Vec<DVec3> {
         let m = &*self.model;
         let fx = &m.effects;
-        let centers: Vec<DVec3> = fx
-            .spheres
-            .iter()
-            .map(|s| s.center_m.as_dvec3() + s.velocity_m_per_s.as_dvec3() * t)
-            .collect();
+        let poses: Vec<(DVec3, DVec3)> =
+            fx.colliders.iter().map(|c| c.path.pose_at_f64(t)).collect();
         let one = |i: usize| {
             if m.inv_mass[i] == 0.0 {
                 return DVec3::ZERO;
@@ -87,19 +84,9 @@ impl Reference {
                     f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt);
                 }
             }
-            for (s, c) in fx.spheres.iter().zip(&centers) {
-                let r = xi - *c;
-                let dist = r.length();
-                let depth = f64::from(s.radius_m) - dist;
-                if depth > 0.0 && dist > 0.0 {
-                    f += contact_force_f64(
-                        &s.contact,
-                        depth,
-                        r / dist,
-                        vi - s.velocity_m_per_s.as_dvec3(),
-                        mass,
-                        dt,
-                    );
+            for (c, (center, u)) in fx.colliders.iter().zip(&poses) {
+                if let Some((depth, n)) = c.shape.penetration_f64(*center, xi) {
+                    f += contact_force_f64(&c.contact, depth, n, vi - *u, mass, dt);
                 }
             }
             f / mass

@@ -46,7 +46,7 @@ pub fn stiffest_mode(model: &Model) -> StiffestMode {
             .ground
             .iter()
             .map(|g| g.contact)
-            .chain(fx.spheres.iter().map(|s| s.contact));
+            .chain(fx.colliders.iter().map(|c| c.contact));
         for ct in contacts {
             let kc = f64::from(ct.stiffness_n_per_m);
             k += kc / mi;

@@ -123,8 +123,8 @@ pub struct Snapshot {
     pub strain: Vec<f32>,
     pub energies: Energies,
     pub stats: StepStats,
-    /// Sphere collider centres at this time.
-    pub sphere_centers: Vec<Vec3>,
+    /// Collider positions (`model.effects.colliders` order) at this time.
+    pub collider_positions: Vec<Vec3>,
 }
 
 impl Snapshot {

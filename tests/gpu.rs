@@ -418,14 +418,24 @@ fn shared_structs_match_their_wgsl_layout() {
                         std::mem::offset_of!(hooke::gpu::layout::Params, ground_max_depth),
                     ),
                 ],
-                "Sphere" => vec![
+                "Collider" => vec![
                     (
-                        "velocity",
-                        std::mem::offset_of!(hooke::gpu::layout::Sphere, velocity),
+                        "shape",
+                        std::mem::offset_of!(hooke::gpu::layout::Collider, shape),
                     ),
                     (
                         "max_depth",
-                        std::mem::offset_of!(hooke::gpu::layout::Sphere, max_depth),
+                        std::mem::offset_of!(hooke::gpu::layout::Collider, max_depth),
+                    ),
+                ],
+                "Stage" => vec![
+                    (
+                        "step",
+                        std::mem::offset_of!(hooke::gpu::layout::Stage, step),
+                    ),
+                    (
+                        "poses",
+                        std::mem::offset_of!(hooke::gpu::layout::Stage, poses),
                     ),
                 ],
                 "Solver" => vec![

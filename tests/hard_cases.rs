@@ -105,11 +105,12 @@ fn survive(
                     g.height_m - p.y
                 );
             }
-            for (sp, c) in model.effects.spheres.iter().zip(&s.sphere_centers) {
-                let depth = sp.radius_m - p.distance(*c);
+            for (c, at) in model.effects.colliders.iter().zip(&s.collider_positions) {
+                let depth = c.shape.penetration(*at, *p).map_or(0.0, |d| d.0);
                 assert!(
-                    depth <= sp.max_depth_m * 1.0001,
-                    "{what} on {kind:?}: mass {i} {depth} m inside the sphere"
+                    depth <= c.max_depth_m * 1.0001,
+                    "{what} on {kind:?}: mass {i} {depth} m inside the {}",
+                    c.kind()
                 );
             }
         }
@@ -201,7 +202,7 @@ springs.bending = { stiffness_n_per_m = 5.0 }
             0.01,
         );
         // The cloth was carried along on top of the sphere, not left behind below it.
-        let sphere = end.sphere_centers[0];
+        let sphere = end.collider_positions[0];
         let centre_mass = end.positions[10 + 21 * 10];
         assert!(
             centre_mass.y > sphere.y,

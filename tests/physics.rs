@@ -505,12 +505,13 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
                 if let Some(g) = &model.effects.ground {
                     deepest = deepest.max(g.height_m - p.y);
                 }
-                for (sp, c) in model.effects.spheres.iter().zip(&s.sphere_centers) {
-                    let depth = sp.radius_m - p.distance(*c);
+                for (c, at) in model.effects.colliders.iter().zip(&s.collider_positions) {
+                    let depth = c.shape.penetration(*at, *p).map_or(0.0, |d| d.0);
                     assert!(
-                        depth < sp.max_depth_m,
-                        "{}: mass {i} {depth} m inside sphere",
-                        b.name
+                        depth < c.max_depth_m,
+                        "{}: mass {i} {depth} m inside {}",
+                        b.name,
+                        c.kind()
                     );
                 }
             }
@@ -550,7 +551,7 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
                 .iter()
                 .map(|p| p.x)
                 .fold(f32::INFINITY, f32::min);
-            let sphere = s.sphere_centers[0];
+            let sphere = s.collider_positions[0];
             assert!(
                 cube_x > sphere.x && min_x > sphere.x - 0.15,
                 "cube centre {cube_x}, rearmost mass {min_x}, sphere {sphere}"

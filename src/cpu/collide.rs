@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use crate::model::Model;
+use crate::model::{Model, poses_at};
 use crate::state::State;
 
 /// Returns the number of masses projected. The impulse is perfectly inelastic in the collider's
@@ -16,8 +16,7 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
     if !e.has_contact() {
         return 0;
     }
-    let t = state.time_secs;
-    let centers: Vec<Vec3> = e.spheres.iter().map(|s| s.center_at(t)).collect();
+    let poses = poses_at(&e.colliders, state.time_secs);
     let mut count = 0;
     let (mut dissipated_j, mut work_j) = (0.0f64, 0.0f64);
     for i in 0..state.x.len() {
@@ -34,19 +33,10 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
                 count += 1;
             }
         }
-        for (s, &c) in e.spheres.iter().zip(&centers) {
-            let r = *x - c;
-            let dist = r.length();
-            if dist > 0.0
-                && let Some((d, w)) = project(
-                    x,
-                    v,
-                    m,
-                    r / dist,
-                    s.radius_m - dist,
-                    s.max_depth_m,
-                    s.velocity_m_per_s,
-                )
+        for (c, pose) in e.colliders.iter().zip(&poses) {
+            if let Some((depth, n)) = c.shape.penetration(pose.position_m, *x)
+                && let Some((d, w)) =
+                    project(x, v, m, n, depth, c.max_depth_m, pose.velocity_m_per_s)
             {
                 dissipated_j += d;
                 work_j += w;

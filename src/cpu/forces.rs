@@ -4,7 +4,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::model::{ContactModel, Model, Spring};
+use crate::model::{ContactModel, Model, Pose, Spring, poses_at};
 use crate::state::Power;
 
 /// Masses per work item. Fixed, so that the per-chunk partial sums (and hence the energy ledger)
@@ -64,30 +64,12 @@ pub fn contact_force(
     (force, dissipated)
 }
 
-/// Colliders as they stand at the time of one force evaluation.
-pub struct CollidersAt {
-    pub sphere_centers: Vec<Vec3>,
-}
-
-impl CollidersAt {
-    pub fn new(model: &Model, t: f64) -> Self {
-        Self {
-            sphere_centers: model
-                .effects
-                .spheres
-                .iter()
-                .map(|s| s.center_at(t))
-                .collect(),
-        }
-    }
-}
-
 /// Force on mass `i` and its contributions to the ledger's rates.
 #[inline(always)]
 fn force_on_mass(
     model: &Model,
     gather: &Gather,
-    col: &CollidersAt,
+    poses: &[Pose],
     x: &[Vec3],
     v: &[Vec3],
     i: usize,
@@ -129,16 +111,13 @@ fn force_on_mass(
             contact_w += diss;
         }
     }
-    for (s, &c) in e.spheres.iter().zip(&col.sphere_centers) {
-        let r = xi - c;
-        let dist = r.length();
-        let depth = s.radius_m - dist;
-        if depth > 0.0 && dist > 0.0 {
-            let (fc, diss) =
-                contact_force(&s.contact, depth, r / dist, vi - s.velocity_m_per_s, m, dt);
+    for (c, pose) in e.colliders.iter().zip(poses) {
+        if let Some((depth, n)) = c.shape.penetration(pose.position_m, xi) {
+            let u = pose.velocity_m_per_s;
+            let (fc, diss) = contact_force(&c.contact, depth, n, vi - u, m, dt);
             f += fc;
             contact_w += diss;
-            collider_w += fc.dot(s.velocity_m_per_s);
+            collider_w += fc.dot(u);
         }
     }
     // Ledger rates are energy leaving the system (damping, drag, contact) and entering it
@@ -223,11 +202,11 @@ pub fn compute_forces(
     dt: f32,
     acc: &mut [Vec3],
 ) -> Power {
-    let col = CollidersAt::new(model, t);
+    let poses = poses_at(&model.effects.colliders, t);
     let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
         let mut sum = [0.0f64; 4];
         for (k, a) in out.iter_mut().enumerate() {
-            let (ai, p) = force_on_mass(model, gather, &col, x, v, ci * CHUNK + k, dt);
+            let (ai, p) = force_on_mass(model, gather, &poses, x, v, ci * CHUNK + k, dt);
             *a = ai;
             for (s, q) in sum.iter_mut().zip(p) {
                 *s += f64::from(q);

@@ -16,7 +16,7 @@
 use glam::Vec3;
 
 use super::forces::{Gather, compute_forces};
-use crate::model::{ContactModel, Model, Spring};
+use crate::model::{ContactModel, Model, Spring, poses_at};
 use crate::state::{Power, State};
 
 /// Relative residual |r| / |b| at which each linear solve stops (f32 vectors: near their floor
@@ -184,7 +184,7 @@ fn linearise(
         };
     }
     let fx = &model.effects;
-    let centers: Vec<Vec3> = fx.spheres.iter().map(|s| s.center_at(t)).collect();
+    let poses = poses_at(&fx.colliders, t);
     for (i, contacts) in lin.contacts.iter_mut().enumerate() {
         contacts.clear();
         if model.inv_mass[i] == 0.0 {
@@ -199,11 +199,9 @@ fn linearise(
         if let Some(g) = fx.ground.as_ref().filter(|g| g.height_m - x[i].y > 0.0) {
             contacts.push(terms(Vec3::Y, &g.contact));
         }
-        for (s, c) in fx.spheres.iter().zip(&centers) {
-            let r = x[i] - *c;
-            let dist = r.length();
-            if dist > 0.0 && s.radius_m > dist {
-                contacts.push(terms(r / dist, &s.contact));
+        for (c, pose) in fx.colliders.iter().zip(&poses) {
+            if let Some((_, n)) = c.shape.penetration(pose.position_m, x[i]) {
+                contacts.push(terms(n, &c.contact));
             }
         }
     }

@@ -101,7 +101,7 @@ impl Backend for CpuBackend {
             strain: Vec::new(),
             energies: Default::default(),
             stats,
-            sphere_centers: Vec::new(),
+            collider_positions: Vec::new(),
         });
         snap.frame = frame;
         snap.time_secs = t;
@@ -112,9 +112,14 @@ impl Backend for CpuBackend {
         let springs = self.scratch.springs();
         compute_strain(springs, &self.state.x, &mut snap.strain);
         snap.energies = compute_energies(&self.model, springs, &self.state);
-        snap.sphere_centers.clear();
-        snap.sphere_centers
-            .extend(self.model.effects.spheres.iter().map(|s| s.center_at(t)));
+        snap.collider_positions.clear();
+        snap.collider_positions.extend(
+            self.model
+                .effects
+                .colliders
+                .iter()
+                .map(|c| c.path.pose_at(t).position_m),
+        );
         self.pending.push_back(snap);
         Ok(())
     }

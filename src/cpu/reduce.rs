@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use crate::model::{Model, Spring};
+use crate::model::{Model, Spring, poses_at};
 use crate::state::{Energies, State};
 
 /// (|x| − L) / L for every spring as it is now (`springs`: the live ones, whose rest lengths
@@ -40,11 +40,7 @@ pub fn compute_energies(model: &Model, springs: &[Spring], state: &State) -> Ene
         e.elastic_j += 0.5 * f64::from(s.stiffness_n_per_m) * stretch * stretch;
     }
     let fx = &model.effects;
-    let centers: Vec<Vec3> = fx
-        .spheres
-        .iter()
-        .map(|s| s.center_at(state.time_secs))
-        .collect();
+    let poses = poses_at(&fx.colliders, state.time_secs);
     for (i, xi) in x.iter().enumerate() {
         if model.inv_mass[i] == 0.0 {
             continue;
@@ -55,10 +51,10 @@ pub fn compute_energies(model: &Model, springs: &[Spring], state: &State) -> Ene
                 e.contact_j += 0.5 * f64::from(g.contact.stiffness_n_per_m) * d * d;
             }
         }
-        for (s, c) in fx.spheres.iter().zip(&centers) {
-            let d = f64::from(s.radius_m - xi.distance(*c));
-            if d > 0.0 {
-                e.contact_j += 0.5 * f64::from(s.contact.stiffness_n_per_m) * d * d;
+        for (c, pose) in fx.colliders.iter().zip(&poses) {
+            if let Some((depth, _)) = c.shape.penetration(pose.position_m, *xi) {
+                let d = f64::from(depth);
+                e.contact_j += 0.5 * f64::from(c.contact.stiffness_n_per_m) * d * d;
             }
         }
     }

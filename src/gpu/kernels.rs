@@ -2,7 +2,7 @@
 //! `common.wgsl`; the effects a scene lacks are specialised away through `override` constants.
 
 use crate::integrator::Integrator;
-use crate::model::Model;
+use crate::model::{Model, Shape};
 
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 pub const FORCES: &str = include_str!("../../shaders/forces.wgsl");
@@ -94,7 +94,19 @@ pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
         ("HAS_GRAVITY", flag(e.gravity_m_per_s2.is_some())),
         ("HAS_DRAG", flag(e.air_drag_per_s.is_some())),
         ("HAS_GROUND", flag(e.ground.is_some())),
-        ("HAS_SPHERES", flag(!e.spheres.is_empty())),
+        (
+            "HAS_SPHERES",
+            flag(e.has_shape(|s| matches!(s, Shape::Sphere { .. }))),
+        ),
+        (
+            "HAS_BOXES",
+            flag(e.has_shape(|s| matches!(s, Shape::Box { .. }))),
+        ),
+        (
+            "HAS_PLANES",
+            flag(e.has_shape(|s| matches!(s, Shape::Plane { .. }))),
+        ),
+        ("HAS_COLLIDERS", flag(!e.colliders.is_empty())),
         (
             "HAS_DAMPING",
             flag(model.springs.iter().any(|s| s.damping_n_s_per_m != 0.0)),

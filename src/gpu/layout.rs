@@ -11,7 +11,7 @@ pub use crate::model::{Neighbor, Spring, SpringLimits};
 pub struct Params {
     pub mass_count: u32,
     pub spring_count: u32,
-    pub sphere_count: u32,
+    pub collider_count: u32,
     pub runaway_speed: f32,
     pub gravity: [f32; 3],
     pub drag_per_s: f32,
@@ -23,7 +23,11 @@ pub struct Params {
     pub _pad: [f32; 3],
 }
 
-/// Per-dispatch values (`Stage` in WGSL), one slot per stage of each substep.
+/// Colliders' poses a stage slot holds (`MAX_COLLIDERS` in WGSL).
+pub const MAX_COLLIDERS: usize = crate::scene::MAX_COLLIDERS;
+
+/// Per-dispatch values (`Stage` in WGSL), one slot per stage of each substep: the stage's time,
+/// and every collider's pose at that time, computed on the host as the CPU backend computes it.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct Stage {
@@ -33,20 +37,34 @@ pub struct Stage {
     pub next_scale: f32,
     pub step: u32,
     pub _pad: [u32; 3],
+    pub poses: [Pose; MAX_COLLIDERS],
 }
 
-/// A sphere collider (`Sphere` in WGSL): centre at t = 0 and constant velocity.
+/// A collider's position and velocity (`Pose` in WGSL; w unused).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct Sphere {
-    pub center: [f32; 3],
-    pub radius: f32,
-    pub velocity: [f32; 3],
+pub struct Pose {
+    pub position: [f32; 4],
+    pub velocity: [f32; 4],
+}
+
+/// `Collider::kind` values (`SPHERE`, `BOX`, `PLANE` in WGSL).
+pub const SPHERE: u32 = 0;
+pub const BOX: u32 = 1;
+pub const PLANE: u32 = 2;
+
+/// A collider's shape and contact (`Collider` in WGSL); its pose is in the stage slot.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct Collider {
+    pub kind: u32,
     pub stiffness: f32,
     pub friction: f32,
     pub damping_ratio: f32,
+    /// Sphere: (radius, 0, 0); box: half extents; plane: unit normal.
+    pub shape: [f32; 4],
     pub max_depth: f32,
-    pub _pad: f32,
+    pub _pad: [f32; 3],
 }
 
 /// Implicit Euler's solver state (`Solver` in shaders/implicit.wgsl), read back between chunks of
@@ -78,7 +96,7 @@ pub const SHARED_STRUCTS: [(&str, usize); 8] = [
     ("Solver", std::mem::size_of::<SolverStatus>()),
     ("Params", std::mem::size_of::<Params>()),
     ("Stage", std::mem::size_of::<Stage>()),
-    ("Sphere", std::mem::size_of::<Sphere>()),
+    ("Collider", std::mem::size_of::<Collider>()),
     ("Spring", std::mem::size_of::<Spring>()),
     ("Neighbor", std::mem::size_of::<Neighbor>()),
     ("vec4<f32>", 16),

@@ -19,10 +19,10 @@ use wgpu::util::DeviceExt as _;
 
 use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
 use crate::integrator::Integrator;
-use crate::model::{Effects, Model};
+use crate::model::{Effects, Model, Shape};
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
 use kernels::{Layouts, Pipelines, groups_for};
-use layout::{Params, SolverStatus, Sphere, Stage};
+use layout::{Collider, Params, Pose, SolverStatus, Stage};
 
 /// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
 const SLOTS_PER_STEP: u32 = 4;
@@ -147,7 +147,7 @@ impl GpuBackend {
         let params = Params {
             mass_count: n as u32,
             spring_count: ns as u32,
-            sphere_count: e.spheres.len() as u32,
+            collider_count: e.colliders.len() as u32,
             runaway_speed: RUNAWAY_SPEED_M_PER_S,
             gravity: e.gravity_m_per_s2.unwrap_or(Vec3::ZERO).to_array(),
             drag_per_s: e.air_drag_per_s.unwrap_or(0.0),
@@ -158,18 +158,26 @@ impl GpuBackend {
             ground_max_depth: ground.map_or(0.0, |g| g.max_depth_m),
             _pad: [0.0; 3],
         };
-        let spheres: Vec<Sphere> = e
-            .spheres
+        let colliders: Vec<Collider> = e
+            .colliders
             .iter()
-            .map(|s| Sphere {
-                center: s.center_m.to_array(),
-                radius: s.radius_m,
-                velocity: s.velocity_m_per_s.to_array(),
-                stiffness: s.contact.stiffness_n_per_m,
-                friction: s.contact.friction,
-                damping_ratio: s.contact.damping_ratio,
-                max_depth: s.max_depth_m,
-                _pad: 0.0,
+            .map(|c| {
+                let (kind, shape) = match c.shape {
+                    Shape::Sphere { radius_m } => (layout::SPHERE, [radius_m, 0.0, 0.0, 0.0]),
+                    Shape::Box { half_extents_m } => {
+                        (layout::BOX, half_extents_m.extend(0.0).to_array())
+                    }
+                    Shape::Plane { normal } => (layout::PLANE, normal.extend(0.0).to_array()),
+                };
+                Collider {
+                    kind,
+                    stiffness: c.contact.stiffness_n_per_m,
+                    friction: c.contact.friction,
+                    damping_ratio: c.contact.damping_ratio,
+                    shape,
+                    max_depth: c.max_depth_m,
+                    _pad: [0.0; 3],
+                }
             })
             .collect();
         let mass: Vec<[f32; 2]> = model
@@ -202,10 +210,10 @@ impl GpuBackend {
             bytemuck::cast_slice(&model.adjacency.entries),
             wgpu::BufferUsages::empty(),
         );
-        let spheres_buf = storage(
+        let colliders_buf = storage(
             device,
-            "spheres",
-            bytemuck::cast_slice(&spheres),
+            "colliders",
+            bytemuck::cast_slice(&colliders),
             wgpu::BufferUsages::empty(),
         );
         let mass_buf = storage(
@@ -311,7 +319,7 @@ impl GpuBackend {
                     &springs,
                     &offsets,
                     &neighbors,
-                    &spheres_buf,
+                    &colliders_buf,
                     &mass_buf,
                     &deriv,
                 ],
@@ -339,7 +347,7 @@ impl GpuBackend {
                 "collide",
                 &[
                     &params_buf,
-                    &spheres_buf,
+                    &colliders_buf,
                     &mass_buf,
                     &x,
                     &v,
@@ -353,7 +361,7 @@ impl GpuBackend {
                 &[
                     &params_buf,
                     &springs,
-                    &spheres_buf,
+                    &colliders_buf,
                     &mass_buf,
                     &x,
                     &v,
@@ -394,7 +402,7 @@ impl GpuBackend {
             &springs,
             &offsets,
             &neighbors,
-            &spheres_buf,
+            &colliders_buf,
             &mass_buf,
             &x,
             &v,
@@ -631,12 +639,12 @@ impl GpuBackend {
     pub fn bytes_per_step(&self) -> u64 {
         let n = self.model.mass_count() as u64;
         let ns = self.model.spring_count() as u64;
-        let spheres = self.model.effects.spheres.len() as u64 * 48;
+        let colliders = self.model.effects.colliders.len() as u64 * 48;
         self.step_plan(false)
             .iter()
             .map(|(k, _)| match k {
                 // x, v in; offsets; neighbours and springs; acceleration and rates out.
-                Kernel::Forces(_) => n * (16 + 16 + 4 + 8 + 32) + ns * (2 * 8 + 20) + spheres,
+                Kernel::Forces(_) => n * (16 + 16 + 4 + 8 + 32) + ns * (2 * 8 + 20) + colliders,
                 // x, v read and written; derivatives read; ledger read and written.
                 Kernel::EulerUpdate | Kernel::SemiImplicitUpdate => n * (4 * 16 + 32 + 2 * 16 + 8),
                 Kernel::Rk2Stage => n * (2 * 16 + 32 + 2 * 16 + 8),
@@ -646,7 +654,7 @@ impl GpuBackend {
                 Kernel::Rk4Final => n * (5 * 16 + 32 + 3 * 16 + 2 * 16 + 8),
                 Kernel::VerletDrift => n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
                 Kernel::VerletKick => n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
-                Kernel::ProjectContacts => n * (4 * 16 + 8) + spheres,
+                Kernel::ProjectContacts => n * (4 * 16 + 8) + colliders,
                 // Spring and limits read; two ends; rest length and released energy written.
                 Kernel::UpdateSprings => ns * (20 + 16 + 2 * 16 + 4 + 2 * 4),
             })
@@ -757,12 +765,10 @@ impl GpuBackend {
         let mut t = self.time_secs;
         for k in 0..steps {
             let at = |time: f64, weight: f32, next_scale: f32| Stage {
-                time: time as f32,
-                dt: self.dt,
                 weight,
                 next_scale,
                 step: k,
-                _pad: [0; 3],
+                ..self.stage_at(time)
             };
             stages.extend([
                 at(t, 1.0, 0.5),
@@ -773,6 +779,27 @@ impl GpuBackend {
             t += h;
         }
         stages
+    }
+
+    /// A stage slot at `time`: its dt and every collider's pose then.
+    fn stage_at(&self, time: f64) -> Stage {
+        let mut poses = [Pose::default(); layout::MAX_COLLIDERS];
+        for (slot, c) in poses.iter_mut().zip(&self.model.effects.colliders) {
+            let p = c.path.pose_at(time);
+            *slot = Pose {
+                position: p.position_m.extend(0.0).to_array(),
+                velocity: p.velocity_m_per_s.extend(0.0).to_array(),
+            };
+        }
+        Stage {
+            time: time as f32,
+            dt: self.dt,
+            weight: 1.0,
+            next_scale: 1.0,
+            step: 0,
+            _pad: [0; 3],
+            poses,
+        }
     }
 
     fn time_after(&self, steps: u32) -> f64 {
@@ -796,16 +823,7 @@ impl GpuBackend {
         let partial_count = u64::from(self.energy_groups.0 * self.energy_groups.1);
         // The reductions' stage slot: the current time, after the stepping slots.
         let slot = self.stage_slots - 1;
-        self.write_slots(
-            slot,
-            &[Stage {
-                time: self.time_secs as f32,
-                dt: self.dt,
-                weight: 1.0,
-                next_scale: 1.0,
-                ..Stage::default()
-            }],
-        );
+        self.write_slots(slot, &[self.stage_at(self.time_secs)]);
         let mut enc = self.encoder("snapshot");
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -1344,15 +1362,15 @@ impl Backend for GpuBackend {
                 projections: rb.projections,
                 ..p.stats
             },
-            sphere_centers: {
-                let mut c = spare.map(|s| s.sphere_centers).unwrap_or_default();
+            collider_positions: {
+                let mut c = spare.map(|s| s.collider_positions).unwrap_or_default();
                 c.clear();
                 c.extend(
                     self.model
                         .effects
-                        .spheres
+                        .colliders
                         .iter()
-                        .map(|s| s.center_at(p.time_secs)),
+                        .map(|col| col.path.pose_at(p.time_secs).position_m),
                 );
                 c
             },

@@ -9,6 +9,7 @@ mod locate;
 mod validate;
 
 pub use builtin::{BUILT_IN, BuiltIn};
+pub use validate::MAX_COLLIDERS;
 
 use serde::{Deserialize, Serialize};
 
@@ -84,6 +85,10 @@ pub struct Effects {
     pub ground: Option<Ground>,
     #[serde(default)]
     pub spheres: Vec<Sphere>,
+    #[serde(default)]
+    pub boxes: Vec<BoxCollider>,
+    #[serde(default)]
+    pub planes: Vec<Plane>,
 }
 
 /// How a collider pushes back: a penalty spring along the contact normal, damped so that an
@@ -132,14 +137,20 @@ impl Ground {
     }
 }
 
-/// A solid sphere, optionally moving at constant velocity from `center_m` at t = 0.
+/// A solid sphere. It moves on a path: from `center_m` at t = 0 at constant
+/// `velocity_m_per_s` (zero: fixed), or through `keyframes` (then leave out `center_m`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sphere {
-    pub center_m: [f32; 3],
+    #[serde(default)]
+    pub center_m: Option<[f32; 3]>,
     pub radius_m: f32,
     #[serde(default)]
     pub velocity_m_per_s: [f32; 3],
+    /// Positions at given times, passed through in straight lines; held before the first and
+    /// after the last.
+    #[serde(default)]
+    pub keyframes: Vec<Keyframe>,
     #[serde(default = "default_contact_stiffness")]
     pub stiffness_n_per_m: f32,
     #[serde(default)]
@@ -148,15 +159,63 @@ pub struct Sphere {
     pub restitution: f32,
 }
 
-impl Sphere {
-    pub fn contact(&self) -> Contact {
-        Contact {
-            stiffness_n_per_m: self.stiffness_n_per_m,
-            friction: self.friction,
-            restitution: self.restitution,
-        }
-    }
+/// One key of a collider's path.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    pub time_secs: f64,
+    pub center_m: [f32; 3],
 }
+
+/// A solid axis-aligned box, on a path like a sphere's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxCollider {
+    #[serde(default)]
+    pub center_m: Option<[f32; 3]>,
+    /// Half its size along x, y and z.
+    pub half_extents_m: [f32; 3],
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    #[serde(default)]
+    pub keyframes: Vec<Keyframe>,
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+/// A fixed plane through `point_m`, solid on the side away from `normal` (a wall, a slope).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plane {
+    pub point_m: [f32; 3],
+    /// Points out of the solid side; need not be unit length.
+    pub normal: [f32; 3],
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+macro_rules! contact_of {
+    ($($t:ty),*) => {$(
+        impl $t {
+            pub fn contact(&self) -> Contact {
+                Contact {
+                    stiffness_n_per_m: self.stiffness_n_per_m,
+                    friction: self.friction,
+                    restitution: self.restitution,
+                }
+            }
+        }
+    )*};
+}
+contact_of!(Sphere, BoxCollider, Plane);
 
 /// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

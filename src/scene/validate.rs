@@ -1,7 +1,7 @@
 //! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
 //! [`super::from_toml`] adds the file position.
 
-use super::{Body, Scene, SpringKind};
+use super::{Body, Keyframe, Scene, SpringKind};
 
 type Check = Result<(), (String, String)>;
 
@@ -42,6 +42,50 @@ fn non_negative(field: &str, v: f64) -> Check {
 fn finite3(field: &str, v: [f32; 3]) -> Check {
     for (i, c) in v.iter().enumerate() {
         finite(&format!("{field}[{i}]"), f64::from(*c))?;
+    }
+    Ok(())
+}
+
+/// Colliders per scene: the GPU passes every collider's pose in each stage's uniform slot.
+pub const MAX_COLLIDERS: usize = 16;
+
+/// A collider's path: `center_m` (and `velocity_m_per_s`), or `keyframes`.
+fn path(f: &str, center: Option<[f32; 3]>, velocity: [f32; 3], keys: &[Keyframe]) -> Check {
+    finite3(&format!("{f}.velocity_m_per_s"), velocity)?;
+    if keys.is_empty() {
+        return match center {
+            Some(c) => finite3(&format!("{f}.center_m"), c),
+            None => fail(
+                format!("{f}.center_m"),
+                "is missing: give the collider a `center_m` (and optionally `velocity_m_per_s`), or `keyframes`",
+            ),
+        };
+    }
+    if center.is_some() {
+        return fail(
+            format!("{f}.keyframes"),
+            "a collider on keyframes takes its position from them: remove `center_m`",
+        );
+    }
+    if velocity != [0.0; 3] {
+        return fail(
+            format!("{f}.keyframes"),
+            "a collider on keyframes takes its velocity from them: remove `velocity_m_per_s`",
+        );
+    }
+    for (k, key) in keys.iter().enumerate() {
+        finite(&format!("{f}.keyframes[{k}].time_secs"), key.time_secs)?;
+        finite3(&format!("{f}.keyframes[{k}].center_m"), key.center_m)?;
+        if k > 0 && key.time_secs <= keys[k - 1].time_secs {
+            return fail(
+                format!("{f}.keyframes[{k}].time_secs"),
+                format!(
+                    "keyframe times must increase: {} s follows {} s",
+                    key.time_secs,
+                    keys[k - 1].time_secs
+                ),
+            );
+        }
     }
     Ok(())
 }
@@ -105,10 +149,35 @@ pub fn validate(scene: &Scene) -> Check {
     }
     for (i, sp) in e.spheres.iter().enumerate() {
         let f = format!("effects.spheres[{i}]");
-        finite3(&format!("{f}.center_m"), sp.center_m)?;
+        path(&f, sp.center_m, sp.velocity_m_per_s, &sp.keyframes)?;
         positive(&format!("{f}.radius_m"), f64::from(sp.radius_m))?;
-        finite3(&format!("{f}.velocity_m_per_s"), sp.velocity_m_per_s)?;
         contact(&f, sp.stiffness_n_per_m, sp.friction, sp.restitution)?;
+    }
+    for (i, b) in e.boxes.iter().enumerate() {
+        let f = format!("effects.boxes[{i}]");
+        path(&f, b.center_m, b.velocity_m_per_s, &b.keyframes)?;
+        for (a, h) in b.half_extents_m.iter().enumerate() {
+            positive(&format!("{f}.half_extents_m[{a}]"), f64::from(*h))?;
+        }
+        contact(&f, b.stiffness_n_per_m, b.friction, b.restitution)?;
+    }
+    for (i, p) in e.planes.iter().enumerate() {
+        let f = format!("effects.planes[{i}]");
+        finite3(&format!("{f}.point_m"), p.point_m)?;
+        finite3(&format!("{f}.normal"), p.normal)?;
+        if glam::Vec3::from(p.normal).length() < 1e-6 {
+            return fail(format!("{f}.normal"), "must be a non-zero direction");
+        }
+        contact(&f, p.stiffness_n_per_m, p.friction, p.restitution)?;
+    }
+    let moving = e.spheres.len() + e.boxes.len() + e.planes.len();
+    if moving > MAX_COLLIDERS {
+        return fail(
+            "effects",
+            format!(
+                "the scene has {moving} sphere, box and plane colliders; at most {MAX_COLLIDERS} are supported"
+            ),
+        );
     }
 
     if scene.bodies.is_empty() {

@@ -87,7 +87,11 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
         );
         any = true;
     }
-    for (i, c) in e.colliders.iter().enumerate() {
+    let mut counts = std::collections::HashMap::new();
+    for c in &e.colliders {
+        let i = counts.entry(c.kind()).or_insert(0usize);
+        *i += 1;
+        let i = *i - 1;
         let shape = match c.shape {
             Shape::Sphere { radius_m } => format!("radius {radius_m} m"),
             Shape::Box { half_extents_m } => {
@@ -96,11 +100,14 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             Shape::Plane { normal } => format!("normal {:?}", normal.to_array()),
         };
         let path = match &c.path {
+            Path::Linear { start_m, .. } if c.path.is_fixed() => {
+                format!("fixed at {:?} m", start_m.to_array())
+            }
             Path::Linear {
                 start_m,
                 velocity_m_per_s,
             } => format!(
-                "at {:?} m, velocity {:?} m/s",
+                "from {:?} m at {:?} m/s",
                 start_m.to_array(),
                 velocity_m_per_s.to_array()
             ),

@@ -771,6 +771,58 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_keyframed_path_is_piecewise_linear_and_held_at_its_ends() {
+        let path = Path::Keyframes(vec![
+            (1.0, Vec3::new(0.0, 0.0, 0.0)),
+            (3.0, Vec3::new(2.0, 0.0, 0.0)),
+            (4.0, Vec3::new(2.0, 1.0, 0.0)),
+        ]);
+        let at = |t: f64| path.pose_at(t);
+        assert_eq!(at(0.0).position_m, Vec3::ZERO);
+        assert_eq!(at(0.0).velocity_m_per_s, Vec3::ZERO);
+        assert_eq!(at(2.0).position_m, Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(at(2.0).velocity_m_per_s, Vec3::new(1.0, 0.0, 0.0));
+        // A key time starts the next segment.
+        assert_eq!(at(3.0).position_m, Vec3::new(2.0, 0.0, 0.0));
+        assert_eq!(at(3.0).velocity_m_per_s, Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(at(3.5).position_m, Vec3::new(2.0, 0.5, 0.0));
+        assert_eq!(at(9.0).position_m, Vec3::new(2.0, 1.0, 0.0));
+        assert_eq!(at(9.0).velocity_m_per_s, Vec3::ZERO);
+        assert!(!path.is_fixed());
+    }
+
+    #[test]
+    fn shapes_report_depth_and_outward_normal_inside_only() {
+        let sphere = Shape::Sphere { radius_m: 1.0 };
+        assert_eq!(
+            sphere.penetration(Vec3::ZERO, Vec3::new(0.0, 0.75, 0.0)),
+            Some((0.25, Vec3::Y))
+        );
+        assert_eq!(
+            sphere.penetration(Vec3::ZERO, Vec3::new(0.0, 1.5, 0.0)),
+            None
+        );
+        let cube = Shape::Box {
+            half_extents_m: Vec3::new(1.0, 0.5, 2.0),
+        };
+        // Nearest face: −x at 0.2 from it (the y face is 0.3 away, z 1.5).
+        let (depth, n) = cube
+            .penetration(Vec3::X, Vec3::new(0.2, 0.2, 0.5))
+            .unwrap_or_default();
+        assert!(
+            (depth - 0.2).abs() < 1e-6 && n == Vec3::NEG_X,
+            "{depth} {n}"
+        );
+        assert_eq!(cube.penetration(Vec3::ZERO, Vec3::new(0.0, 0.6, 0.0)), None);
+        let floor = Shape::Plane { normal: Vec3::Y };
+        assert_eq!(
+            floor.penetration(Vec3::Y, Vec3::new(5.0, 0.5, 5.0)),
+            Some((0.5, Vec3::Y))
+        );
+        assert_eq!(floor.penetration(Vec3::Y, Vec3::new(0.0, 1.5, 0.0)), None);
+    }
+
+    #[test]
     fn restitution_round_trips_through_damping_ratio() {
         for e in [0.1f32, 0.5, 0.9] {
             let z = f64::from(damping_ratio_for_restitution(e));

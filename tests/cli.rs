@@ -210,6 +210,156 @@ fn with_table(table: &str) -> String {
     )
 }
 
+/// Each built-in scene's GPU step, as `hooke check` prints it: exactly the passes and compiled-in
+/// effects its scene file asks for. A new built-in scene must be added here.
+const SCENE_PASSES: &[(&str, &str, &str)] = &[
+    (
+        "hair",
+        "compute_forces → semi_implicit_update",
+        "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING",
+    ),
+    (
+        "cloth",
+        "compute_forces → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING",
+    ),
+    (
+        "jello",
+        "compute_forces → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
+    ),
+    (
+        "jello-sphere",
+        "compute_forces → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING",
+    ),
+    (
+        "tear",
+        "compute_forces → semi_implicit_update → project_contacts → update_springs",
+        "HAS_GRAVITY, HAS_DRAG, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING, HAS_TEARING",
+    ),
+    (
+        "ramp",
+        "compute_forces → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_BOXES, HAS_PLANES, HAS_COLLIDERS, HAS_DAMPING",
+    ),
+    (
+        "cloth-64",
+        "compute_forces → semi_implicit_update",
+        "HAS_GRAVITY, HAS_DAMPING",
+    ),
+    (
+        "cloth-256",
+        "compute_forces → semi_implicit_update",
+        "HAS_GRAVITY, HAS_DAMPING",
+    ),
+    (
+        "cloth-1024",
+        "compute_forces → semi_implicit_update",
+        "HAS_GRAVITY, HAS_DAMPING",
+    ),
+];
+
+#[test]
+fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
+    let listed: Vec<&str> = SCENE_PASSES.iter().map(|s| s.0).collect();
+    for b in hooke::scene::BUILT_IN {
+        assert!(
+            listed.contains(&b.name),
+            "built-in scene '{}' has no expected pass list here",
+            b.name
+        );
+    }
+    for (scene, passes, effects) in SCENE_PASSES {
+        let out = hooke(&["check", scene, "--backend", "cpu"]);
+        let report = text(&out.stdout);
+        assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+        let line = |prefix: &str| {
+            report
+                .lines()
+                .find_map(|l| l.trim().strip_prefix(prefix))
+                .unwrap_or_else(|| panic!("{scene}: no `{prefix}` in:\n{report}"))
+                .to_owned()
+        };
+        assert_eq!(line("GPU step passes: "), *passes, "{scene}");
+        assert_eq!(line("compiled-in effects: "), *effects, "{scene}");
+    }
+    // A scene's integrator changes the force and update passes, not the effects' passes.
+    let out = hooke(&["check", "tear", "--integrator", "rk2", "--backend", "cpu"]);
+    assert!(text(&out.stdout).contains(
+        "GPU step passes: compute_forces → rk2_stage → compute_forces → rk2_final → project_contacts → update_springs\n"
+    ));
+    // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update.
+    let out = hooke(&[
+        "check",
+        "hair",
+        "--integrator",
+        "implicit",
+        "--backend",
+        "cpu",
+    ]);
+    let s = text(&out.stdout);
+    assert!(
+        s.contains(
+            "GPU step passes: implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final\n"
+        ),
+        "hair, implicit:\n{s}"
+    );
+}
+
+#[test]
+fn bad_colliders_and_spring_effects_give_one_clear_error() {
+    expect_scene_error(
+        "keyframes-backwards",
+        &with_table(
+            "[[effects.spheres]]\nradius_m = 0.1\nkeyframes = [{ time_secs = 1.0, center_m = [0, 0, 0] }, { time_secs = 0.5, center_m = [0, 1, 0] }]\n",
+        ),
+        "effects.spheres[0].keyframes[1].time_secs",
+        "4:71",
+        "must increase",
+    );
+    expect_scene_error(
+        "keyframes-and-centre",
+        &with_table(
+            "[[effects.spheres]]\nradius_m = 0.1\ncenter_m = [0, 0, 0]\nkeyframes = [{ time_secs = 1.0, center_m = [0, 0, 0] }]\n",
+        ),
+        "effects.spheres[0].keyframes",
+        "5:13",
+        "remove `center_m`",
+    );
+    expect_scene_error(
+        "sphere-without-position",
+        &with_table("[[effects.spheres]]\nradius_m = 0.1\n"),
+        "effects.spheres[0].center_m",
+        "2:1",
+        "is missing",
+    );
+    expect_scene_error(
+        "box-negative-size",
+        &with_table("[[effects.boxes]]\ncenter_m = [0, 0, 0]\nhalf_extents_m = [0.1, -0.2, 0.1]\n"),
+        "effects.boxes[0].half_extents_m[1]",
+        "4:24",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "plane-zero-normal",
+        &with_table("[[effects.planes]]\npoint_m = [0, 0, 0]\nnormal = [0, 0, 0]\n"),
+        "effects.planes[0].normal",
+        "4:10",
+        "non-zero direction",
+    );
+    expect_scene_error(
+        "tears-before-it-yields",
+        &format!(
+            "{}[bodies.plasticity]\nyield_strain = 0.2\ncreep_per_s = 1.0\n[bodies.tearing]\nmax_strain = 0.1\n",
+            with_table("")
+        ),
+        "bodies[0].tearing.max_strain",
+        "11:14",
+        "larger than yield_strain",
+    );
+}
+
 #[test]
 fn bad_scene_files_give_one_clear_error_with_field_and_position() {
     expect_scene_error(
@@ -643,80 +793,4 @@ fn an_interrupted_recording_keeps_every_frame_it_produced() {
         );
         let _ = std::fs::remove_dir_all(dir);
     }
-}
-
-/// Each built-in scene's step runs exactly the passes, and compiles in exactly the effects, it
-/// calls for.
-#[test]
-fn check_lists_the_passes_and_effects_each_built_in_scene_runs() {
-    let expect = [
-        (
-            "hair",
-            "compute_forces → semi_implicit_update",
-            "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING",
-        ),
-        (
-            "cloth",
-            "compute_forces → semi_implicit_update → project_contacts",
-            "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_SPHERES, HAS_DAMPING",
-        ),
-        (
-            "jello",
-            "compute_forces → semi_implicit_update → project_contacts",
-            "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
-        ),
-        (
-            "jello-sphere",
-            "compute_forces → semi_implicit_update → project_contacts",
-            "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_DAMPING",
-        ),
-        (
-            "cloth-64",
-            "compute_forces → semi_implicit_update",
-            "HAS_GRAVITY, HAS_DAMPING",
-        ),
-        (
-            "cloth-256",
-            "compute_forces → semi_implicit_update",
-            "HAS_GRAVITY, HAS_DAMPING",
-        ),
-        (
-            "cloth-1024",
-            "compute_forces → semi_implicit_update",
-            "HAS_GRAVITY, HAS_DAMPING",
-        ),
-    ];
-    assert_eq!(
-        expect.len(),
-        hooke::scene::BUILT_IN.len(),
-        "a built-in scene is missing here"
-    );
-    for (scene, passes, effects) in expect {
-        let out = hooke(&["check", scene, "--backend", "cpu"]);
-        let s = text(&out.stdout);
-        assert!(
-            s.contains(&format!("GPU step passes: {passes}\n")),
-            "{scene}:\n{s}"
-        );
-        assert!(
-            s.contains(&format!("compiled-in effects: {effects}\n")),
-            "{scene}:\n{s}"
-        );
-    }
-    // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update.
-    let out = hooke(&[
-        "check",
-        "hair",
-        "--integrator",
-        "implicit",
-        "--backend",
-        "cpu",
-    ]);
-    let s = text(&out.stdout);
-    assert!(
-        s.contains(
-            "GPU step passes: implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final\n"
-        ),
-        "hair, implicit:\n{s}"
-    );
 }

@@ -18,6 +18,7 @@ pub const BUILT_IN: &[BuiltIn] = built_in![
     "jello",
     "jello-sphere",
     "tear",
+    "ramp",
     "cloth-64",
     "cloth-256",
     "cloth-1024"

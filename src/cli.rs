@@ -116,6 +116,9 @@ pub enum BenchCommand {
         /// Steps per GPU submission.
         #[arg(long, default_value_t = 100)]
         batch: u32,
+        /// Also time each scene without each of its effects in turn: what each effect costs.
+        #[arg(long)]
+        effects: bool,
     },
 }
 

@@ -139,6 +139,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                     integrator,
                     steps,
                     batch,
+                    effects,
                 },
         } => {
             let scenes = if scenes.is_empty() {
@@ -154,8 +155,13 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 batch,
             };
             for s in &scenes {
-                let t = hooke::bench::throughput(s, &opts)?;
-                println!("{}", hooke::bench::format_throughput(&t));
+                if effects {
+                    let c = hooke::bench::effect_costs(s, &opts)?;
+                    println!("{}", hooke::bench::format_effect_costs(&c));
+                } else {
+                    let t = hooke::bench::throughput(s, &opts)?;
+                    println!("{}", hooke::bench::format_throughput(&t));
+                }
             }
             Ok(Outcome::Done)
         }

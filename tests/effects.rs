@@ -421,3 +421,59 @@ fn a_keyframed_sphere_carries_a_mass_along_its_path() {
         assert!(c.distance(g) < 1e-5, "CPU {c}, GPU {g}");
     }
 }
+
+#[test]
+fn every_collider_bounces_a_mass_back_with_its_restitution() {
+    // A mass (no gravity) hits each kind of collider head-on at 2 m/s; it leaves at e times that.
+    // The contact's damping comes from e (model::damping_ratio_for_restitution, which accounts
+    // for the contact letting go when its force reaches zero). The ground shares contact_force.
+    let shapes = [
+        ("sphere", Shape::Sphere { radius_m: 0.5 }, Vec3::Y),
+        (
+            "box",
+            Shape::Box {
+                half_extents_m: Vec3::splat(0.5),
+            },
+            Vec3::Y,
+        ),
+        ("plane", Shape::Plane { normal: Vec3::Y }, Vec3::ZERO),
+    ];
+    for e in [0.05f32, 0.3, 0.8, 1.0] {
+        for (what, shape, offset) in shapes {
+            let top = offset * 0.5;
+            let mut mb = ModelBuilder::new();
+            mb.mass(top + Vec3::Y * 0.05, Vec3::new(0.0, -2.0, 0.0), 0.1, false);
+            mb.effects(Effects {
+                colliders: vec![Collider {
+                    shape,
+                    path: Path::Linear {
+                        start_m: Vec3::ZERO,
+                        velocity_m_per_s: Vec3::ZERO,
+                    },
+                    contact: ContactModel::from_scene(hooke::scene::Contact {
+                        stiffness_n_per_m: 1000.0,
+                        friction: 0.0,
+                        restitution: e,
+                    }),
+                    max_depth_m: 0.2,
+                }],
+                ..Effects::default()
+            });
+            let model = Arc::new(mb.build());
+            // Contact lasts about π/ω = 31 ms; it is over well within 80 ms.
+            for mut be in backends(&model, Integrator::SemiImplicit, 2e-5) {
+                ok(be.advance(4000));
+                let v = ok(be.state()).v[0];
+                let got = v.y / 2.0;
+                println!("{what} e = {e}: {got} on {}", be.describe());
+                assert!(
+                    (got - e).abs() < 0.01,
+                    "{what}, e = {e}: leaves at {} m/s, expected {} m/s ({})",
+                    v.y,
+                    2.0 * e,
+                    be.describe()
+                );
+            }
+        }
+    }
+}

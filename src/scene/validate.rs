@@ -95,10 +95,15 @@ fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Chec
     non_negative(&format!("{field}.friction"), f64::from(friction))?;
     let r = f64::from(restitution);
     finite(&format!("{field}.restitution"), r)?;
-    if !(0.0..=1.0).contains(&r) {
+    let least = crate::model::MIN_RESTITUTION;
+    if !(f64::from(least)..=1.0).contains(&r) {
         return fail(
             format!("{field}.restitution"),
-            format!("must lie between 0 (no bounce) and 1 (elastic), got {r}"),
+            format!(
+                "must lie between {least} and 1 (elastic), got {r}: a penalty contact pushes but never pulls, \
+                 so it bounces back at least {least} of the impact speed unless it is damped so hard that \
+                 the step would have to shrink"
+            ),
         );
     }
     Ok(())

@@ -109,6 +109,53 @@ fn read_rrd(path: &Path) -> BTreeMap<String, (BTreeSet<i64>, BTreeSet<i64>)> {
 }
 
 #[test]
+fn recordings_show_the_tear_and_every_collider() {
+    let dir = temp_dir("effects");
+    let frames = 70i64;
+    for scene in ["tear", "ramp"] {
+        let path = dir.join(format!("{scene}.rrd"));
+        let out = hooke(&[
+            "run",
+            scene,
+            "--backend",
+            "cpu",
+            "--frames",
+            &frames.to_string(),
+            "--save",
+            &path.to_string_lossy(),
+        ]);
+        assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+        let e = read_rrd(&path);
+        let every: BTreeSet<i64> = (0..=frames).collect();
+        let on_timeline: &[&str] = if scene == "tear" {
+            &[
+                "/stats/broken_springs",
+                "/energy/dissipated_plastic",
+                "/world/colliders/sphere_0",
+                "/world/cloth/springs",
+            ]
+        } else {
+            &["/world/colliders/sphere_0"]
+        };
+        for entity in on_timeline {
+            let got = &e
+                .get(*entity)
+                .unwrap_or_else(|| panic!("{scene}: no {entity}"))
+                .0;
+            assert_eq!(got, &every, "{scene}: {entity} frames");
+        }
+        // Fixed colliders are logged once, static.
+        if scene == "ramp" {
+            for entity in ["/world/colliders/box_0", "/world/colliders/plane_0"] {
+                let got = e.get(entity).unwrap_or_else(|| panic!("no {entity}"));
+                assert!(got.0.is_empty(), "{entity} is fixed: {got:?}");
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
 fn a_saved_recording_has_every_frame_on_both_timelines() {
     let dir = temp_dir("rec");
     let path = dir.join("jello-sphere.rrd");

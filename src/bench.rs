@@ -326,6 +326,7 @@ pub fn soak(
     adapter: Option<&str>,
     duration_secs: f64,
     rrd: &std::path::Path,
+    footer: bool,
 ) -> Result<Soak> {
     use std::sync::atomic::{AtomicBool, Ordering};
     let loaded = scene::load(scene_arg)?;
@@ -346,8 +347,9 @@ pub fn soak(
     )?;
     let name = be.describe();
     let rec = rerun::RecordingStreamBuilder::new("hooke-soak")
-        .save(rrd)
-        .map_err(|e| crate::Error::Rerun(format!("creating {}: {e}", rrd.display())))?;
+        .buffered()
+        .map_err(|e| crate::Error::Rerun(format!("starting the recording: {e}")))?;
+    rec.set_sink(Box::new(crate::record::file_sink(rrd, footer)?));
     let done = Arc::new(AtomicBool::new(false));
     let start = Instant::now();
     let sampler = {

@@ -46,13 +46,19 @@ pub enum Command {
         #[command(flatten)]
         rerun: rerun::clap::RerunArgs,
         #[command(flatten)]
-        serve: ServeArgs,
+        output: OutputArgs,
     },
 }
 
-/// Where `--serve` listens (with Rerun's `--bind` address).
+/// How the recording goes out, beside Rerun's own flags: where `--serve` listens (with Rerun's
+/// `--bind` address), and how a `--save` file is written.
 #[derive(Debug, Clone, Copy, clap::Args)]
-pub struct ServeArgs {
+pub struct OutputArgs {
+    /// With --save: write the .rrd without its footer (the index of every chunk), which Rerun's
+    /// file sink otherwise keeps in memory until the file closes, about 160 KB per second of a
+    /// run. Use it for runs of hours; Rerun reads such a file, without the index.
+    #[arg(long)]
+    pub no_rrd_footer: bool,
     /// With --serve: the port of the gRPC server the web viewer reads the recording from.
     #[arg(long, default_value_t = 9876)]
     pub grpc_port: u16,
@@ -76,6 +82,9 @@ pub enum BenchCommand {
         /// Where the recording goes.
         #[arg(long, default_value = "soak.rrd")]
         save: std::path::PathBuf,
+        /// Write the .rrd without its footer index (see `hooke run --no-rrd-footer`).
+        #[arg(long)]
+        no_rrd_footer: bool,
     },
     /// Every integrator over a ladder of time steps against an f64 RK4 reference: error, energy
     /// drift, stability and wall time, as a table (Markdown, CSV) and a work-precision chart (SVG).

@@ -93,9 +93,17 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                     device: cli::DeviceArgs { backend, adapter },
                     duration,
                     save,
+                    no_rrd_footer,
                 },
         } => {
-            let s = hooke::bench::soak(&scene, backend, adapter.as_deref(), duration, &save)?;
+            let s = hooke::bench::soak(
+                &scene,
+                backend,
+                adapter.as_deref(),
+                duration,
+                &save,
+                !no_rrd_footer,
+            )?;
             println!("{}", hooke::bench::format_soak(&s));
             Ok(Outcome::Done)
         }
@@ -170,7 +178,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             solver,
             device: cli::DeviceArgs { backend, adapter },
             rerun,
-            serve,
+            output,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
@@ -179,7 +187,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 &scene,
                 &solver,
                 (backend, adapter),
-                (&rerun, &serve),
+                (&rerun, &output),
                 run_matches,
             )
         }
@@ -275,7 +283,7 @@ impl Sink {
 /// a run is never lost.
 fn open_sink(
     rerun_args: &rerun::clap::RerunArgs,
-    serve: &cli::ServeArgs,
+    output: &cli::OutputArgs,
     m: &clap::ArgMatches,
     scene_name: &str,
 ) -> anyhow::Result<Sink> {
@@ -284,6 +292,14 @@ fn open_sink(
         .then(|| m.get_one::<PathBuf>("save").cloned())
         .flatten();
     let connect = explicit(m, "connect");
+    if let Some(path) = save.as_ref().filter(|_| output.no_rrd_footer && !connect) {
+        let rec = rerun::RecordingStreamBuilder::new("hooke")
+            .with_blueprint(blueprint())
+            .buffered()
+            .context("starting the Rerun recording")?;
+        rec.set_sink(Box::new(hooke::record::file_sink(path, false)?));
+        return Ok(Sink::file(rec, save));
+    }
     if explicit(m, "stdout") || (save.is_some() && !connect) {
         let (rec, _no_serving) = rerun_args
             .init_with_blueprint("hooke", blueprint())
@@ -292,7 +308,7 @@ fn open_sink(
         return Ok(Sink::file(rec, saved));
     }
     if explicit(m, "serve") {
-        return serve_web_viewer(m, serve);
+        return serve_web_viewer(m, output);
     }
     let url = if connect {
         m.get_one::<String>("connect")
@@ -324,9 +340,10 @@ fn open_sink(
         hooke::viewer::ViewerLink::connect(&url, save.is_some()).map_err(anyhow::Error::msg)?;
     let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = vec![viewer_sink];
     if let Some(path) = &save {
-        let file = rerun::sink::FileSink::new(path)
-            .with_context(|| format!("creating {}", path.display()))?;
-        sinks.push(Box::new(file));
+        sinks.push(Box::new(hooke::record::file_sink(
+            path,
+            !output.no_rrd_footer,
+        )?));
     }
     let rec = rerun::RecordingStreamBuilder::new("hooke")
         .with_blueprint(blueprint())
@@ -352,7 +369,7 @@ fn open_sink(
 
 /// `--serve`: the recording is served over gRPC and Rerun's web viewer over HTTP, from this
 /// machine (a server with no display, typically), and stays served after the run until Ctrl-C.
-fn serve_web_viewer(m: &clap::ArgMatches, serve: &cli::ServeArgs) -> anyhow::Result<Sink> {
+fn serve_web_viewer(m: &clap::ArgMatches, output: &cli::OutputArgs) -> anyhow::Result<Sink> {
     let bind = m
         .get_one::<String>("bind")
         .cloned()
@@ -370,17 +387,17 @@ fn serve_web_viewer(m: &clap::ArgMatches, serve: &cli::ServeArgs) -> anyhow::Res
     };
     let rec = rerun::RecordingStreamBuilder::new("hooke")
         .with_blueprint(hooke::record::blueprint())
-        .serve_grpc_opts(&bind, serve.grpc_port, options)
+        .serve_grpc_opts(&bind, output.grpc_port, options)
         .with_context(|| {
             format!(
                 "serving the recording over gRPC on {bind}:{} (is the port taken? choose another with --grpc-port)",
-                serve.grpc_port
+                output.grpc_port
             )
         })?;
-    let source = format!("rerun+http://localhost:{}/proxy", serve.grpc_port);
+    let source = format!("rerun+http://localhost:{}/proxy", output.grpc_port);
     rerun::serve_web_viewer(rerun::web_viewer::WebViewerConfig {
         bind_ip: bind.clone(),
-        web_port: serve.web_viewer_port.into(),
+        web_port: output.web_viewer_port.into(),
         connect_to: vec![source.clone()],
         open_browser: false,
         ..Default::default()
@@ -388,19 +405,19 @@ fn serve_web_viewer(m: &clap::ArgMatches, serve: &cli::ServeArgs) -> anyhow::Res
     .with_context(|| {
         format!(
             "serving the web viewer on {bind}:{} (is the port taken? choose another with --web-viewer-port)",
-            serve.web_viewer_port
+            output.web_viewer_port
         )
     })?
     .detach();
     let page = format!(
         "http://localhost:{}/?url={}",
-        serve.web_viewer_port,
+        output.web_viewer_port,
         percent_encode(&source)
     );
     eprintln!(
         "serving the web viewer at {page}\n  from another machine, forward both ports first: ssh -L {w}:localhost:{w} -L {g}:localhost:{g} THIS_HOST",
-        w = serve.web_viewer_port,
-        g = serve.grpc_port
+        w = output.web_viewer_port,
+        g = output.grpc_port
     );
     Ok(Sink {
         rec,
@@ -428,7 +445,7 @@ fn run(
     scene_arg: &str,
     solver: &cli::SolverArgs,
     (kind, adapter): (hooke::backend::BackendKind, Option<String>),
-    (rerun_args, serve): (&rerun::clap::RerunArgs, &cli::ServeArgs),
+    (rerun_args, output): (&rerun::clap::RerunArgs, &cli::OutputArgs),
     m: &clap::ArgMatches,
 ) -> anyhow::Result<Outcome> {
     // With --stdout the recording owns standard output: messages go to stderr.
@@ -457,7 +474,7 @@ fn run(
         settings.substeps,
         settings.frames
     );
-    let sink = open_sink(rerun_args, serve, m, &loaded.scene.name)?;
+    let sink = open_sink(rerun_args, output, m, &loaded.scene.name)?;
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
         progress: std::io::stderr().is_terminal(),

@@ -109,6 +109,48 @@ fn read_rrd(path: &Path) -> BTreeMap<String, (BTreeSet<i64>, BTreeSet<i64>)> {
 }
 
 #[test]
+fn a_recording_without_its_footer_still_holds_every_frame() {
+    // --no-rrd-footer: for long runs, Rerun's file sink keeps no chunk index in memory.
+    let dir = temp_dir("nofooter");
+    let path = dir.join("hair.rrd");
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--frames",
+        "30",
+        "--save",
+        &path.to_string_lossy(),
+        "--no-rrd-footer",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let frames = &read_rrd(&path)["/world/strand_0/masses"].0;
+    assert_eq!(frames, &(0..=30).collect::<BTreeSet<i64>>());
+    // The same run with its footer is larger by the index.
+    let indexed = dir.join("indexed.rrd");
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--frames",
+        "30",
+        "--save",
+        &indexed.to_string_lossy(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+    assert!(
+        size(&path) < size(&indexed),
+        "no footer: {} bytes, with footer: {} bytes",
+        size(&path),
+        size(&indexed)
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
 fn recordings_show_the_tear_and_every_collider() {
     let dir = temp_dir("effects");
     let frames = 70i64;

@@ -1,5 +1,5 @@
 //! The f64 reference solution the accuracy benchmark measures against: the model's full force
-//! (springs, gravity, drag, contact with friction) evaluated in double precision and integrated
+//! (springs, gravity, drag, contact with friction, mass–mass contact) evaluated in double precision and integrated
 //! by classic RK4 at a step much finer than any it judges. Same formulas as `cpu::forces`
 //! (`compute_forces`), so what differs is only precision and step size.
 
@@ -57,6 +57,11 @@ impl Reference {
             .iter()
             .map(|s| s.center_m.as_dvec3() + s.velocity_m_per_s.as_dvec3() * t)
             .collect();
+        let grid = fx.self_collision.map(|c| {
+            let mut g = crate::cpu::MassGrid::new(x.len(), c.radius_m);
+            g.build_f64(x);
+            (c, g)
+        });
         let one = |i: usize| {
             if m.inv_mass[i] == 0.0 {
                 return DVec3::ZERO;
@@ -101,6 +106,25 @@ impl Reference {
                         dt,
                     );
                 }
+            }
+            if let Some((c, g)) = &grid {
+                let diameter = 2.0 * f64::from(c.radius_m);
+                let cell = (xi * f64::from(g.inv_cell_per_m())).floor().as_ivec3();
+                g.for_each_candidate(cell, |j| {
+                    if j == i || !(c.within_bodies || m.mass_body[i] != m.mass_body[j]) {
+                        return;
+                    }
+                    let d = xi - x[j];
+                    let dist = d.length();
+                    if dist >= diameter || dist == 0.0 {
+                        return;
+                    }
+                    // The pair's reduced mass (a pinned partner weighs infinitely much).
+                    let wj = f64::from(m.inv_mass[j]);
+                    let mu = 1.0 / (1.0 / mass + wj);
+                    f +=
+                        contact_force_f64(&c.contact, diameter - dist, d / dist, vi - v[j], mu, dt);
+                });
             }
             f / mass
         };

@@ -206,7 +206,7 @@ fn linearise(model: &Model, x: &[Vec3], t: f64, h: f32, lin: &mut Linearisation)
 /// iterate, the end of the step (backward quadrature, as the scheme itself).
 pub fn implicit_step(
     model: &Model,
-    gather: &Gather,
+    gather: &mut Gather,
     state: &mut State,
     w: &mut ImplicitWork,
     dt: f32,

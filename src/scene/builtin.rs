@@ -17,6 +17,8 @@ pub const BUILT_IN: &[BuiltIn] = built_in![
     "cloth",
     "jello",
     "jello-sphere",
+    "cloth-fold",
+    "pile",
     "cloth-64",
     "cloth-256",
     "cloth-1024"

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
+use hooke::gpu::{GpuBackend, REQUIRE_ADAPTER_ENV};
 use hooke::integrator::Integrator;
 use hooke::model::{
     ContactModel, Effects, MassContact, Model, ModelBuilder, damping_ratio_for_pushing_restitution,
@@ -16,6 +17,21 @@ use hooke::state::State;
 
 fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
     r.unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn have_adapter() -> bool {
+    if !hooke::gpu::adapters().is_empty() {
+        return true;
+    }
+    if std::env::var(REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
+        panic!(
+            "no GPU adapter, and {REQUIRE_ADAPTER_ENV}=1: install mesa-vulkan-drivers (lavapipe)"
+        );
+    }
+    eprintln!(
+        "SKIPPED: no GPU adapter on this machine (set {REQUIRE_ADAPTER_ENV}=1 to make this a failure)"
+    );
+    false
 }
 
 fn scene_model(name: &str) -> (Arc<Model>, f64) {
@@ -272,4 +288,247 @@ fn the_folding_cloth_never_lets_two_masses_meet() {
         closest.0,
         closest.3
     );
+}
+
+// ---- The GPU against the CPU. ----
+
+/// Both backends over `frames` frames of `substeps` steps, compared at every frame: the largest
+/// position difference, and each backend's last snapshot.
+fn run_both(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    frames: u32,
+    substeps: u32,
+) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
+    let mut cpu = CpuBackend::new(model.clone(), integrator, dt);
+    let mut gpu = ok(GpuBackend::new(model.clone(), integrator, dt, None));
+    let mut worst = 0.0f64;
+    let mut last = None;
+    for frame in 0..frames {
+        ok(cpu.advance(substeps));
+        ok(gpu.advance(substeps));
+        let (c, g) = (
+            ok(cpu.snapshot(u64::from(frame), Default::default())),
+            ok(gpu.snapshot(u64::from(frame), Default::default())),
+        );
+        for (a, b) in c.positions.iter().zip(&g.positions) {
+            worst = worst.max(f64::from(a.distance(*b)));
+        }
+        last = Some((c, g));
+    }
+    let (c, g) = last.unwrap_or_else(|| panic!("no frames"));
+    (worst, c, g)
+}
+
+/// Stated tolerance, as the other parity tests: lavapipe evaluates the same f32 operations in
+/// the same order as the CPU (bit-identical in practice); a GPU that fuses multiply-adds differs
+/// by rounding, which contact amplifies, so 1e-4 m over these frames.
+const PARITY_X_M: f64 = 1e-4;
+
+/// pile (cubes landing on each other from 0.15 s) and cloth-fold (the sheet landing and folding
+/// from 0.4 s), with the integrators whose force evaluations read different states (x, v; the
+/// RK4 stages' xt, vt; Verlet's x, vt): positions agree at every frame, and so do the contact
+/// energy (the pair potential) and the dissipated energy.
+#[test]
+fn gpu_matches_cpu_with_mass_contact() {
+    if !have_adapter() {
+        return;
+    }
+    for (name, integrator, frames) in [
+        ("pile", Integrator::SemiImplicit, 40),
+        ("pile", Integrator::Verlet, 20),
+        ("pile", Integrator::Rk4, 15),
+        ("cloth-fold", Integrator::SemiImplicit, 40),
+    ] {
+        let (model, dt) = scene_model(name);
+        let substeps = (1.0 / (60.0 * dt)).round() as u32;
+        let (worst, c, g) = run_both(&model, integrator, dt, frames, substeps);
+        let (ec, eg) = (c.energies, g.energies);
+        println!(
+            "{name} {integrator}: |Δx| {worst:.2e} m; contact energy CPU {:.6e} J, GPU {:.6e} J; dissipated CPU {:.6e} J, GPU {:.6e} J",
+            ec.contact_j,
+            eg.contact_j,
+            ec.ledger.dissipated_j(),
+            eg.ledger.dissipated_j()
+        );
+        assert!(
+            worst <= PARITY_X_M,
+            "{name} {integrator}: GPU positions differ from the CPU by {worst:.3e} m"
+        );
+        assert!(
+            ec.ledger.contact_j > 1e-3,
+            "{name} {integrator}: no contact happened ({} J dissipated)",
+            ec.ledger.contact_j
+        );
+        let scale = ec.total_j().abs().max(1e-3);
+        for (what, a, b) in [
+            ("contact energy", ec.contact_j, eg.contact_j),
+            ("kinetic energy", ec.kinetic_j, eg.kinetic_j),
+            (
+                "dissipated",
+                ec.ledger.dissipated_j(),
+                eg.ledger.dissipated_j(),
+            ),
+        ] {
+            assert!(
+                (a - b).abs() <= 1e-4 * scale,
+                "{name} {integrator}: {what} {a} J on the CPU, {b} J on the GPU"
+            );
+        }
+    }
+}
+
+/// The pair potential on the GPU (mass_contact_energy at snapshot time) equals the CPU's in a
+/// state where many pairs are pressed together: the pile mid-impact.
+#[test]
+fn gpu_contact_energy_matches_the_cpu_mid_impact() {
+    if !have_adapter() {
+        return;
+    }
+    let (model, dt) = scene_model("pile");
+    let mut cpu = CpuBackend::new(model.clone(), Integrator::SemiImplicit, dt);
+    let mut best = (0.0f64, 0.0f64);
+    let mut gpu = ok(GpuBackend::new(
+        model.clone(),
+        Integrator::SemiImplicit,
+        dt,
+        None,
+    ));
+    for frame in 0..30 {
+        ok(cpu.advance(40));
+        ok(gpu.advance(40));
+        let (c, g) = (
+            ok(cpu.snapshot(frame, Default::default())),
+            ok(gpu.snapshot(frame, Default::default())),
+        );
+        if c.energies.contact_j > best.0 {
+            best = (c.energies.contact_j, g.energies.contact_j);
+        }
+    }
+    println!(
+        "pile: peak contact energy CPU {:.6e} J, GPU {:.6e} J",
+        best.0, best.1
+    );
+    assert!(
+        best.0 > 1e-2,
+        "the cubes never pressed together ({} J)",
+        best.0
+    );
+    assert!(
+        (best.0 - best.1).abs() <= 1e-4 * best.0,
+        "contact energy {} J on the CPU, {} J on the GPU",
+        best.0,
+        best.1
+    );
+}
+
+#[test]
+fn gpu_runs_with_mass_contact_are_bit_identical() {
+    if !have_adapter() {
+        return;
+    }
+    let (model, dt) = scene_model("pile");
+    let run = || {
+        let mut gpu = ok(GpuBackend::new(
+            model.clone(),
+            Integrator::SemiImplicit,
+            dt,
+            None,
+        ));
+        for _ in 0..25 {
+            ok(gpu.advance(40));
+        }
+        ok(gpu.state())
+    };
+    let (a, b) = (run(), run());
+    let bytes = |v: &[Vec3]| bytemuck::cast_slice::<Vec3, u8>(v).to_vec();
+    assert!(
+        bytes(&a.x) == bytes(&b.x) && bytes(&a.v) == bytes(&b.v),
+        "two GPU runs differ"
+    );
+    assert_eq!(a.ledger, b.ledger);
+    assert!(a.ledger.contact_j > 1e-3, "no contact happened");
+}
+
+/// A cloud of free masses (no springs) in a box, with mass–mass contact.
+fn cloud_model(n: usize, extent_m: f32, radius_m: f32, seed: u64) -> Arc<Model> {
+    let mut s = seed;
+    let mut next = || {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((s >> 40) as f32) / ((1u64 << 24) as f32) - 0.5
+    };
+    let mut mb = ModelBuilder::new();
+    for _ in 0..n {
+        mb.mass(
+            Vec3::new(next(), next(), next()) * extent_m,
+            Vec3::ZERO,
+            0.01,
+            false,
+        );
+    }
+    mb.effects(Effects {
+        self_collision: Some(MassContact {
+            radius_m,
+            contact: ContactModel {
+                stiffness_n_per_m: 100.0,
+                friction: 0.0,
+                damping_ratio: 0.5,
+            },
+            within_bodies: true,
+        }),
+        ..Effects::default()
+    });
+    Arc::new(mb.build())
+}
+
+/// The GPU's hash grid (count, multi-level prefix sum, scatter, per-bucket sort) is the CPU's
+/// counting sort exactly: bucket starts and sorted masses, for a table of 8 scan blocks and for
+/// one of 512 (more block sums than one workgroup scans at once, so grid_scan_sums carries
+/// across chunks).
+#[test]
+fn gpu_hash_grid_equals_the_cpu_grid() {
+    if !have_adapter() {
+        return;
+    }
+    for (n, extent, radius) in [(1000usize, 0.5f32, 0.02f32), (40_000, 1.5, 0.01)] {
+        let model = cloud_model(n, extent, radius, n as u64);
+        let table = hooke::cpu::table_size(n);
+        let mut cpu = hooke::cpu::MassGrid::new(n, radius);
+        cpu.build(&model.initial.x);
+        let mut gpu = ok(GpuBackend::new(
+            model.clone(),
+            Integrator::SemiImplicit,
+            1e-3,
+            None,
+        ));
+        let Some(hooke::gpu::GridReadBack {
+            cell_start: starts,
+            sorted,
+        }) = ok(gpu.mass_grid())
+        else {
+            panic!("no grid on the GPU");
+        };
+        assert_eq!(starts.len(), table as usize + 1);
+        assert_eq!(
+            starts[table as usize], n as u32,
+            "the grand total is the mass count"
+        );
+        let crowded = (0..table as usize)
+            .filter(|&b| starts[b + 1] - starts[b] > 1)
+            .count();
+        assert!(
+            crowded > 10,
+            "{n} masses: only {crowded} buckets hold several"
+        );
+        let first_bad = starts.iter().zip(&cpu.cell_start).position(|(a, b)| a != b);
+        assert_eq!(first_bad, None, "{n} masses: bucket starts differ");
+        assert_eq!(sorted, cpu.sorted, "{n} masses: sorted masses differ");
+        println!(
+            "{n} masses: {table} buckets ({} scan blocks), {crowded} holding several masses: GPU grid = CPU grid",
+            table / hooke::cpu::SCAN_BLOCK
+        );
+    }
 }

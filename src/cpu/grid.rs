@@ -16,6 +16,11 @@ pub fn table_size(mass_count: usize) -> u32 {
     (2 * n).next_power_of_two().max(SCAN_BLOCK)
 }
 
+/// Inverse of the cell size, 1 / (2 · radius): the GPU is handed this very value.
+pub fn inv_cell_per_m(radius_m: f32) -> f32 {
+    1.0 / (2.0 * radius_m)
+}
+
 /// The cell holding `p`. Same operations as `grid_cell` in `shaders/common.wgsl` (multiply by the
 /// inverse cell size, floor, convert with saturation), so both backends bin a mass alike.
 #[inline(always)]
@@ -50,7 +55,7 @@ impl MassGrid {
     pub fn new(mass_count: usize, radius_m: f32) -> Self {
         let table = table_size(mass_count) as usize;
         Self {
-            inv_cell_per_m: 1.0 / (2.0 * radius_m),
+            inv_cell_per_m: inv_cell_per_m(radius_m),
             mask: table as u32 - 1,
             cell_start: vec![0; table + 1],
             sorted: vec![0; mass_count],

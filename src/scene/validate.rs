@@ -162,15 +162,18 @@ fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
                 .filter(multi)
                 .map(|b| b.spacing_m)
                 .fold(f32::INFINITY, f32::min);
+            // Three significant digits, rounded down.
+            let suggest = 0.45 * f64::from(smallest);
+            let decimals = (2 - suggest.log10().floor() as i32).max(0) as usize;
+            let scale = 10f64.powi(decimals as i32);
+            let suggest = format!("{:.*}", decimals, (suggest * scale).floor() / scale);
             return fail(
                 format!("{f}.radius_m"),
                 format!(
                     "2 · radius_m = {diameter} m must be less than the spacing_m of every body whose masses collide with each other, \
                      but bodies[{i}] ('{}') has spacing_m = {} m, so its grid neighbours would repel at rest; \
-                     use radius_m = {:.3e} m (0.45 · the smallest spacing) or less, or set within_bodies = false",
-                    b.name,
-                    b.spacing_m,
-                    0.45 * smallest
+                     use radius_m = {suggest} m (0.45 · the smallest spacing) or less, or set within_bodies = false",
+                    b.name, b.spacing_m,
                 ),
             );
         }

@@ -1,9 +1,10 @@
 // collide_masses and mass_contact_energy: contact between mass points, each a sphere of the
 // scene's radius, found through the hash grid that grid.wgsl built from the same positions.
 // Mirrors src/cpu/collide_masses.rs: each mass gathers its pairs over its grid candidates in the
-// grid's fixed order (the 27 cells z, y, x from −1 to +1, a bucket two of them share once, each
-// bucket by mass index), and every pair is computed lower index first and negated for the other
-// mass, so the two sides are exact negatives.
+// grid's fixed order (the 27 cells around its own, z, y, x each from −1 to +1, by mass index
+// within a cell; from each cell's bucket only that cell's masses, so a bucket two of the cells
+// share yields each mass once), and every pair is computed lower index first and negated for the
+// other mass, so the two sides are exact negatives.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<uniform> contact: MassContact;
@@ -72,35 +73,6 @@ fn may_touch(i: u32, j: u32) -> bool {
     return j != i && (contact.within_bodies != 0u || mass_body[i] != mass_body[j]);
 }
 
-// The buckets of the 27 cells around cell c, a bucket two of them share listed once.
-struct Buckets {
-    list: array<u32, 27>,
-    count: u32,
-}
-
-fn neighbour_buckets(c: vec3<i32>) -> Buckets {
-    var out: Buckets;
-    out.count = 0u;
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
-            for (var dx = -1; dx <= 1; dx++) {
-                let b = grid_hash(c + vec3<i32>(dx, dy, dz), contact.table_mask);
-                var seen = false;
-                for (var k = 0u; k < out.count; k++) {
-                    if (out.list[k] == b) {
-                        seen = true;
-                    }
-                }
-                if (!seen) {
-                    out.list[out.count] = b;
-                    out.count++;
-                }
-            }
-        }
-    }
-    return out;
-}
-
 @compute @workgroup_size(64)
 fn collide_masses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -111,29 +83,37 @@ fn collide_masses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let vi = v_in[i].xyz;
     var f = vec3<f32>(0.0);
     var dissipated = 0.0;
-    let buckets = neighbour_buckets(grid_cell(xi, contact.inv_cell));
-    for (var k = 0u; k < buckets.count; k++) {
-        let b = buckets.list[k];
-        let end = cell_start[b + 1u];
-        for (var s = cell_start[b]; s < end; s++) {
-            let j = sorted[s];
-            if (!may_touch(i, j)) {
-                continue;
-            }
-            let wj = mass[j].y;
-            let xj = x_in[j].xyz;
-            let vj = v_in[j].xyz;
-            if (i < j) {
-                let p = pair_contact(xi, vi, wi, xj, vj, wj, stage.dt);
-                if (p.touching) {
-                    f += p.force;
-                    dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
-                }
-            } else {
-                let p = pair_contact(xj, vj, wj, xi, vi, wi, stage.dt);
-                if (p.touching) {
-                    f -= p.force;
-                    dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
+    let c = grid_cell(xi, contact.inv_cell);
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            for (var dx = -1; dx <= 1; dx++) {
+                let cell = c + vec3<i32>(dx, dy, dz);
+                let b = grid_hash(cell, contact.table_mask);
+                let end = cell_start[b + 1u];
+                for (var s = cell_start[b]; s < end; s++) {
+                    let j = sorted[s];
+                    if (!may_touch(i, j)) {
+                        continue;
+                    }
+                    let xj = x_in[j].xyz;
+                    if (any(grid_cell(xj, contact.inv_cell) != cell)) {
+                        continue;
+                    }
+                    let wj = mass[j].y;
+                    let vj = v_in[j].xyz;
+                    if (i < j) {
+                        let p = pair_contact(xi, vi, wi, xj, vj, wj, stage.dt);
+                        if (p.touching) {
+                            f += p.force;
+                            dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
+                        }
+                    } else {
+                        let p = pair_contact(xj, vj, wj, xi, vi, wi, stage.dt);
+                        if (p.touching) {
+                            f -= p.force;
+                            dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
+                        }
+                    }
                 }
             }
         }
@@ -159,18 +139,27 @@ fn mass_contact_energy(
     if (i < params.mass_count) {
         let xi = x_in[i].xyz;
         let diameter = 2.0 * contact.radius;
-        let buckets = neighbour_buckets(grid_cell(xi, contact.inv_cell));
-        for (var k = 0u; k < buckets.count; k++) {
-            let b = buckets.list[k];
-            let end = cell_start[b + 1u];
-            for (var s = cell_start[b]; s < end; s++) {
-                let j = sorted[s];
-                if (j <= i || !may_touch(i, j) || mass[i].y + mass[j].y == 0.0) {
-                    continue;
-                }
-                let depth = diameter - distance(xi, x_in[j].xyz);
-                if (depth > 0.0) {
-                    e += 0.5 * contact.stiffness * depth * depth;
+        let c = grid_cell(xi, contact.inv_cell);
+        for (var dz = -1; dz <= 1; dz++) {
+            for (var dy = -1; dy <= 1; dy++) {
+                for (var dx = -1; dx <= 1; dx++) {
+                    let cell = c + vec3<i32>(dx, dy, dz);
+                    let b = grid_hash(cell, contact.table_mask);
+                    let end = cell_start[b + 1u];
+                    for (var s = cell_start[b]; s < end; s++) {
+                        let j = sorted[s];
+                        if (j <= i || !may_touch(i, j) || mass[i].y + mass[j].y == 0.0) {
+                            continue;
+                        }
+                        let xj = x_in[j].xyz;
+                        if (any(grid_cell(xj, contact.inv_cell) != cell)) {
+                            continue;
+                        }
+                        let depth = diameter - distance(xi, xj);
+                        if (depth > 0.0) {
+                            e += 0.5 * contact.stiffness * depth * depth;
+                        }
+                    }
                 }
             }
         }

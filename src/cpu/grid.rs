@@ -45,7 +45,8 @@ pub struct MassGrid {
     mask: u32,
     pub cell_start: Vec<u32>,
     pub sorted: Vec<u32>,
-    /// Bucket of each mass, from the last build.
+    /// Cell and bucket of each mass, from the last build.
+    cell: Vec<IVec3>,
     mass_cell: Vec<u32>,
     /// Next free slot of each bucket while scattering.
     fill: Vec<u32>,
@@ -59,6 +60,7 @@ impl MassGrid {
             mask: table as u32 - 1,
             cell_start: vec![0; table + 1],
             sorted: vec![0; mass_count],
+            cell: vec![IVec3::ZERO; mass_count],
             mass_cell: vec![0; mass_count],
             fill: vec![0; table],
         }
@@ -90,7 +92,9 @@ impl MassGrid {
     fn build_from(&mut self, n: usize, cell: impl Fn(usize) -> IVec3) {
         self.fill.fill(0);
         for i in 0..n {
-            let b = grid_hash(cell(i), self.mask);
+            let c = cell(i);
+            let b = grid_hash(c, self.mask);
+            self.cell[i] = c;
             self.mass_cell[i] = b;
             self.fill[b as usize] += 1;
         }
@@ -109,12 +113,19 @@ impl MassGrid {
         }
     }
 
-    /// The buckets of the 27 cells around cell `c` (z outermost, then y, then x, each from −1 to
-    /// +1), a bucket that two of them hash to listed once, at its first place.
+    /// The masses in bucket `b`, in increasing index.
     #[inline(always)]
-    pub fn neighbour_buckets(&self, c: IVec3) -> ([u32; 27], usize) {
-        let mut out = [0u32; 27];
-        let mut count = 0;
+    pub fn bucket(&self, b: u32) -> &[u32] {
+        &self.sorted[self.cell_start[b as usize] as usize..self.cell_start[b as usize + 1] as usize]
+    }
+
+    /// Every mass in the 27 cells around (and including) cell `c`, each once, in the order both
+    /// backends gather: cell by cell (z outermost, then y, then x, each from −1 to +1), by mass
+    /// index within a cell. A bucket holds every cell that hashes to it, so only the masses of
+    /// the cell being searched are taken from it: a bucket that two of the 27 cells share yields
+    /// each of its masses once, under its own cell, and masses of far cells are never visited.
+    #[inline(always)]
+    pub fn for_each_candidate(&self, c: IVec3, mut visit: impl FnMut(usize)) {
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
@@ -123,31 +134,12 @@ impl MassGrid {
                         c.y.wrapping_add(dy),
                         c.z.wrapping_add(dz),
                     );
-                    let b = grid_hash(n, self.mask);
-                    if !out[..count].contains(&b) {
-                        out[count] = b;
-                        count += 1;
+                    for &j in self.bucket(grid_hash(n, self.mask)) {
+                        if self.cell[j as usize] == n {
+                            visit(j as usize);
+                        }
                     }
                 }
-            }
-        }
-        (out, count)
-    }
-
-    /// The masses in bucket `b`, in increasing index.
-    #[inline(always)]
-    pub fn bucket(&self, b: u32) -> &[u32] {
-        &self.sorted[self.cell_start[b as usize] as usize..self.cell_start[b as usize + 1] as usize]
-    }
-
-    /// Every mass in the cells around `p`'s cell, each once, in the order both backends gather:
-    /// bucket by bucket as [`Self::neighbour_buckets`] lists them, by mass index within one.
-    #[inline(always)]
-    pub fn for_each_candidate(&self, c: IVec3, mut visit: impl FnMut(usize)) {
-        let (buckets, count) = self.neighbour_buckets(c);
-        for &b in &buckets[..count] {
-            for &j in self.bucket(b) {
-                visit(j as usize);
             }
         }
     }
@@ -212,6 +204,27 @@ mod tests {
                     }
                 }
             }
+            // Masses whose 27 cells hash to fewer than 27 buckets: the case where a bucket
+            // must not yield its masses twice.
+            let shared = x
+                .iter()
+                .filter(|&&p| {
+                    let c = grid_cell(p, g.inv_cell_per_m);
+                    let mut buckets: Vec<u32> = (0..27)
+                        .map(|o| {
+                            let d = IVec3::new(o % 3 - 1, (o / 3) % 3 - 1, o / 9 - 1);
+                            grid_hash(c + d, g.mask)
+                        })
+                        .collect();
+                    buckets.sort_unstable();
+                    buckets.dedup();
+                    buckets.len() < 27
+                })
+                .count();
+            assert!(
+                shared > 10,
+                "radius {radius}: only {shared} masses see a shared bucket"
+            );
             let mut grid = Vec::new();
             for (i, &xi) in x.iter().enumerate() {
                 let mut count = std::collections::HashMap::new();

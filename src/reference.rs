@@ -15,6 +15,8 @@ pub struct Reference {
     pub time_secs: f64,
 }
 
+/// `stick_share`: the share of the sliding friction may stop in one step (1 for colliders,
+/// `PAIR_STICK_SHARE` between masses).
 fn contact_force_f64(
     c: &ContactModel,
     depth: f64,
@@ -22,6 +24,7 @@ fn contact_force_f64(
     v_rel: DVec3,
     mass: f64,
     dt: f64,
+    stick_share: f64,
 ) -> DVec3 {
     let k = f64::from(c.stiffness_n_per_m);
     let vn = v_rel.dot(n);
@@ -30,7 +33,7 @@ fn contact_force_f64(
     let vt = v_rel - vn * n;
     let speed = vt.length();
     if c.friction > 0.0 && speed > 0.0 {
-        f -= vt * ((f64::from(c.friction) * fn_total).min(mass * speed / dt) / speed);
+        f -= vt * ((f64::from(c.friction) * fn_total).min(stick_share * mass * speed / dt) / speed);
     }
     f
 }
@@ -89,7 +92,7 @@ impl Reference {
             if let Some(g) = &fx.ground {
                 let depth = f64::from(g.height_m) - xi.y;
                 if depth > 0.0 {
-                    f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt);
+                    f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt, 1.0);
                 }
             }
             for (s, c) in fx.spheres.iter().zip(&centers) {
@@ -104,6 +107,7 @@ impl Reference {
                         vi - s.velocity_m_per_s.as_dvec3(),
                         mass,
                         dt,
+                        1.0,
                     );
                 }
             }
@@ -122,8 +126,15 @@ impl Reference {
                     // The pair's reduced mass (a pinned partner weighs infinitely much).
                     let wj = f64::from(m.inv_mass[j]);
                     let mu = 1.0 / (1.0 / mass + wj);
-                    f +=
-                        contact_force_f64(&c.contact, diameter - dist, d / dist, vi - v[j], mu, dt);
+                    f += contact_force_f64(
+                        &c.contact,
+                        diameter - dist,
+                        d / dist,
+                        vi - v[j],
+                        mu,
+                        dt,
+                        f64::from(crate::cpu::PAIR_STICK_SHARE),
+                    );
                 });
             }
             f / mass

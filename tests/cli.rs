@@ -767,6 +767,17 @@ fn check_lists_the_passes_and_effects_each_built_in_scene_runs() {
             "{scene}:\n{s}"
         );
     }
+    // Mass–mass contact is listed among the effects, with its rule and its pair damping.
+    let s = text(&hooke(&["check", "pile", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("self-collision (between bodies only): radius 0.02 m, stiffness 1000 N/m per pair, friction 0.5"),
+        "pile:\n{s}"
+    );
+    let s = text(&hooke(&["check", "cloth-fold", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("self-collision (within and between bodies): radius 0.018 m"),
+        "cloth-fold:\n{s}"
+    );
     // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update.
     let out = hooke(&[
         "check",

@@ -1,4 +1,5 @@
-// Structs shared by every kernel. Keep in sync with src/gpu/layout.rs (a test checks sizes).
+// Structs and helpers shared by every kernel. Keep the structs in sync with src/gpu/layout.rs (a test
+// checks sizes).
 // Each kernel module is this file followed by one of forces/integrate/collide/reduce.wgsl.
 
 // Effects present in the scene: absent ones are specialised away at pipeline creation.
@@ -21,8 +22,13 @@ override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
+// Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
+// src/cpu/collide_masses.rs).
+override PAIR_STICK_SHARE: f32 = 0.25;
 
 const WORKGROUP: u32 = 64u;
+// Hash-grid buckets per block of the prefix sum (grid.wgsl): four per invocation.
+const SCAN_BLOCK: u32 = 4u * WORKGROUP;
 // A spring shorter than this has no direction and exerts nothing (as src/cpu/forces.rs).
 const MIN_SPRING_LENGTH: f32 = 1.1754944e-32;
 
@@ -150,6 +156,58 @@ fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
         }
     }
     return vec4<f32>(0.0);
+}
+
+// Mass–mass contact and its hash grid (grid.wgsl, collide_masses.wgsl).
+struct MassContact {
+    radius: f32,
+    // 1 / cell size; cells are 2 · radius wide.
+    inv_cell: f32,
+    // Buckets − 1 (a power of two), and buckets / SCAN_BLOCK.
+    table_mask: u32,
+    block_count: u32,
+    stiffness: f32,
+    friction: f32,
+    // With the pair's reduced mass.
+    damping_ratio: f32,
+    // 1: masses of one body collide with each other too; 0: only masses of different bodies.
+    within_bodies: u32,
+}
+
+// The cell holding p: as src/cpu/grid.rs (multiply by the inverse cell size, floor, convert).
+fn grid_cell(p: vec3<f32>, inv_cell: f32) -> vec3<i32> {
+    return vec3<i32>(floor(p * inv_cell));
+}
+
+// The bucket of cell c: large odd multipliers mix the coordinates (wrapping, as on the CPU).
+fn grid_hash(c: vec3<i32>, mask: u32) -> u32 {
+    return ((bitcast<u32>(c.x) * 73856093u) ^ (bitcast<u32>(c.y) * 19349663u) ^ (bitcast<u32>(c.z) * 83492791u)) & mask;
+}
+
+struct Contact {
+    force: vec3<f32>,
+    dissipated: f32,
+}
+
+// Penalty contact along unit normal n at depth > 0 (src/cpu/forces.rs): force and the power its
+// damping and friction dissipate.
+fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32) -> Contact {
+    let vn = dot(v_rel, n);
+    let spring = stiffness * depth;
+    let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
+    let fn_total = max(spring + damper, 0.0);
+    let damper_part = fn_total - spring;
+    var out = Contact(n * fn_total, -damper_part * vn);
+    if (friction > 0.0) {
+        let vt = v_rel - vn * n;
+        let speed = length(vt);
+        if (speed > 0.0) {
+            let ft = min(friction * fn_total, m * speed / dt);
+            out.force -= vt * (ft / speed);
+            out.dissipated += ft * speed;
+        }
+    }
+    return out;
 }
 
 // Implicit Euler's per-mass vectors, each a block of mass_count vec4s in the per-mass scratch

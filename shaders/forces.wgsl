@@ -1,5 +1,6 @@
 // compute_forces: the full force on every mass (springs, gravity, drag, contact), gathered per mass
-// through the CSR adjacency. Mirrors src/cpu/forces.rs.
+// through the CSR adjacency. Mirrors src/cpu/forces.rs. Mass–mass contact is added after it by
+// collide_masses (collide_masses.wgsl).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> springs: array<Spring>;
@@ -14,30 +15,6 @@
 @group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
-
-struct Contact {
-    force: vec3<f32>,
-    dissipated: f32,
-}
-
-fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32) -> Contact {
-    let vn = dot(v_rel, n);
-    let spring = stiffness * depth;
-    let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
-    let fn_total = max(spring + damper, 0.0);
-    let damper_part = fn_total - spring;
-    var out = Contact(n * fn_total, -damper_part * vn);
-    if (friction > 0.0) {
-        let vt = v_rel - vn * n;
-        let speed = length(vt);
-        if (speed > 0.0) {
-            let ft = min(friction * fn_total, m * speed / dt);
-            out.force -= vt * (ft / speed);
-            out.dissipated += ft * speed;
-        }
-    }
-    return out;
-}
 
 @compute @workgroup_size(64)
 fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -149,6 +149,23 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             any = true;
         }
     }
+    if let Some(c) = &e.self_collision {
+        let _ = writeln!(
+            s,
+            "    self-collision ({}): radius {} m, stiffness {} N/m per pair, friction {}, damping ratio {:.3} (with the pair's reduced mass), hash grid of {} buckets",
+            if c.within_bodies {
+                "within and between bodies"
+            } else {
+                "between bodies only"
+            },
+            c.radius_m,
+            c.contact.stiffness_n_per_m,
+            c.contact.friction,
+            c.contact.damping_ratio,
+            crate::cpu::table_size(model.mass_count())
+        );
+        any = true;
+    }
     if !any {
         let _ = writeln!(s, "    none");
     }

@@ -338,6 +338,19 @@ pub fn poses_at(colliders: &[Collider], t: f64) -> Vec<Pose> {
     colliders.iter().map(|c| c.path.pose_at(t)).collect()
 }
 
+/// Mass–mass contact: each mass is a sphere of `radius_m`; a pair closer than `2 · radius_m` is
+/// pushed apart by `contact` along the line between them. The contact's damping ratio acts with
+/// the pair's reduced mass μ = m_a m_b / (m_a + m_b): damping `2ζ sqrt(k μ)` per pair, so that a
+/// pair's impact keeps the scene's restitution whatever the two masses are (ζ from
+/// [`damping_ratio_for_restitution`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassContact {
+    pub radius_m: f32,
+    pub contact: ContactModel,
+    /// Masses of one body collide with each other; otherwise only masses of different bodies.
+    pub within_bodies: bool,
+}
+
 /// The effects present in the model. Absent ones are `None`/empty and cost nothing.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Effects {
@@ -350,6 +363,7 @@ pub struct Effects {
     pub plasticity: bool,
     /// Some body's springs may break.
     pub tearing: bool,
+    pub self_collision: Option<MassContact>,
 }
 
 impl Effects {
@@ -432,6 +446,8 @@ pub struct Model {
     pub initial: State,
     /// Per spring, when some body has plasticity or tearing; empty otherwise.
     pub limits: Vec<SpringLimits>,
+    /// Index into `bodies` of each mass (mass–mass contact between bodies only asks it).
+    pub mass_body: Vec<u32>,
 }
 
 impl Model {
@@ -603,8 +619,13 @@ impl ModelBuilder {
         let yields = |l: &SpringLimits| l.yield_strain.is_finite();
         self.effects.plasticity = self.limits.iter().any(yields);
         self.effects.tearing = self.limits.iter().any(|l| l.break_strain.is_finite());
+        let mut mass_body = vec![0u32; self.mass_kg.len()];
+        for (k, b) in self.bodies.iter().enumerate() {
+            mass_body[b.masses.start as usize..b.masses.end as usize].fill(k as u32);
+        }
         Model {
             limits: self.limits,
+            mass_body,
             bodies: self.bodies,
             mass_kg: self.mass_kg,
             inv_mass,
@@ -767,6 +788,11 @@ pub fn build(scene: &Scene) -> Model {
             max_depth_m: skin,
         }),
         colliders: colliders(e, skin),
+        self_collision: e.self_collision.as_ref().map(|c| MassContact {
+            radius_m: c.radius_m,
+            contact: ContactModel::from_scene(c.contact()),
+            within_bodies: c.within_bodies,
+        }),
         ..Effects::default()
     });
     mb.build()

@@ -1,5 +1,5 @@
 //! The f64 reference solution the accuracy benchmark measures against: the model's full force
-//! (springs, gravity, drag, contact with friction) evaluated in double precision and integrated
+//! (springs, gravity, drag, contact with friction, mass–mass contact) evaluated in double precision and integrated
 //! by classic RK4 at a step much finer than any it judges. Same formulas as `cpu::forces`
 //! (`compute_forces`), so what differs is only precision and step size.
 
@@ -15,6 +15,8 @@ pub struct Reference {
     pub time_secs: f64,
 }
 
+/// `stick_share`: the share of the sliding friction may stop in one step (1 for colliders,
+/// `PAIR_STICK_SHARE` between masses).
 fn contact_force_f64(
     c: &ContactModel,
     depth: f64,
@@ -22,6 +24,7 @@ fn contact_force_f64(
     v_rel: DVec3,
     mass: f64,
     dt: f64,
+    stick_share: f64,
 ) -> DVec3 {
     let k = f64::from(c.stiffness_n_per_m);
     let vn = v_rel.dot(n);
@@ -30,7 +33,7 @@ fn contact_force_f64(
     let vt = v_rel - vn * n;
     let speed = vt.length();
     if c.friction > 0.0 && speed > 0.0 {
-        f -= vt * ((f64::from(c.friction) * fn_total).min(mass * speed / dt) / speed);
+        f -= vt * ((f64::from(c.friction) * fn_total).min(stick_share * mass * speed / dt) / speed);
     }
     f
 }
@@ -54,6 +57,11 @@ impl Reference {
         let fx = &m.effects;
         let poses: Vec<(DVec3, DVec3)> =
             fx.colliders.iter().map(|c| c.path.pose_at_f64(t)).collect();
+        let grid = fx.self_collision.map(|c| {
+            let mut g = crate::cpu::MassGrid::new(x.len(), c.radius_m);
+            g.build_f64(x);
+            (c, g)
+        });
         let one = |i: usize| {
             if m.inv_mass[i] == 0.0 {
                 return DVec3::ZERO;
@@ -81,13 +89,39 @@ impl Reference {
             if let Some(g) = &fx.ground {
                 let depth = f64::from(g.height_m) - xi.y;
                 if depth > 0.0 {
-                    f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt);
+                    f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt, 1.0);
                 }
             }
             for (c, (center, u)) in fx.colliders.iter().zip(&poses) {
                 if let Some((depth, n)) = c.shape.penetration_f64(*center, xi) {
-                    f += contact_force_f64(&c.contact, depth, n, vi - *u, mass, dt);
+                    f += contact_force_f64(&c.contact, depth, n, vi - *u, mass, dt, 1.0);
                 }
+            }
+            if let Some((c, g)) = &grid {
+                let diameter = 2.0 * f64::from(c.radius_m);
+                let cell = (xi * f64::from(g.inv_cell_per_m())).floor().as_ivec3();
+                g.for_each_candidate(cell, |j| {
+                    if j == i || !(c.within_bodies || m.mass_body[i] != m.mass_body[j]) {
+                        return;
+                    }
+                    let d = xi - x[j];
+                    let dist = d.length();
+                    if dist >= diameter || dist == 0.0 {
+                        return;
+                    }
+                    // The pair's reduced mass (a pinned partner weighs infinitely much).
+                    let wj = f64::from(m.inv_mass[j]);
+                    let mu = 1.0 / (1.0 / mass + wj);
+                    f += contact_force_f64(
+                        &c.contact,
+                        diameter - dist,
+                        d / dist,
+                        vi - v[j],
+                        mu,
+                        dt,
+                        f64::from(crate::cpu::PAIR_STICK_SHARE),
+                    );
+                });
             }
             f / mass
         };

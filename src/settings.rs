@@ -42,6 +42,13 @@ impl Settings {
                 "--dt must be a positive number of seconds, got {dt}"
             )));
         }
+        if o.integrator == Some(Integrator::Implicit) && scene.effects.self_collision.is_some() {
+            return Err(Error::Settings(
+                "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
+                 use semi-implicit, verlet or rk4"
+                    .into(),
+            ));
+        }
         if o.substeps == Some(0) {
             return Err(Error::Settings("--substeps must be at least 1".into()));
         }

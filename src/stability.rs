@@ -14,7 +14,7 @@ pub struct StiffestMode {
 }
 
 /// Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2, where K holds the springs
-/// (and any contact spring, which a mass may feel at any time): ω² ≤ max_i Σ_j k_ij (1/m_i +
+/// (and any contact spring, which a mass may feel at any time; for mass–mass contact, one pair): ω² ≤ max_i Σ_j k_ij (1/m_i +
 /// 1/√(m_i m_j)). Exact for a uniform chain. The damping ratio uses the same weights, which is
 /// exact when damping is proportional to stiffness.
 pub fn stiffest_mode(model: &Model) -> StiffestMode {
@@ -24,6 +24,13 @@ pub fn stiffest_mode(model: &Model) -> StiffestMode {
         mass: 0,
     };
     let fx = &model.effects;
+    // Mass–mass contact: one pair at a time, with the lightest free mass as the partner (the
+    // stiffest such pair). A mass pressed by several at once is stiffer still; scenes keep a
+    // margin below this estimate.
+    let lightest = (0..model.mass_count())
+        .filter(|&j| model.inv_mass[j] != 0.0)
+        .map(|j| f64::from(model.mass_kg[j]))
+        .fold(f64::INFINITY, f64::min);
     for i in 0..model.mass_count() {
         if model.inv_mass[i] == 0.0 {
             continue;
@@ -51,6 +58,13 @@ pub fn stiffest_mode(model: &Model) -> StiffestMode {
             let kc = f64::from(ct.stiffness_n_per_m);
             k += kc / mi;
             c += 2.0 * f64::from(ct.damping_ratio) * (kc * mi).sqrt() / mi;
+        }
+        if let Some(mc) = &fx.self_collision {
+            let kc = f64::from(mc.contact.stiffness_n_per_m);
+            let w = 1.0 / mi + 1.0 / (mi * lightest).sqrt();
+            let mu = mi * lightest / (mi + lightest);
+            k += kc * w;
+            c += 2.0 * f64::from(mc.contact.damping_ratio) * (kc * mu).sqrt() * w;
         }
         if let Some(g) = fx.air_drag_per_s {
             c += f64::from(g);

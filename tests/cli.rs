@@ -333,6 +333,16 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
         "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_BOXES, HAS_PLANES, HAS_COLLIDERS, HAS_DAMPING",
     ),
     (
+        "cloth-fold",
+        "grid_count → grid_scan_blocks → grid_scan_sums → grid_scan_add → grid_scatter → grid_sort_cells → compute_forces → collide_masses → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_DAMPING",
+    ),
+    (
+        "pile",
+        "grid_count → grid_scan_blocks → grid_scan_sums → grid_scan_add → grid_scatter → grid_sort_cells → compute_forces → collide_masses → semi_implicit_update → project_contacts",
+        "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
+    ),
+    (
         "cloth-64",
         "compute_forces → semi_implicit_update",
         "HAS_GRAVITY, HAS_DAMPING",
@@ -373,6 +383,17 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
         assert_eq!(line("GPU step passes: "), *passes, "{scene}");
         assert_eq!(line("compiled-in effects: "), *effects, "{scene}");
     }
+    // Mass–mass contact is listed among the effects, with its rule and its pair damping.
+    let s = text(&hooke(&["check", "pile", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("self-collision (between bodies only): radius 0.02 m, stiffness 1000 N/m per pair, friction 0.5"),
+        "pile:\n{s}"
+    );
+    let s = text(&hooke(&["check", "cloth-fold", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("self-collision (within and between bodies): radius 0.018 m"),
+        "cloth-fold:\n{s}"
+    );
     // A scene's integrator changes the force and update passes, not the effects' passes.
     let out = hooke(&["check", "tear", "--integrator", "rk2", "--backend", "cpu"]);
     assert!(text(&out.stdout).contains(
@@ -563,7 +584,61 @@ fn bad_scene_files_give_one_clear_error_with_field_and_position() {
         "4:8",
         "limit",
     );
+    expect_scene_error(
+        "self-collision-radius",
+        &with_table("[effects.self_collision]\nradius_m = 0.06\nstiffness_n_per_m = 100.0\n"),
+        "effects.self_collision.radius_m",
+        "3:12",
+        "spacing_m = 0.1 m, so its grid neighbours would repel at rest; use radius_m = 0.0450 m",
+    );
+    expect_scene_error(
+        "self-collision-zero-radius",
+        &with_table("[effects.self_collision]\nradius_m = 0.0\nstiffness_n_per_m = 100.0\n"),
+        "effects.self_collision.radius_m",
+        "3:12",
+        "greater than zero",
+    );
+    expect_scene_error(
+        "self-collision-restitution",
+        &with_table(
+            "[effects.self_collision]\nradius_m = 0.01\nstiffness_n_per_m = 100.0\nrestitution = -0.1\n",
+        ),
+        "effects.self_collision.restitution",
+        "5:15",
+        "between 0",
+    );
+    expect_scene_error(
+        "self-collision-implicit",
+        &with_table(
+            "[solver]\nintegrator = \"implicit\"\n[effects.self_collision]\nradius_m = 0.01\nstiffness_n_per_m = 100.0\n",
+        ),
+        "solver.integrator",
+        "3:14",
+        "implicit Euler does not support mass–mass contact",
+    );
     expect_scene_error("syntax", "name = \"t\"\n[[bodies]\n", "", "2:", "");
+}
+
+/// Implicit Euler chosen on the command line for a scene with mass–mass contact: refused, with
+/// what to use instead.
+#[test]
+fn implicit_euler_with_mass_contact_is_refused_clearly() {
+    let out = hooke(&[
+        "check",
+        "pile",
+        "--integrator",
+        "implicit",
+        "--backend",
+        "cpu",
+    ]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--integrator implicit does not support mass–mass contact")
+            && err.contains("semi-implicit, verlet or rk4")
+            && !err.contains("panicked"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -1,9 +1,12 @@
 //! `compute_forces`: the full force on every mass (springs, gravity, drag, contact), gathered per
-//! mass through the CSR adjacency. Mirrors `compute_forces` in `shaders/forces.wgsl`.
+//! mass through the CSR adjacency. Mirrors `compute_forces` in `shaders/forces.wgsl`; mass–mass
+//! contact is added after it by `collide_masses`, as the GPU adds it in a pass of its own.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::collide_masses::collide_masses;
+use super::grid::MassGrid;
 use crate::model::{ContactModel, Model, Pose, Spring, poses_at};
 use crate::state::Power;
 
@@ -134,7 +137,8 @@ fn force_on_mass(
 /// The CSR adjacency with each spring's parameters stored in the entry itself, in the same order
 /// as `model.adjacency`: the gather streams through one array instead of chasing a spring index
 /// per neighbour. (The GPU reads springs by index; its caches make that cheap.) It also holds the
-/// live springs, which plasticity and tearing change during a run.
+/// live springs, which plasticity and tearing change during a run, and with mass–mass contact
+/// the hash grid that each force evaluation rebuilds.
 #[derive(Debug, Default)]
 pub struct Gather {
     offsets: Vec<u32>,
@@ -142,6 +146,7 @@ pub struct Gather {
     springs: Vec<Spring>,
     /// The two entries of each spring; only when springs change during the run.
     entries_of: Vec<[u32; 2]>,
+    mass_grid: Option<MassGrid>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -175,6 +180,10 @@ impl Gather {
                 .collect(),
             springs: model.springs.clone(),
             entries_of,
+            mass_grid: model
+                .effects
+                .self_collision
+                .map(|c| MassGrid::new(model.mass_count(), c.radius_m)),
         }
     }
 
@@ -195,7 +204,7 @@ impl Gather {
 /// Accelerations of every mass at state (x, v, t) into `acc`; returns the ledger rates.
 pub fn compute_forces(
     model: &Model,
-    gather: &Gather,
+    gather: &mut Gather,
     x: &[Vec3],
     v: &[Vec3],
     t: f64,
@@ -203,10 +212,11 @@ pub fn compute_forces(
     acc: &mut [Vec3],
 ) -> Power {
     let poses = poses_at(&model.effects.colliders, t);
+    let springs = &*gather;
     let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
         let mut sum = [0.0f64; 4];
         for (k, a) in out.iter_mut().enumerate() {
-            let (ai, p) = force_on_mass(model, gather, &poses, x, v, ci * CHUNK + k, dt);
+            let (ai, p) = force_on_mass(model, springs, &poses, x, v, ci * CHUNK + k, dt);
             *a = ai;
             for (s, q) in sum.iter_mut().zip(p) {
                 *s += f64::from(q);
@@ -234,10 +244,16 @@ pub fn compute_forces(
             .map(chunk_sum)
             .fold([0.0; 4], add)
     };
+    let mut contact_w = total[2];
+    if let (Some(c), Some(grid)) = (&model.effects.self_collision, gather.mass_grid.as_mut()) {
+        // The grid of the positions this evaluation reads, as the GPU builds it.
+        grid.build(x);
+        contact_w += collide_masses(model, c, grid, x, v, dt, acc);
+    }
     Power {
         damping_w: total[0],
         drag_w: total[1],
-        contact_w: total[2],
+        contact_w,
         collider_w: total[3],
     }
 }

@@ -11,7 +11,10 @@
 //! the transverse term clamped so that a compressed spring cannot make the system indefinite, and
 //! −D = c n nᵀ. A contact adds its penalty stiffness and damping along its normal; drag adds m γ I.
 //! The system matrix is then symmetric positive definite. Pinned masses are filtered out of the
-//! solve (their Δv stays zero). Friction enters through f only.
+//! solve (their Δv stays zero). Friction enters through f only. Mass–mass contact has no
+//! Jacobian here (a pair couples two masses along a normal that changes as they move), so scene
+//! validation, the command line and the GPU backend refuse it with this integrator; were it
+//! stepped here anyway, it would enter through f only, and stiff contacts would stall Newton.
 
 use glam::Vec3;
 
@@ -211,7 +214,7 @@ fn linearise(
 /// iterate, the end of the step (backward quadrature, as the scheme itself).
 pub fn implicit_step(
     model: &Model,
-    gather: &Gather,
+    gather: &mut Gather,
     state: &mut State,
     w: &mut ImplicitWork,
     dt: f32,

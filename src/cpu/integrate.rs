@@ -91,7 +91,11 @@ pub fn step(
             .implicit
             .get_or_insert_with(|| super::implicit::ImplicitWork::new(model));
         return Some(super::implicit::implicit_step(
-            model, &s.gather, state, work, dt,
+            model,
+            &mut s.gather,
+            state,
+            work,
+            dt,
         ));
     }
     let n = state.x.len();
@@ -101,7 +105,7 @@ pub fn step(
     let (x, v) = (&mut x[..], &mut v[..]);
     match integrator {
         Integrator::Euler => {
-            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
             let acc = &s.acc;
             for_each_mass!(n, |i| (x, v) {
                 *x += dt * *v;
@@ -110,7 +114,7 @@ pub fn step(
             ledger.accumulate(&p, h);
         }
         Integrator::SemiImplicit => {
-            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
             let acc = &s.acc;
             for_each_mass!(n, |i| (x, v) {
                 *v += dt * acc[i];
@@ -119,7 +123,7 @@ pub fn step(
             ledger.accumulate(&p, h);
         }
         Integrator::Rk2 => {
-            compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
+            compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
             let (acc, xt, vt) = (&s.acc, &mut s.xt[..], &mut s.vt[..]);
             {
                 let (x, v) = (&*x, &*v);
@@ -128,7 +132,15 @@ pub fn step(
                     *vt = v[i] + 0.5 * dt * acc[i];
                 });
             }
-            let p = compute_forces(model, &s.gather, &s.xt, &s.vt, t + 0.5 * h, dt, &mut s.acc);
+            let p = compute_forces(
+                model,
+                &mut s.gather,
+                &s.xt,
+                &s.vt,
+                t + 0.5 * h,
+                dt,
+                &mut s.acc,
+            );
             let (acc, vt) = (&s.acc, &s.vt);
             for_each_mass!(n, |i| (x, v) {
                 *x += dt * vt[i];
@@ -139,7 +151,7 @@ pub fn step(
         Integrator::Rk4 => {
             let mut power = Power::default();
             // Stage 1 at (x, v).
-            let p = compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc);
+            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
             power.add_scaled(&p, 1.0);
             {
                 let (x, v, acc) = (&*x, &*v, &s.acc);
@@ -160,7 +172,7 @@ pub fn step(
             for (stage_t, next_scale, weight) in [(0.5, 0.5f32, 2.0f32), (0.5, 1.0, 2.0)] {
                 let p = compute_forces(
                     model,
-                    &s.gather,
+                    &mut s.gather,
                     &s.xt,
                     &s.vt,
                     t + stage_t * h,
@@ -182,7 +194,7 @@ pub fn step(
                     *vt = v[i] + next_scale * dt * acc[i];
                 });
             }
-            let p = compute_forces(model, &s.gather, &s.xt, &s.vt, t + h, dt, &mut s.acc);
+            let p = compute_forces(model, &mut s.gather, &s.xt, &s.vt, t + h, dt, &mut s.acc);
             power.add_scaled(&p, 1.0);
             let (acc, vt, sv, sa) = (&s.acc, &s.vt, &s.sum_v, &s.sum_a);
             for_each_mass!(n, |i| (x, v) {
@@ -195,7 +207,7 @@ pub fn step(
             // a(x_n) is kept in `acc` from the previous step.
             let p0 = match s.verlet_cache {
                 Some(p) => p,
-                None => compute_forces(model, &s.gather, x, v, t, dt, &mut s.acc),
+                None => compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc),
             };
             {
                 let acc = &s.acc;
@@ -210,7 +222,7 @@ pub fn step(
                     *xt = half_kick;
                 });
             }
-            let p1 = compute_forces(model, &s.gather, x, &s.vt, t + h, dt, &mut s.acc);
+            let p1 = compute_forces(model, &mut s.gather, x, &s.vt, t + h, dt, &mut s.acc);
             let (acc, half_kick) = (&s.acc, &s.xt);
             for_each_mass!(n, |i| (v) {
                 *v = half_kick[i] + (0.5 * dt) * acc[i];

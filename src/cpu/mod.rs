@@ -2,14 +2,18 @@
 //! mass is written by one task and every sum is taken over fixed chunks in a fixed order).
 
 mod collide;
+mod collide_masses;
 mod forces;
+mod grid;
 mod implicit;
 mod integrate;
 mod reduce;
 mod springs;
 
 pub use collide::project_contacts;
+pub use collide_masses::{PAIR_STICK_SHARE, collide_masses, mass_contact_energy, pair_contact};
 pub use forces::{Gather, PARALLEL_MIN_MASSES, compute_forces, contact_force, spring_force};
+pub use grid::{MassGrid, SCAN_BLOCK, grid_cell, grid_hash, inv_cell_per_m, table_size};
 pub use implicit::{
     CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
 };

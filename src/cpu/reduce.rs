@@ -1,7 +1,10 @@
-//! `compute_energies` and `compute_strain`: what a snapshot logs. Mirrors `shaders/reduce.wgsl`.
+//! `compute_energies` and `compute_strain`: what a snapshot logs. Mirrors `shaders/reduce.wgsl`
+//! (and, for mass–mass contact, `mass_contact_energy` in `shaders/collide_masses.wgsl`).
 
 use glam::Vec3;
 
+use super::collide_masses::mass_contact_energy;
+use super::grid::MassGrid;
 use crate::model::{Model, Spring, poses_at};
 use crate::state::{Energies, State};
 
@@ -57,6 +60,11 @@ pub fn compute_energies(model: &Model, springs: &[Spring], state: &State) -> Ene
                 e.contact_j += 0.5 * f64::from(c.contact.stiffness_n_per_m) * d * d;
             }
         }
+    }
+    if let Some(c) = &fx.self_collision {
+        let mut grid = MassGrid::new(x.len(), c.radius_m);
+        grid.build(x);
+        e.contact_j += mass_contact_energy(model, c, &grid, x);
     }
     e
 }

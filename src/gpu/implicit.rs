@@ -6,7 +6,7 @@
 //! longer than needed costs only empty dispatches.
 
 use super::layout::SolverStatus;
-use super::{GpuBackend, SLOTS_PER_STEP, StateIn};
+use super::{GpuBackend, SLOTS_PER_STEP};
 use crate::backend::BackendError;
 use crate::cpu::NEWTON_MAX_ITERATIONS;
 use crate::state::StepStats;
@@ -69,8 +69,7 @@ impl GpuBackend {
             b.dispatch_all(pass, &END, slot)?;
             // The post-step passes every integrator shares (plasticity, tearing).
             for (kernel, _) in b.step_plan(false) {
-                let (pipeline, group0, state) = b.kernel(kernel)?;
-                b.dispatch(pass, pipeline, group0, state, slot, b.groups(kernel));
+                b.dispatch_kernel(pass, kernel, slot)?;
             }
             Ok(())
         })?;
@@ -132,10 +131,12 @@ impl GpuBackend {
             Named::ImplicitBegin => (&p.implicit_begin, &bg.integrate, None, self.mass_groups),
             Named::ImplicitIterate => (&p.implicit_iterate, &bg.integrate, None, self.mass_groups),
             Named::ImplicitFinal => (&p.implicit_final, &bg.integrate, None, self.mass_groups),
-            Named::ComputeForces => {
-                let (pipeline, group0, _) = self.kernel(super::Kernel::Forces(StateIn::XtVt))?;
-                (pipeline, group0, Some(&bg.state_xtvt), self.mass_groups)
-            }
+            Named::ComputeForces => (
+                &self.pipelines.compute_forces,
+                &bg.forces_model,
+                Some(&bg.state_xtvt),
+                self.mass_groups,
+            ),
             Named::SolverBegin => (&p.solver_begin, s, None, one),
             Named::ImplicitRhs => (&p.implicit_rhs, s, None, self.mass_groups),
             Named::CgBegin => (&p.cg_begin, s, None, one),

@@ -11,9 +11,11 @@ pub const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
 pub const REDUCE: &str = include_str!("../../shaders/reduce.wgsl");
 pub const IMPLICIT: &str = include_str!("../../shaders/implicit.wgsl");
 pub const SPRINGS: &str = include_str!("../../shaders/springs.wgsl");
+pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
+pub const COLLIDE_MASSES: &str = include_str!("../../shaders/collide_masses.wgsl");
 
 /// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 6] {
+pub fn programs() -> [(&'static str, String); 8] {
     [
         ("forces.wgsl", format!("{COMMON}\n{FORCES}")),
         ("integrate.wgsl", format!("{COMMON}\n{INTEGRATE}")),
@@ -21,10 +23,16 @@ pub fn programs() -> [(&'static str, String); 6] {
         ("reduce.wgsl", format!("{COMMON}\n{REDUCE}")),
         ("implicit.wgsl", format!("{COMMON}\n{IMPLICIT}")),
         ("springs.wgsl", format!("{COMMON}\n{SPRINGS}")),
+        ("grid.wgsl", format!("{COMMON}\n{GRID}")),
+        ("collide_masses.wgsl", format!("{COMMON}\n{COLLIDE_MASSES}")),
     ]
 }
 
 pub const WORKGROUP: u32 = 64;
+
+// The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
+// (`SCAN_BLOCK` in shaders/common.wgsl).
+const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
 
 /// Binding kinds, in binding order.
 #[derive(Clone, Copy)]
@@ -80,6 +88,7 @@ pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f6
             },
         ),
         ("CG_TOLERANCE", CG_TOLERANCE),
+        ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
     ]);
@@ -125,6 +134,8 @@ pub struct Layouts {
     pub reduce: wgpu::BindGroupLayout,
     pub solve: wgpu::BindGroupLayout,
     pub springs: wgpu::BindGroupLayout,
+    pub grid: wgpu::BindGroupLayout,
+    pub collide_masses: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -174,6 +185,23 @@ impl Layouts {
                 "springs",
                 &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
             ),
+            // params, contact, cell counts, cell starts, block sums, mass buckets, sorted masses.
+            grid: layout(
+                device,
+                "grid",
+                &[
+                    Uniform, Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+                ],
+            ),
+            // params, contact, mass, mass bodies, cell starts, sorted masses, deriv, partials:
+            // with the state's x and v, the 8 storage buffers a stage may bind.
+            collide_masses: layout(
+                device,
+                "collide masses",
+                &[
+                    Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite,
+                ],
+            ),
         }
     }
 }
@@ -196,11 +224,26 @@ pub struct Pipelines {
     pub implicit: Option<ImplicitPipelines>,
     /// Only when springs change during the run (plasticity, tearing).
     pub springs: Option<SpringPipelines>,
+    /// Only with mass–mass contact.
+    pub mass_contact: Option<MassContactPipelines>,
 }
 
 pub struct SpringPipelines {
     pub update_springs: wgpu::ComputePipeline,
     pub sum_spring_work: wgpu::ComputePipeline,
+}
+
+/// Mass–mass contact's kernels: the hash grid's build (grid.wgsl) and the pairs
+/// (collide_masses.wgsl).
+pub struct MassContactPipelines {
+    pub grid_count: wgpu::ComputePipeline,
+    pub grid_scan_blocks: wgpu::ComputePipeline,
+    pub grid_scan_sums: wgpu::ComputePipeline,
+    pub grid_scan_add: wgpu::ComputePipeline,
+    pub grid_scatter: wgpu::ComputePipeline,
+    pub grid_sort_cells: wgpu::ComputePipeline,
+    pub collide_masses: wgpu::ComputePipeline,
+    pub mass_contact_energy: wgpu::ComputePipeline,
 }
 
 /// Implicit Euler's kernels: the state-side ones in integrate.wgsl, the solve in implicit.wgsl.
@@ -227,6 +270,7 @@ impl Pipelines {
         constants: &[(&str, f64)],
         implicit: bool,
         springs_change: bool,
+        mass_contact: bool,
     ) -> Self {
         let module = |(name, src): (&str, String)| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -234,12 +278,23 @@ impl Pipelines {
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             })
         };
-        let [forces, integrate, collide, reduce, solve, springs] = programs();
+        let [
+            forces,
+            integrate,
+            collide,
+            reduce,
+            solve,
+            springs,
+            grid,
+            pairs,
+        ] = programs();
         let (forces, integrate) = (module(forces), module(integrate));
         let (collide, reduce) = (module(collide), module(reduce));
-        // Implicit Euler's solve compiles only for that integrator.
+        // Implicit Euler's solve compiles only for that integrator, mass–mass contact only for
+        // scenes that have it.
         let solve = implicit.then(|| module(solve));
         let springs = springs_change.then(|| module(springs));
+        let mass_contact_modules = mass_contact.then(|| (module(grid), module(pairs)));
         let pipeline_layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(label),
@@ -306,6 +361,31 @@ impl Pipelines {
                 SpringPipelines {
                     update_springs: make(&layout, &springs, "update_springs"),
                     sum_spring_work: make(&layout, &springs, "sum_spring_work"),
+                }
+            }),
+            mass_contact: mass_contact_modules.map(|(grid, pairs)| {
+                let with_x = pipeline_layout(
+                    "grid",
+                    &[Some(&l.grid), Some(&l.forces_state), Some(&l.stage)],
+                );
+                let table = pipeline_layout("grid table", &[Some(&l.grid), None, Some(&l.stage)]);
+                let pairs_layout = pipeline_layout(
+                    "collide masses",
+                    &[
+                        Some(&l.collide_masses),
+                        Some(&l.forces_state),
+                        Some(&l.stage),
+                    ],
+                );
+                MassContactPipelines {
+                    grid_count: make(&with_x, &grid, "grid_count"),
+                    grid_scan_blocks: make(&table, &grid, "grid_scan_blocks"),
+                    grid_scan_sums: make(&table, &grid, "grid_scan_sums"),
+                    grid_scan_add: make(&table, &grid, "grid_scan_add"),
+                    grid_scatter: make(&table, &grid, "grid_scatter"),
+                    grid_sort_cells: make(&table, &grid, "grid_sort_cells"),
+                    collide_masses: make(&pairs_layout, &pairs, "collide_masses"),
+                    mass_contact_energy: make(&pairs_layout, &pairs, "mass_contact_energy"),
                 }
             }),
         }

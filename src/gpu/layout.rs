@@ -67,6 +67,20 @@ pub struct Collider {
     pub _pad: [f32; 3],
 }
 
+/// Mass–mass contact and its hash grid (`MassContact` in WGSL).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct MassContact {
+    pub radius: f32,
+    pub inv_cell: f32,
+    pub table_mask: u32,
+    pub block_count: u32,
+    pub stiffness: f32,
+    pub friction: f32,
+    pub damping_ratio: f32,
+    pub within_bodies: u32,
+}
+
 /// Implicit Euler's solver state (`Solver` in shaders/implicit.wgsl), read back between chunks of
 /// conjugate-gradient iterations.
 #[repr(C)]
@@ -91,8 +105,9 @@ pub struct SolverStatus {
 }
 
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 8] = [
+pub const SHARED_STRUCTS: [(&str, usize); 9] = [
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),
+    ("MassContact", std::mem::size_of::<MassContact>()),
     ("Solver", std::mem::size_of::<SolverStatus>()),
     ("Params", std::mem::size_of::<Params>()),
     ("Stage", std::mem::size_of::<Stage>()),

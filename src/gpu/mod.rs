@@ -22,7 +22,7 @@ use crate::integrator::Integrator;
 use crate::model::{Effects, Model, Shape};
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
 use kernels::{Layouts, Pipelines, groups_for};
-use layout::{Collider, Params, Pose, SolverStatus, Stage};
+use layout::{Collider, MassContact, Params, Pose, SolverStatus, Stage};
 
 /// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
 const SLOTS_PER_STEP: u32 = 4;
@@ -82,6 +82,33 @@ pub struct GpuBackend {
     spare: Vec<Snapshot>,
     /// Implicit Euler only.
     solve: Option<ImplicitSolve>,
+    /// Mass–mass contact only.
+    mass_contact: Option<MassContactGrid>,
+}
+
+/// The GPU's hash grid as read back for tests: bucket b holds
+/// `sorted[cell_start[b]..cell_start[b + 1]]` (as `crate::cpu::MassGrid`).
+#[doc(hidden)]
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GridReadBack {
+    pub cell_start: Vec<u32>,
+    pub sorted: Vec<u32>,
+}
+
+/// Mass–mass contact's hash grid and the bind groups of its passes.
+struct MassContactGrid {
+    /// grid.wgsl: params, contact, counts, starts, block sums, mass buckets, sorted masses.
+    grid: wgpu::BindGroup,
+    /// collide_masses.wgsl: params, contact, mass, bodies, starts, sorted, deriv, partials.
+    pairs: wgpu::BindGroup,
+    cell_start: wgpu::Buffer,
+    sorted: wgpu::Buffer,
+    table_size: u32,
+    block_count: u32,
+    /// Workgroups over the table's buckets, and one per block of the prefix sum.
+    table_groups: (u32, u32),
+    block_groups: (u32, u32),
+    memory_bytes: u64,
 }
 
 /// Implicit Euler's solver buffers (its vectors live in the per-mass scratch, `sums`).
@@ -136,6 +163,13 @@ impl GpuBackend {
         dt_secs: f64,
         adapter: Option<&str>,
     ) -> Result<Self, BackendError> {
+        if integrator == Integrator::Implicit && model.effects.self_collision.is_some() {
+            return Err(BackendError::Device(
+                "implicit Euler does not support mass–mass contact ([effects.self_collision]): \
+                 use semi-implicit, verlet or rk4"
+                    .to_owned(),
+            ));
+        }
         let ctx = GpuContext::open(adapter).map_err(BackendError::Device)?;
         let n = model.mass_count();
         let ns = model.spring_count();
@@ -294,6 +328,7 @@ impl GpuBackend {
             &kernels::constants(&model, integrator),
             implicit,
             spring_state.is_some(),
+            e.self_collision.is_some(),
         );
         let bg_of = |layout: &wgpu::BindGroupLayout, label: &str, bufs: &[&wgpu::Buffer]| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -397,6 +432,85 @@ impl GpuBackend {
             scratch,
             chunk: 16,
         });
+        let mass_contact = e.self_collision.map(|c| {
+            let table_size = crate::cpu::table_size(n);
+            let block_count = table_size / crate::cpu::SCAN_BLOCK;
+            let contact = MassContact {
+                radius: c.radius_m,
+                inv_cell: crate::cpu::inv_cell_per_m(c.radius_m),
+                table_mask: table_size - 1,
+                block_count,
+                stiffness: c.contact.stiffness_n_per_m,
+                friction: c.contact.friction,
+                damping_ratio: c.contact.damping_ratio,
+                within_bodies: u32::from(c.within_bodies),
+            };
+            let contact_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("mass contact"),
+                contents: bytemuck::bytes_of(&contact),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let bodies = storage(
+                device,
+                "mass bodies",
+                bytemuck::cast_slice(&model.mass_body),
+                wgpu::BufferUsages::empty(),
+            );
+            let table = table_size as usize;
+            let cell_count = zeros("cell count", 4 * table);
+            let cell_start = zeros("cell start", 4 * (table + 1));
+            let block_sums = zeros("block sums", 4 * block_count as usize);
+            let mass_cell = zeros("mass cell", 4 * n);
+            let sorted = zeros("sorted masses", 4 * n);
+            let memory_bytes = [
+                &contact_buf,
+                &bodies,
+                &cell_count,
+                &cell_start,
+                &block_sums,
+                &mass_cell,
+                &sorted,
+            ]
+            .iter()
+            .map(|b| b.size())
+            .sum();
+            MassContactGrid {
+                grid: bg_of(
+                    &layouts.grid,
+                    "grid",
+                    &[
+                        &params_buf,
+                        &contact_buf,
+                        &cell_count,
+                        &cell_start,
+                        &block_sums,
+                        &mass_cell,
+                        &sorted,
+                    ],
+                ),
+                pairs: bg_of(
+                    &layouts.collide_masses,
+                    "collide masses",
+                    &[
+                        &params_buf,
+                        &contact_buf,
+                        &mass_buf,
+                        &bodies,
+                        &cell_start,
+                        &sorted,
+                        &deriv,
+                        &partials,
+                    ],
+                ),
+                cell_start,
+                sorted,
+                table_size,
+                block_count,
+                table_groups: groups_for(table_size, max_dim),
+                block_groups: groups_for(block_count * kernels::WORKGROUP, max_dim),
+                memory_bytes,
+            }
+        });
         let memory_bytes = [
             &params_buf,
             &springs,
@@ -425,7 +539,8 @@ impl GpuBackend {
                 .map_or(0, |s| s.scratch.size() + s.status.size())
             + spring_state
                 .as_ref()
-                .map_or(0, |(l, r)| l.size() + r.size());
+                .map_or(0, |(l, r)| l.size() + r.size())
+            + mass_contact.as_ref().map_or(0, |m| m.memory_bytes);
         let backend = Self {
             ctx,
             model,
@@ -458,6 +573,7 @@ impl GpuBackend {
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
             solve,
+            mass_contact,
         };
         backend.check_device()?;
         Ok(backend)
@@ -560,27 +676,82 @@ impl GpuBackend {
         step_plan(self.integrator, &self.model.effects, prime)
     }
 
-    /// Workgroups of a dispatch of `k`: one thread per mass, or per spring.
+    /// Workgroups a kernel dispatches: one thread per mass, per spring, per bucket of the hash
+    /// grid, one workgroup per block of its prefix sum, or a single workgroup.
     fn groups(&self, k: Kernel) -> (u32, u32) {
+        let grid = self.mass_contact.as_ref();
         match k {
             Kernel::UpdateSprings => self.spring_groups,
+            Kernel::GridScanBlocks => grid.map_or((1, 1), |g| g.block_groups),
+            Kernel::GridScanSums => (1, 1),
+            Kernel::GridScanAdd | Kernel::GridSortCells => grid.map_or((1, 1), |g| g.table_groups),
             _ => self.mass_groups,
         }
     }
 
-    /// The pipeline and bind groups (model, and state for a force pass) of a dispatch of `k`.
-    fn kernel(&self, k: Kernel) -> Result<Bound<'_>, BackendError> {
+    fn state_group(&self, s: StateIn) -> &wgpu::BindGroup {
+        match s {
+            StateIn::XV => &self.bg.state_xv,
+            StateIn::XtVt => &self.bg.state_xtvt,
+            StateIn::XVt => &self.bg.state_xvt,
+        }
+    }
+
+    /// A kernel's pipeline, bind group 0 and state bind group; `None` for mass–mass contact's
+    /// kernels in a scene without it (its step plan never asks for them).
+    fn kernel(
+        &self,
+        k: Kernel,
+    ) -> Option<(
+        &wgpu::ComputePipeline,
+        &wgpu::BindGroup,
+        Option<&wgpu::BindGroup>,
+    )> {
         let (p, bg) = (&self.pipelines, &self.bg);
-        Ok(match k {
+        let mc = || {
+            self.pipelines
+                .mass_contact
+                .as_ref()
+                .zip(self.mass_contact.as_ref())
+        };
+        Some(match k {
             Kernel::Forces(s) => (
                 &p.compute_forces,
                 &bg.forces_model,
-                Some(match s {
-                    StateIn::XV => &bg.state_xv,
-                    StateIn::XtVt => &bg.state_xtvt,
-                    StateIn::XVt => &bg.state_xvt,
-                }),
+                Some(self.state_group(s)),
             ),
+            Kernel::GridCount(s) => {
+                let (p, g) = mc()?;
+                (&p.grid_count, &g.grid, Some(self.state_group(s)))
+            }
+            Kernel::GridScanBlocks => {
+                let (p, g) = mc()?;
+                (&p.grid_scan_blocks, &g.grid, None)
+            }
+            Kernel::GridScanSums => {
+                let (p, g) = mc()?;
+                (&p.grid_scan_sums, &g.grid, None)
+            }
+            Kernel::GridScanAdd => {
+                let (p, g) = mc()?;
+                (&p.grid_scan_add, &g.grid, None)
+            }
+            Kernel::GridScatter => {
+                let (p, g) = mc()?;
+                (&p.grid_scatter, &g.grid, None)
+            }
+            Kernel::GridSortCells => {
+                let (p, g) = mc()?;
+                (&p.grid_sort_cells, &g.grid, None)
+            }
+            Kernel::CollideMasses(s) => {
+                let (p, g) = mc()?;
+                (&p.collide_masses, &g.pairs, Some(self.state_group(s)))
+            }
+            Kernel::MassContactEnergy => {
+                let (p, g) = mc()?;
+                (&p.mass_contact_energy, &g.pairs, Some(&self.bg.state_xv))
+            }
             Kernel::EulerUpdate => (&p.euler_update, &bg.integrate, None),
             Kernel::SemiImplicitUpdate => (&p.semi_implicit_update, &bg.integrate, None),
             Kernel::Rk2Stage => (&p.rk2_stage, &bg.integrate, None),
@@ -591,16 +762,28 @@ impl GpuBackend {
             Kernel::VerletDrift => (&p.verlet_drift, &bg.integrate, None),
             Kernel::VerletKick => (&p.verlet_kick, &bg.integrate, None),
             Kernel::ProjectContacts => (&p.project_contacts, &bg.collide, None),
-            Kernel::UpdateSprings => match (&p.springs, &bg.springs) {
-                (Some(p), Some(bg)) => (&p.update_springs, bg, None),
-                _ => {
-                    return Err(BackendError::Device(
-                        "internal: update_springs planned for a scene without plasticity or tearing"
-                            .to_owned(),
-                    ));
-                }
-            },
+            Kernel::UpdateSprings => {
+                let (p, bg) = p.springs.as_ref().zip(bg.springs.as_ref())?;
+                (&p.update_springs, bg, None)
+            }
         })
+    }
+
+    /// Dispatch `k` at stage slot `slot`; a kernel this backend lacks is an internal error.
+    fn dispatch_kernel(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        k: Kernel,
+        slot: u32,
+    ) -> Result<(), BackendError> {
+        let (pipeline, g0, state) = self.kernel(k).ok_or_else(|| {
+            BackendError::Device(format!(
+                "internal: kernel {} asked for without its effect",
+                k.name()
+            ))
+        })?;
+        self.dispatch(pass, pipeline, g0, state, slot, self.groups(k));
+        Ok(())
     }
 
     /// Encode `substeps` steps into one pass; slot `4k + j` holds stage j of step k.
@@ -618,19 +801,68 @@ impl GpuBackend {
                 warm.clone()
             };
             for (kernel, rel) in plan {
-                let (pipeline, g0, state) = self.kernel(kernel)?;
-                self.dispatch(
-                    pass,
-                    pipeline,
-                    g0,
-                    state,
-                    SLOTS_PER_STEP * k + rel,
-                    self.groups(kernel),
-                );
+                self.dispatch_kernel(pass, kernel, SLOTS_PER_STEP * k + rel)?;
             }
             self.verlet_primed = true;
         }
         Ok(())
+    }
+
+    /// The hash grid of the positions in `state`: mass–mass contact's build passes.
+    fn encode_grid(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        state: StateIn,
+        slot: u32,
+    ) -> Result<(), BackendError> {
+        for k in grid_build(state) {
+            self.dispatch_kernel(pass, k, slot)?;
+        }
+        Ok(())
+    }
+
+    /// For tests: build the hash grid on the GPU from the current positions and read it back.
+    /// `None` without mass–mass contact.
+    #[doc(hidden)]
+    pub fn mass_grid(&mut self) -> Result<Option<GridReadBack>, BackendError> {
+        self.reserve_stage_slots(1);
+        let Some(g) = self.mass_contact.as_ref() else {
+            return Ok(None);
+        };
+        let starts = 4 * (u64::from(g.table_size) + 1);
+        let masses = 4 * self.model.mass_count() as u64;
+        let read = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("grid read"),
+            size: starts + masses,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.encoder("grid");
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("grid"),
+                timestamp_writes: None,
+            });
+            self.encode_grid(&mut pass, StateIn::XV, self.stage_slots - 1)?;
+        }
+        enc.copy_buffer_to_buffer(&g.cell_start, 0, &read, 0, starts);
+        enc.copy_buffer_to_buffer(&g.sorted, 0, &read, starts, masses);
+        let index = self.ctx.queue.submit([enc.finish()]);
+        let slice = read.slice(..);
+        self.map_and_wait(&slice, index)?;
+        let out = {
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| BackendError::Device(format!("reading the grid failed: {e}")))?;
+            let words: &[u32] = bytemuck::cast_slice(&data);
+            let (a, b) = words.split_at(starts as usize / 4);
+            GridReadBack {
+                cell_start: a.to_vec(),
+                sorted: b.to_vec(),
+            }
+        };
+        read.unmap();
+        Ok(Some(out))
     }
 
     /// Compulsory memory traffic of one step: every buffer a kernel touches, read (and written)
@@ -640,9 +872,25 @@ impl GpuBackend {
         let n = self.model.mass_count() as u64;
         let ns = self.model.spring_count() as u64;
         let colliders = self.model.effects.colliders.len() as u64 * 48;
+        let (table, blocks) = self.mass_contact.as_ref().map_or((0, 0), |g| {
+            (u64::from(g.table_size), u64::from(g.block_count))
+        });
         self.step_plan(false)
             .iter()
             .map(|(k, _)| match k {
+                // x in; each mass's bucket out; one atomic count per mass.
+                Kernel::GridCount(_) => n * (16 + 4 + 4),
+                // Counts in, starts out; block sums.
+                Kernel::GridScanBlocks => table * 8 + blocks * 4,
+                Kernel::GridScanSums => blocks * 8 + 4,
+                Kernel::GridScanAdd => table * 8 + blocks * 4,
+                // Bucket, count and start per mass; the sorted index out.
+                Kernel::GridScatter => n * 16,
+                // Starts; each bucket's masses read and written.
+                Kernel::GridSortCells => table * 8 + n * 8,
+                // x, v, mass, body per mass and per candidate (cached); starts; deriv in and out.
+                Kernel::CollideMasses(_) => n * (16 + 16 + 8 + 4 + 4 + 2 * 32) + table * 4,
+                Kernel::MassContactEnergy => n * (16 + 8 + 4 + 4) + table * 4,
                 // x, v in; offsets; neighbours and springs; acceleration and rates out.
                 Kernel::Forces(_) => n * (16 + 16 + 4 + 8 + 32) + ns * (2 * 8 + 20) + colliders,
                 // x, v read and written; derivatives read; ledger read and written.
@@ -724,8 +972,7 @@ impl GpuBackend {
                     end_of_pass_write_index: Some(2 * q as u32 + 1),
                 }),
             });
-            let (pipeline, g0, state) = self.kernel(*kernel)?;
-            self.dispatch(&mut pass, pipeline, g0, state, *slot, self.groups(*kernel));
+            self.dispatch_kernel(&mut pass, *kernel, *slot)?;
         }
         enc.resolve_query_set(&queries, 0..count, &resolve, 0);
         enc.copy_buffer_to_buffer(&resolve, 0, &read, 0, bytes);
@@ -857,6 +1104,11 @@ impl GpuBackend {
                     slot,
                     self.energy_groups,
                 );
+            }
+            if self.mass_contact.is_some() {
+                // The pair potential of the positions read back, on a grid built from them.
+                self.encode_grid(&mut pass, StateIn::XV, slot)?;
+                self.dispatch_kernel(&mut pass, Kernel::MassContactEnergy, slot)?;
             }
         }
         let (x_off, v_off) = (0u64, 16 * n);
@@ -1058,6 +1310,19 @@ impl GpuBackend {
     }
 }
 
+/// Mass–mass contact's grid build from the positions of `state`, in order.
+fn grid_build(state: StateIn) -> [Kernel; 6] {
+    use Kernel::*;
+    [
+        GridCount(state),
+        GridScanBlocks,
+        GridScanSums,
+        GridScanAdd,
+        GridScatter,
+        GridSortCells,
+    ]
+}
+
 /// The dispatches of one step, with their stage slot relative to the step's first slot.
 /// `prime`: Verlet's first step also evaluates a(x_0). Implicit Euler's solve is planned in
 /// `implicit.rs`; only the post-step passes are here for it.
@@ -1094,6 +1359,19 @@ fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<(Ker
     if effects.has_contact() && integrator != Integrator::Implicit {
         plan.push((ProjectContacts, 3));
     }
+    if effects.self_collision.is_some() {
+        plan = plan
+            .into_iter()
+            .flat_map(|(k, slot)| match k {
+                Forces(s) => grid_build(s)
+                    .into_iter()
+                    .chain([Forces(s), CollideMasses(s)])
+                    .map(|k| (k, slot))
+                    .collect(),
+                _ => vec![(k, slot)],
+            })
+            .collect();
+    }
     if effects.springs_change() {
         plan.push((UpdateSprings, 3));
     }
@@ -1121,13 +1399,6 @@ pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&
     (passes, effects)
 }
 
-/// A dispatch's pipeline, its group-0 bind group and, for a force pass, the state it reads.
-type Bound<'a> = (
-    &'a wgpu::ComputePipeline,
-    &'a wgpu::BindGroup,
-    Option<&'a wgpu::BindGroup>,
-);
-
 /// What a dispatch runs (names as in the WGSL).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Kernel {
@@ -1143,6 +1414,15 @@ enum Kernel {
     VerletKick,
     ProjectContacts,
     UpdateSprings,
+    GridCount(StateIn),
+    GridScanBlocks,
+    GridScanSums,
+    GridScanAdd,
+    GridScatter,
+    GridSortCells,
+    CollideMasses(StateIn),
+    /// At snapshot time only.
+    MassContactEnergy,
 }
 
 /// Which state a force evaluation reads.
@@ -1168,6 +1448,14 @@ impl Kernel {
             Kernel::VerletKick => "verlet_kick",
             Kernel::ProjectContacts => "project_contacts",
             Kernel::UpdateSprings => "update_springs",
+            Kernel::GridCount(_) => "grid_count",
+            Kernel::GridScanBlocks => "grid_scan_blocks",
+            Kernel::GridScanSums => "grid_scan_sums",
+            Kernel::GridScanAdd => "grid_scan_add",
+            Kernel::GridScatter => "grid_scatter",
+            Kernel::GridSortCells => "grid_sort_cells",
+            Kernel::CollideMasses(_) => "collide_masses",
+            Kernel::MassContactEnergy => "mass_contact_energy",
         }
     }
 }
@@ -1258,6 +1546,12 @@ fn check_fits(ctx: &GpuContext, model: &Model, integrator: Integrator) -> Result
         ("per-mass derivatives", deriv_bytes(model, integrator)),
         ("springs", 20 * ns),
         ("adjacency", 16 * ns),
+        (
+            "mass-contact hash grid",
+            model.effects.self_collision.map_or(0, |_| {
+                4 * (u64::from(crate::cpu::table_size(n as usize)) + 1)
+            }),
+        ),
     ];
     for (what, bytes) in largest {
         if bytes > limit {

@@ -19,6 +19,8 @@ pub const BUILT_IN: &[BuiltIn] = built_in![
     "jello-sphere",
     "tear",
     "ramp",
+    "cloth-fold",
+    "pile",
     "cloth-64",
     "cloth-256",
     "cloth-1024"

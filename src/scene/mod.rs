@@ -89,6 +89,9 @@ pub struct Effects {
     pub boxes: Vec<BoxCollider>,
     #[serde(default)]
     pub planes: Vec<Plane>,
+    /// Contact between mass points, of one body with itself and between bodies.
+    #[serde(default)]
+    pub self_collision: Option<SelfCollision>,
 }
 
 /// How a collider pushes back: a penalty spring along the contact normal, damped so that an
@@ -216,6 +219,41 @@ macro_rules! contact_of {
     )*};
 }
 contact_of!(Sphere, BoxCollider, Plane);
+
+/// Mass–mass contact: every mass is a sphere of `radius_m`, and two that overlap are pushed apart
+/// by a penalty spring along the line between them, damped so that a pair's impact keeps the
+/// given coefficient of restitution, plus Coulomb friction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfCollision {
+    /// Radius of each mass's contact sphere: a pair touches closer than `2 · radius_m`.
+    pub radius_m: f32,
+    /// Penalty stiffness per contacting pair.
+    pub stiffness_n_per_m: f32,
+    /// Coefficient of restitution of a pair impact (0 = no bounce, 1 = elastic).
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+    /// Coulomb friction coefficient between masses (0 = frictionless).
+    #[serde(default)]
+    pub friction: f32,
+    /// Masses of one body collide with each other too; `false`: only masses of different bodies.
+    #[serde(default = "default_within_bodies")]
+    pub within_bodies: bool,
+}
+
+fn default_within_bodies() -> bool {
+    true
+}
+
+impl SelfCollision {
+    pub fn contact(&self) -> Contact {
+        Contact {
+            stiffness_n_per_m: self.stiffness_n_per_m,
+            friction: self.friction,
+            restitution: self.restitution,
+        }
+    }
+}
 
 /// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,7 +1,8 @@
 //! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
 //! [`super::from_toml`] adds the file position.
 
-use super::{Body, Keyframe, Scene, SpringKind};
+use super::{Body, Keyframe, Scene, SelfCollision, SpringKind};
+use crate::integrator::Integrator;
 
 type Check = Result<(), (String, String)>;
 
@@ -206,7 +207,58 @@ pub fn validate(scene: &Scene) -> Check {
             );
         }
     }
+    if let Some(sc) = &e.self_collision {
+        self_collision(scene, sc)?;
+    }
     positive("view.strain_range", f64::from(scene.view.strain_range))?;
+    Ok(())
+}
+
+fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
+    let f = "effects.self_collision";
+    positive(&format!("{f}.radius_m"), f64::from(sc.radius_m))?;
+    contact(f, sc.stiffness_n_per_m, sc.friction, sc.restitution)?;
+    if sc.within_bodies {
+        // Masses closer than 2·radius_m touch: grid neighbours that close would push each other
+        // apart at rest, a stiffness the springs never asked for.
+        let diameter = 2.0 * sc.radius_m;
+        let multi = |b: &&Body| b.grid.iter().product::<u32>() > 1;
+        if let Some((i, b)) = scene
+            .bodies
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| multi(b))
+            .find(|(_, b)| diameter >= b.spacing_m)
+        {
+            let smallest = scene
+                .bodies
+                .iter()
+                .filter(multi)
+                .map(|b| b.spacing_m)
+                .fold(f32::INFINITY, f32::min);
+            // Three significant digits, rounded down.
+            let suggest = 0.45 * f64::from(smallest);
+            let decimals = (2 - suggest.log10().floor() as i32).max(0) as usize;
+            let scale = 10f64.powi(decimals as i32);
+            let suggest = format!("{:.*}", decimals, (suggest * scale).floor() / scale);
+            return fail(
+                format!("{f}.radius_m"),
+                format!(
+                    "2 · radius_m = {diameter} m must be less than the spacing_m of every body whose masses collide with each other, \
+                     but bodies[{i}] ('{}') has spacing_m = {} m, so its grid neighbours would repel at rest; \
+                     use radius_m = {suggest} m (0.45 · the smallest spacing) or less, or set within_bodies = false",
+                    b.name, b.spacing_m,
+                ),
+            );
+        }
+    }
+    if scene.solver.integrator == Integrator::Implicit {
+        return fail(
+            "solver.integrator",
+            "implicit Euler does not support mass–mass contact (effects.self_collision): \
+             use \"semi-implicit\", \"verlet\" or \"rk4\", or remove [effects.self_collision]",
+        );
+    }
     Ok(())
 }
 

@@ -1,0 +1,179 @@
+// collide_masses and mass_contact_energy: contact between mass points, each a sphere of the
+// scene's radius, found through the hash grid that grid.wgsl built from the same positions.
+// Mirrors src/cpu/collide_masses.rs: each mass gathers its pairs over its grid candidates in the
+// grid's fixed order (the 27 cells around its own, z, y, x each from −1 to +1, by mass index
+// within a cell; from each cell's bucket only that cell's masses, so a bucket two of the cells
+// share yields each mass once), and every pair is computed lower index first and negated for the
+// other mass, so the two sides are exact negatives.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> contact: MassContact;
+// (mass, inverse mass; 0 when pinned)
+@group(0) @binding(2) var<storage, read> mass: array<vec2<f32>>;
+// Body index of each mass.
+@group(0) @binding(3) var<storage, read> mass_body: array<u32>;
+@group(0) @binding(4) var<storage, read> cell_start: array<u32>;
+@group(0) @binding(5) var<storage, read> sorted: array<u32>;
+// compute_forces' output: [2i] acceleration, [2i+1] ledger rates; the pairs are added to it.
+@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
+// compute_energies' per-workgroup sums (reduce.wgsl): the pair potential is added to [3g].w.
+@group(0) @binding(7) var<storage, read_write> partials: array<vec4<f32>>;
+@group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
+@group(2) @binding(0) var<uniform> stage: Stage;
+
+struct Pair {
+    touching: bool,
+    force: vec3<f32>,
+    dissipated: f32,
+}
+
+// Contact force on mass a of the pair (a, b) and the power it dissipates (src/cpu/
+// collide_masses.rs's pair_contact): a penalty spring along the line between them, damped on the
+// pair's reduced mass, pushing only; Coulomb friction at most PAIR_STICK_SHARE of what would stop
+// the sliding in one step.
+fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f32>, wb: f32, dt: f32) -> Pair {
+    var out = Pair(false, vec3<f32>(0.0), 0.0);
+    let diameter = 2.0 * contact.radius;
+    let d = xa - xb;
+    let len_sq = dot(d, d);
+    if (len_sq >= diameter * diameter || len_sq == 0.0 || wa + wb == 0.0) {
+        return out;
+    }
+    let dist = sqrt(len_sq);
+    let depth = diameter - dist;
+    if (depth <= 0.0) {
+        return out;
+    }
+    let n = d * (1.0 / dist);
+    let mu = 1.0 / (wa + wb);
+    let k = contact.stiffness;
+    let v_rel = va - vb;
+    let vn = dot(v_rel, n);
+    let spring = k * depth;
+    let damper = -2.0 * contact.damping_ratio * sqrt(k * mu) * vn;
+    let fn_total = max(spring + damper, 0.0);
+    let damper_part = fn_total - spring;
+    out.touching = true;
+    out.force = n * fn_total;
+    out.dissipated = -damper_part * vn;
+    if (contact.friction > 0.0) {
+        let vt = v_rel - vn * n;
+        let speed = length(vt);
+        if (speed > 0.0) {
+            let ft = min(contact.friction * fn_total, PAIR_STICK_SHARE * mu * speed / dt);
+            out.force -= vt * (ft / speed);
+            out.dissipated += ft * speed;
+        }
+    }
+    return out;
+}
+
+fn may_touch(i: u32, j: u32) -> bool {
+    return j != i && (contact.within_bodies != 0u || mass_body[i] != mass_body[j]);
+}
+
+@compute @workgroup_size(64)
+fn collide_masses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let wi = mass[i].y;
+    if (wi == 0.0) { return; }
+    let xi = x_in[i].xyz;
+    let vi = v_in[i].xyz;
+    var f = vec3<f32>(0.0);
+    var dissipated = 0.0;
+    let c = grid_cell(xi, contact.inv_cell);
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            for (var dx = -1; dx <= 1; dx++) {
+                let cell = c + vec3<i32>(dx, dy, dz);
+                let b = grid_hash(cell, contact.table_mask);
+                let end = cell_start[b + 1u];
+                for (var s = cell_start[b]; s < end; s++) {
+                    let j = sorted[s];
+                    if (!may_touch(i, j)) {
+                        continue;
+                    }
+                    let xj = x_in[j].xyz;
+                    if (any(grid_cell(xj, contact.inv_cell) != cell)) {
+                        continue;
+                    }
+                    let wj = mass[j].y;
+                    let vj = v_in[j].xyz;
+                    if (i < j) {
+                        let p = pair_contact(xi, vi, wi, xj, vj, wj, stage.dt);
+                        if (p.touching) {
+                            f += p.force;
+                            dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
+                        }
+                    } else {
+                        let p = pair_contact(xj, vj, wj, xi, vi, wi, stage.dt);
+                        if (p.touching) {
+                            f -= p.force;
+                            dissipated += select(0.5 * p.dissipated, p.dissipated, wj == 0.0);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    deriv[2u * i] = vec4<f32>(deriv[2u * i].xyz + f * wi, 0.0);
+    deriv[2u * i + 1u].z += dissipated;
+}
+
+var<workgroup> energy_sh: array<f32, 64>;
+
+// ½ k (2r − d)² per touching pair, each counted at its lower mass, summed per workgroup into the
+// contact energy of compute_energies' partial sum of the same workgroup (dispatched over the
+// masses, each workgroup g covers masses 64g .. 64g + 63 as compute_energies' does).
+@compute @workgroup_size(64)
+fn mass_contact_energy(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let i = thread_index(gid, groups);
+    var e = 0.0;
+    if (i < params.mass_count) {
+        let xi = x_in[i].xyz;
+        let diameter = 2.0 * contact.radius;
+        let c = grid_cell(xi, contact.inv_cell);
+        for (var dz = -1; dz <= 1; dz++) {
+            for (var dy = -1; dy <= 1; dy++) {
+                for (var dx = -1; dx <= 1; dx++) {
+                    let cell = c + vec3<i32>(dx, dy, dz);
+                    let b = grid_hash(cell, contact.table_mask);
+                    let end = cell_start[b + 1u];
+                    for (var s = cell_start[b]; s < end; s++) {
+                        let j = sorted[s];
+                        if (j <= i || !may_touch(i, j) || mass[i].y + mass[j].y == 0.0) {
+                            continue;
+                        }
+                        let xj = x_in[j].xyz;
+                        if (any(grid_cell(xj, contact.inv_cell) != cell)) {
+                            continue;
+                        }
+                        let depth = diameter - distance(xi, xj);
+                        if (depth > 0.0) {
+                            e += 0.5 * contact.stiffness * depth * depth;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    energy_sh[lid] = e;
+    workgroupBarrier();
+    for (var stride = WORKGROUP / 2u; stride > 0u; stride = stride / 2u) {
+        if (lid < stride) {
+            energy_sh[lid] += energy_sh[lid + stride];
+        }
+        workgroupBarrier();
+    }
+    if (lid == 0u) {
+        let g = wid.x + wid.y * groups.x;
+        partials[3u * g].w += energy_sh[0];
+    }
+}

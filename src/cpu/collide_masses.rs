@@ -1,0 +1,236 @@
+//! `collide_masses` and `mass_contact_energy`: contact between mass points, each a sphere of the
+//! scene's radius, found through the hash grid ([`MassGrid`]). Mirrors
+//! `shaders/collide_masses.wgsl`.
+//!
+//! Each mass gathers the pairs it is in from its own side, over its grid candidates in the
+//! grid's fixed order, so every mass is written by one task and the sums are deterministic. The
+//! pair force is always computed with the lower mass index first and negated for the other mass,
+//! so the two sides are exact negatives (momentum is conserved up to the rounding of each mass's
+//! own sum).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::forces::{CHUNK, PARALLEL_MIN_MASSES};
+use super::grid::{MassGrid, grid_cell};
+use crate::model::{MassContact, Model};
+
+/// Share of a pair's tangential sliding that its friction may stop within one step. A contact
+/// with a collider may stop a mass's sliding outright (`contact_force`), but a mass can touch
+/// several others at once and each pair's friction acts on it: were each to stop the whole
+/// sliding, four or more together would reverse it every step, leaving the mass jittering and
+/// the ledger counting energy that never left. A quarter keeps eight simultaneous pairs from
+/// overshooting; sticking then takes a few steps instead of one.
+pub const PAIR_STICK_SHARE: f32 = 0.25;
+
+/// Contact force on mass `a` of the pair (a, b) and the power its damping and friction
+/// dissipate, or `None` if they do not touch (or sit exactly on each other, with no normal, or
+/// are both pinned). A penalty spring `k (2r − d)` along the line between them, damped on the
+/// pair's reduced mass μ = 1 / (w_a + w_b), pushing only; Coulomb friction on their relative
+/// sliding, at most [`PAIR_STICK_SHARE`] of what would stop it in one step.
+#[inline(always)]
+pub fn pair_contact(
+    c: &MassContact,
+    (xa, va, wa): (Vec3, Vec3, f32),
+    (xb, vb, wb): (Vec3, Vec3, f32),
+    dt: f32,
+) -> Option<(Vec3, f32)> {
+    let diameter = 2.0 * c.radius_m;
+    let d = xa - xb;
+    let len_sq = d.dot(d);
+    if len_sq >= diameter * diameter || len_sq == 0.0 || wa + wb == 0.0 {
+        return None;
+    }
+    let dist = len_sq.sqrt();
+    let depth = diameter - dist;
+    if depth <= 0.0 {
+        return None;
+    }
+    let n = d * (1.0 / dist);
+    let mu = 1.0 / (wa + wb);
+    let k = c.contact.stiffness_n_per_m;
+    let v_rel = va - vb;
+    let vn = v_rel.dot(n);
+    let spring = k * depth;
+    let damper = -2.0 * c.contact.damping_ratio * (k * mu).sqrt() * vn;
+    // Contact pushes, never pulls: the damper may at most cancel the spring.
+    let fn_total = (spring + damper).max(0.0);
+    let damper_part = fn_total - spring;
+    let mut force = n * fn_total;
+    let mut dissipated = -damper_part * vn;
+    if c.contact.friction > 0.0 {
+        let vt = v_rel - vn * n;
+        let speed = vt.length();
+        if speed > 0.0 {
+            let ft = (c.contact.friction * fn_total).min(PAIR_STICK_SHARE * mu * speed / dt);
+            force -= vt * (ft / speed);
+            dissipated += ft * speed;
+        }
+    }
+    Some((force, dissipated))
+}
+
+/// Whether masses `i` and `j` may touch at all under the scene's rule.
+#[inline(always)]
+fn may_touch(model: &Model, c: &MassContact, i: usize, j: usize) -> bool {
+    j != i && (c.within_bodies || model.mass_body[i] != model.mass_body[j])
+}
+
+/// Sum of the pair forces on mass `i` and its share of the pairs' dissipation: half of each pair's,
+/// all of it when the other mass is pinned (a pinned mass does not move, so nothing flows there).
+#[inline(always)]
+fn contact_on_mass(
+    model: &Model,
+    c: &MassContact,
+    grid: &MassGrid,
+    x: &[Vec3],
+    v: &[Vec3],
+    i: usize,
+    dt: f32,
+) -> (Vec3, f32) {
+    let wi = model.inv_mass[i];
+    let (xi, vi) = (x[i], v[i]);
+    let mut f = Vec3::ZERO;
+    let mut dissipated = 0.0f32;
+    grid.for_each_candidate(grid_cell(xi, grid.inv_cell_per_m()), |j| {
+        if !may_touch(model, c, i, j) {
+            return;
+        }
+        let wj = model.inv_mass[j];
+        let (me, other) = ((xi, vi, wi), (x[j], v[j], wj));
+        let (first, second) = if i < j { (me, other) } else { (other, me) };
+        if let Some((fa, diss)) = pair_contact(c, first, second, dt) {
+            if i < j {
+                f += fa;
+            } else {
+                f -= fa;
+            }
+            dissipated += if wj == 0.0 { diss } else { 0.5 * diss };
+        }
+    });
+    (f, dissipated)
+}
+
+/// Add the mass–mass contact forces at (x, v) to the accelerations `acc` (which
+/// `compute_forces` has just written); returns the power they dissipate. `grid` must be built
+/// from `x`.
+pub fn collide_masses(
+    model: &Model,
+    c: &MassContact,
+    grid: &MassGrid,
+    x: &[Vec3],
+    v: &[Vec3],
+    dt: f32,
+    acc: &mut [Vec3],
+) -> f64 {
+    let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> f64 {
+        let mut sum = 0.0f64;
+        for (k, a) in out.iter_mut().enumerate() {
+            let i = ci * CHUNK + k;
+            let w = model.inv_mass[i];
+            if w == 0.0 {
+                continue;
+            }
+            let (f, dissipated) = contact_on_mass(model, c, grid, x, v, i, dt);
+            // Added to compute_forces' acceleration, as the GPU adds to its output.
+            *a += f * w;
+            sum += f64::from(dissipated);
+        }
+        sum
+    };
+    if acc.len() >= PARALLEL_MIN_MASSES {
+        let partials: Vec<f64> = acc
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(chunk_sum)
+            .collect();
+        partials.into_iter().sum()
+    } else {
+        acc.chunks_mut(CHUNK).enumerate().map(chunk_sum).sum()
+    }
+}
+
+/// Energy stored in the compressed pair springs, ½ k (2r − d)² per touching pair (pairs of two
+/// pinned masses exert nothing and hold nothing). `grid` must be built from `x`.
+pub fn mass_contact_energy(model: &Model, c: &MassContact, grid: &MassGrid, x: &[Vec3]) -> f64 {
+    let k = f64::from(c.contact.stiffness_n_per_m);
+    let diameter = 2.0 * c.radius_m;
+    let mut e = 0.0f64;
+    for (i, &xi) in x.iter().enumerate() {
+        grid.for_each_candidate(grid_cell(xi, grid.inv_cell_per_m()), |j| {
+            if j <= i || !may_touch(model, c, i, j) {
+                return;
+            }
+            if model.inv_mass[i] + model.inv_mass[j] == 0.0 {
+                return;
+            }
+            let depth = f64::from(diameter) - f64::from(xi.distance(x[j]));
+            if depth > 0.0 {
+                e += 0.5 * k * depth * depth;
+            }
+        });
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{ContactModel, Effects, ModelBuilder, damping_ratio_for_restitution};
+
+    fn contact(radius_m: f32) -> MassContact {
+        MassContact {
+            radius_m,
+            contact: ContactModel {
+                stiffness_n_per_m: 500.0,
+                friction: 0.3,
+                damping_ratio: damping_ratio_for_restitution(0.3),
+            },
+            within_bodies: true,
+        }
+    }
+
+    /// A cluster of overlapping masses of different weights moving every which way: the contact
+    /// forces sum to zero (each pair's two sides are exact negatives), and every pair in reach
+    /// pushes.
+    #[test]
+    fn pair_forces_are_antisymmetric_and_conserve_momentum() {
+        let mut mb = ModelBuilder::new();
+        let mut s = 12345u32;
+        let mut next = || {
+            s = s.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            (s >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        for k in 0..40 {
+            let p = Vec3::new(next(), next(), next()) * 0.08;
+            let v = Vec3::new(next(), next(), next());
+            mb.mass(p, v, 0.01 + 0.001 * k as f32, false);
+        }
+        let c = contact(0.02);
+        mb.effects(Effects {
+            self_collision: Some(c),
+            ..Effects::default()
+        });
+        let model = mb.build();
+        let (x, v) = (&model.initial.x, &model.initial.v);
+        let mut grid = MassGrid::new(x.len(), c.radius_m);
+        grid.build(x);
+        let mut total = Vec3::ZERO;
+        let mut touching = 0;
+        for i in 0..x.len() {
+            let (f, _) = contact_on_mass(&model, &c, &grid, x, v, i, 1e-3);
+            total += f;
+            if f != Vec3::ZERO {
+                touching += 1;
+            }
+        }
+        assert!(touching > 20, "only {touching} masses touch");
+        let scale: f32 = (0..x.len())
+            .map(|i| contact_on_mass(&model, &c, &grid, x, v, i, 1e-3).0.length())
+            .sum();
+        assert!(
+            total.length() <= 1e-5 * scale,
+            "net contact force {total} (scale {scale})"
+        );
+    }
+}

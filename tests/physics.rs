@@ -472,7 +472,7 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
     // `cloth`; run in full they would take hours here.
     for b in hooke::scene::BUILT_IN
         .iter()
-        .filter(|b| !b.name.starts_with("cloth-"))
+        .filter(|b| !["cloth-64", "cloth-256", "cloth-1024"].contains(&b.name))
     {
         let loaded = hooke::scene::load(b.name).unwrap_or_else(|e| panic!("{e}"));
         let settings = Settings::resolve(&loaded.scene, &Overrides::default())
@@ -535,14 +535,17 @@ fn built_in_scenes_keep_contact_and_balance_energy() {
             b.name,
             100.0 * worst_balance / scale
         );
-        // Measured: hair 0.9%, cloth 3.5%, jello 1.2%, jello-sphere 0.1%, tear 2.1%, ramp 1.0%
-        // of the energy that moved. The ledger integrates the rate F·v of each non-conservative
+        // Measured: hair 0.9%, cloth 3.5%, jello 1.2%, jello-sphere 0.1%, tear 2.1%, ramp 1.0%,
+        // pile and cloth-fold below, of the energy that moved. The ledger integrates the rate F·v of each non-conservative
         // force at the start of a step, a first-order quadrature whose error grows with the
         // damping rate times dt: the cloth's ground contact is overdamped (restitution 0.1:
         // ζ = 1.25, 2ζω·dt = 0.22). Where friction sticks within a step (|F_t| = m|v_t|/dt)
         // the rate also overstates what friction takes.
+        // cloth-fold: 11.5%, the same first-order quadrature over hundreds of damped pair and
+        // ground contacts at once; measured 5.0% at 80 substeps and 2.2% at 160 (first order).
+        let bound = if b.name == "cloth-fold" { 0.12 } else { 0.04 };
         assert!(
-            worst_balance / scale < 0.04,
+            worst_balance / scale < bound,
             "{}: energy balance strayed by {worst_balance:.4} J, {:.2}% of {scale:.3} J",
             b.name,
             100.0 * worst_balance / scale

@@ -132,6 +132,9 @@ fn effect_variants(s: &scene::Scene) -> Vec<(&'static str, scene::Scene)> {
     variant("planes", !e.planes.is_empty(), &|v| {
         v.effects.planes.clear()
     });
+    variant("self-collision", e.self_collision.is_some(), &|v| {
+        v.effects.self_collision = None
+    });
     let bodies = |f: fn(&scene::Body) -> bool| s.bodies.iter().any(f);
     variant("plasticity", bodies(|b| b.plasticity.is_some()), &|v| {
         v.bodies.iter_mut().for_each(|b| b.plasticity = None)

@@ -329,8 +329,8 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
     ),
     (
         "ramp",
-        "compute_forces → semi_implicit_update → project_contacts",
-        "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_BOXES, HAS_PLANES, HAS_COLLIDERS, HAS_DAMPING",
+        "compute_forces → semi_implicit_update → project_contacts → update_springs",
+        "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_BOXES, HAS_PLANES, HAS_COLLIDERS, HAS_DAMPING, HAS_PLASTICITY",
     ),
     (
         "cloth-fold",

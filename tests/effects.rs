@@ -477,3 +477,25 @@ fn every_collider_bounces_a_mass_back_with_its_restitution() {
         }
     }
 }
+
+#[test]
+fn the_ramp_cube_yields_where_it_hits() {
+    // The built-in scene that uses plasticity: the cube's impact on the block squeezes springs
+    // past yield, and the energy their flow let go is in the ledger.
+    let loaded = ok(hooke::scene::load("ramp"));
+    let settings = ok(hooke::settings::Settings::resolve(
+        &loaded.scene,
+        &Default::default(),
+    ));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    assert!(model.effects.plasticity);
+    let mut be = CpuBackend::new(model, settings.integrator, settings.dt_secs);
+    ok(be.advance(settings.substeps * settings.frames as u32));
+    let e = ok(be.snapshot(1, Default::default())).energies;
+    println!("ramp: plastic flow let go {} J", e.ledger.plastic_j);
+    assert!(
+        e.ledger.plastic_j > 1e-3,
+        "no plastic flow: {} J",
+        e.ledger.plastic_j
+    );
+}

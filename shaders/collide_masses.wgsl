@@ -29,9 +29,8 @@ struct Pair {
 }
 
 // Contact force on mass a of the pair (a, b) and the power it dissipates (src/cpu/
-// collide_masses.rs's pair_contact): a penalty spring along the line between them, damped on the
-// pair's reduced mass, pushing only; Coulomb friction at most PAIR_STICK_SHARE of what would stop
-// the sliding in one step.
+// collide_masses.rs's pair_contact): common.wgsl's contact_force along the line between them with
+// the pair's reduced mass, its friction stopping at most PAIR_STICK_SHARE of the sliding a step.
 fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f32>, wb: f32, dt: f32) -> Pair {
     var out = Pair(false, vec3<f32>(0.0), 0.0);
     let diameter = 2.0 * contact.radius;
@@ -46,26 +45,12 @@ fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f
         return out;
     }
     let n = d * (1.0 / dist);
+    // The pair's relative motion obeys the one-mass contact with the reduced mass.
     let mu = 1.0 / (wa + wb);
-    let k = contact.stiffness;
-    let v_rel = va - vb;
-    let vn = dot(v_rel, n);
-    let spring = k * depth;
-    let damper = -2.0 * contact.damping_ratio * sqrt(k * mu) * vn;
-    let fn_total = max(spring + damper, 0.0);
-    let damper_part = fn_total - spring;
+    let c = contact_force(contact.stiffness, contact.friction, contact.damping_ratio, depth, n, va - vb, mu, dt, PAIR_STICK_SHARE);
     out.touching = true;
-    out.force = n * fn_total;
-    out.dissipated = -damper_part * vn;
-    if (contact.friction > 0.0) {
-        let vt = v_rel - vn * n;
-        let speed = length(vt);
-        if (speed > 0.0) {
-            let ft = min(contact.friction * fn_total, PAIR_STICK_SHARE * mu * speed / dt);
-            out.force -= vt * (ft / speed);
-            out.dissipated += ft * speed;
-        }
-    }
+    out.force = c.force;
+    out.dissipated = c.dissipated;
     return out;
 }
 

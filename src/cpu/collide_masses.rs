@@ -11,7 +11,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::forces::{CHUNK, PARALLEL_MIN_MASSES};
+use super::forces::{CHUNK, PARALLEL_MIN_MASSES, contact_force};
 use super::grid::{MassGrid, grid_cell};
 use crate::model::{MassContact, Model};
 
@@ -47,27 +47,17 @@ pub fn pair_contact(
         return None;
     }
     let n = d * (1.0 / dist);
+    // The pair's relative motion obeys the one-mass contact with the reduced mass.
     let mu = 1.0 / (wa + wb);
-    let k = c.contact.stiffness_n_per_m;
-    let v_rel = va - vb;
-    let vn = v_rel.dot(n);
-    let spring = k * depth;
-    let damper = -2.0 * c.contact.damping_ratio * (k * mu).sqrt() * vn;
-    // Contact pushes, never pulls: the damper may at most cancel the spring.
-    let fn_total = (spring + damper).max(0.0);
-    let damper_part = fn_total - spring;
-    let mut force = n * fn_total;
-    let mut dissipated = -damper_part * vn;
-    if c.contact.friction > 0.0 {
-        let vt = v_rel - vn * n;
-        let speed = vt.length();
-        if speed > 0.0 {
-            let ft = (c.contact.friction * fn_total).min(PAIR_STICK_SHARE * mu * speed / dt);
-            force -= vt * (ft / speed);
-            dissipated += ft * speed;
-        }
-    }
-    Some((force, dissipated))
+    Some(contact_force(
+        &c.contact,
+        depth,
+        n,
+        va - vb,
+        mu,
+        dt,
+        PAIR_STICK_SHARE,
+    ))
 }
 
 /// Whether masses `i` and `j` may touch at all under the scene's rule.

@@ -36,8 +36,9 @@ pub fn spring_force(s: &Spring, xi: Vec3, xj: Vec3, vi: Vec3, vj: Vec3) -> (Vec3
 
 /// Penalty contact along unit normal `n` at depth `depth` > 0, for a mass with velocity `v_rel`
 /// relative to the collider. Returns the force and the power dissipated by its damping and
-/// friction parts (≥ 0). Friction is Coulomb, `|F_t| ≤ μ F_n`, never more than stops the sliding
-/// within one step (so it cannot reverse the motion).
+/// friction parts (≥ 0). Friction is Coulomb, `|F_t| ≤ μ F_n`, and stops at most `stick_share`
+/// of the sliding within one step (1 for a collider: it cannot reverse the motion; less for
+/// mass pairs, several of which may act on one mass, see `PAIR_STICK_SHARE`).
 #[inline(always)]
 pub fn contact_force(
     c: &ContactModel,
@@ -46,6 +47,7 @@ pub fn contact_force(
     v_rel: Vec3,
     mass: f32,
     dt: f32,
+    stick_share: f32,
 ) -> (Vec3, f32) {
     let vn = v_rel.dot(n);
     let spring = c.stiffness_n_per_m * depth;
@@ -59,7 +61,7 @@ pub fn contact_force(
         let vt = v_rel - vn * n;
         let speed = vt.length();
         if speed > 0.0 {
-            let ft = (c.friction * fn_total).min(mass * speed / dt);
+            let ft = (c.friction * fn_total).min(stick_share * mass * speed / dt);
             force -= vt * (ft / speed);
             dissipated += ft * speed;
         }
@@ -109,7 +111,7 @@ fn force_on_mass(
     if let Some(g) = &e.ground {
         let depth = g.height_m - xi.y;
         if depth > 0.0 {
-            let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, vi, m, dt);
+            let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, vi, m, dt, 1.0);
             f += fc;
             contact_w += diss;
         }
@@ -117,7 +119,7 @@ fn force_on_mass(
     for (c, pose) in e.colliders.iter().zip(poses) {
         if let Some((depth, n)) = c.shape.penetration(pose.position_m, xi) {
             let u = pose.velocity_m_per_s;
-            let (fc, diss) = contact_force(&c.contact, depth, n, vi - u, m, dt);
+            let (fc, diss) = contact_force(&c.contact, depth, n, vi - u, m, dt, 1.0);
             f += fc;
             contact_w += diss;
             collider_w += fc.dot(u);

@@ -1562,6 +1562,16 @@ fn check_fits(ctx: &GpuContext, model: &Model, integrator: Integrator) -> Result
             )));
         }
     }
+    // Scene files are held to this by validation; a model built by hand is checked here, since
+    // each stage slot has room for only this many collider poses.
+    let colliders = model.effects.colliders.len();
+    if colliders > layout::MAX_COLLIDERS {
+        return Err(BackendError::Device(format!(
+            "the model has {colliders} colliders; the GPU backend passes at most {} (their poses \
+             ride in each stage's uniform slot). Use fewer colliders or --backend cpu",
+            layout::MAX_COLLIDERS
+        )));
+    }
     let needed = 8;
     if ctx.limits.max_storage_buffers_per_shader_stage < needed {
         return Err(BackendError::Device(format!(

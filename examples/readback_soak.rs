@@ -509,6 +509,8 @@ fn run_pipeline(variant: &str, iterations: u64) {
         delivery: hooke::sim::Delivery::Lossless,
         progress: false,
         viewer: None,
+        // Rerun's own file sink on purpose: this bisects Rerun's memory use, not ours.
+        file: None,
     };
     let summary = hooke::run::run(
         &loaded,

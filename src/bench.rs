@@ -352,7 +352,8 @@ pub fn soak(
     let rec = rerun::RecordingStreamBuilder::new("hooke-soak")
         .buffered()
         .map_err(|e| crate::Error::Rerun(format!("starting the recording: {e}")))?;
-    rec.set_sink(Box::new(crate::record::file_sink(rrd, footer)?));
+    let (sink, file) = crate::rrd_file::create(rrd, footer)?;
+    rec.set_sink(Box::new(sink));
     let done = Arc::new(AtomicBool::new(false));
     let start = Instant::now();
     let sampler = {
@@ -372,6 +373,7 @@ pub fn soak(
         delivery: crate::sim::Delivery::Lossless,
         progress: false,
         viewer: None,
+        file: Some(file),
     };
     let summary = crate::run::run(
         &loaded,

@@ -80,6 +80,18 @@ pub enum Error {
     #[error("rerun: {0}")]
     Rerun(String),
 
+    /// The recording file could not be created (its cause is part of the message, not a
+    /// separate source, so that a chain of causes prints it once).
+    #[error("cannot create the recording {}: {cause}", path.display())]
+    CreateRecording {
+        path: std::path::PathBuf,
+        cause: std::io::Error,
+    },
+
+    /// Writing the recording failed mid-run (a full disk): what the file still holds.
+    #[error("{0}")]
+    WriteRecording(crate::rrd_file::WriteFailure),
+
     /// The live viewer went away and no file was being recorded beside it.
     #[error(
         "the viewer at {url} went away at frame {frame} ({why}); the run stopped there. To keep a run \

@@ -1,5 +1,5 @@
-//! Hooke: mass-spring systems (hair, cloth, jello) stepped on the CPU reference backend (and,
-//! next, wgpu compute), streamed to the Rerun viewer.
+//! Hooke: mass-spring systems (hair, cloth, jello) stepped on wgpu compute shaders or the CPU
+//! reference backend, streamed to the Rerun viewer.
 //!
 //! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
 
@@ -14,7 +14,9 @@ pub mod gpu;
 pub mod integrator;
 pub mod model;
 pub mod record;
+pub mod recording_size;
 pub mod reference;
+pub mod rrd_file;
 pub mod run;
 pub mod scene;
 pub mod settings;

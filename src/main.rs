@@ -21,6 +21,12 @@ fn main() -> std::process::ExitCode {
         // every run without a runtime dir (headless servers, CI); /tmp serves them.
         unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
     }
+    #[cfg(unix)]
+    // SAFETY: no other thread exists yet. A file-size limit (ulimit -f) would otherwise kill the
+    // process mid-write; ignored, the write fails and the run reports it like a full disk.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     let matches = Cli::command().get_matches();
     let result = Cli::from_arg_matches(&matches)
         .map_err(anyhow::Error::from)
@@ -30,10 +36,28 @@ fn main() -> std::process::ExitCode {
         // The shell's convention for a run ended by SIGINT.
         Ok(Outcome::Interrupted) => std::process::ExitCode::from(130),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", one_message(&e));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// An error and its causes as one line, each cause said once: many libraries' errors repeat
+/// their cause in their own message *and* return it as their source, so printing the chain as
+/// it is says the same thing two or three times.
+fn one_message(e: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if message.contains(text.trim()) {
+            continue;
+        }
+        if !message.is_empty() {
+            message.push_str(": ");
+        }
+        message.push_str(&text);
+    }
+    message
 }
 
 /// How a command ended without error.
@@ -68,6 +92,14 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             print!(
                 "{}",
                 hooke::check::report(&loaded.scene.name, &model, &settings)
+            );
+            let size =
+                hooke::recording_size::estimate(&model, &settings, loaded.scene.view.strain_range)?;
+            println!(
+                "recording (estimated from sample frames): about {} per frame, {} for all {} frames",
+                hooke::rrd_file::human_bytes(size.bytes_per_frame),
+                hooke::rrd_file::human_bytes(size.total(settings.frames)),
+                settings.frames + 1
             );
             match backend {
                 hooke::backend::BackendKind::Cpu => {
@@ -255,6 +287,8 @@ struct Sink {
     saved: Option<PathBuf>,
     /// The live viewer, watched so that losing it follows the README's rule.
     viewer: Option<hooke::run::ViewerWatch>,
+    /// Our own `.rrd` writer, where a file is recorded: it reports a full disk.
+    file: Option<hooke::rrd_file::RrdFile>,
     /// `--serve`: the web viewer's server, kept up after the run until Ctrl-C.
     serving: Option<Serving>,
 }
@@ -265,16 +299,35 @@ struct Serving {
 }
 
 impl Sink {
-    fn file(rec: rerun::RecordingStream, saved: Option<PathBuf>) -> Self {
+    /// A file or a pipe: keeps every frame.
+    fn stream(
+        rec: rerun::RecordingStream,
+        saved: Option<PathBuf>,
+        file: Option<hooke::rrd_file::RrdFile>,
+    ) -> Self {
         Self {
             rec,
-            // A file or a pipe keeps every frame.
             delivery: Delivery::Lossless,
             saved,
             viewer: None,
+            file,
             serving: None,
         }
     }
+}
+
+/// A recording stream whose only sink is our `.rrd` writer at `path`.
+fn file_recording(
+    path: &std::path::Path,
+    footer: bool,
+) -> anyhow::Result<(rerun::RecordingStream, hooke::rrd_file::RrdFile)> {
+    let rec = rerun::RecordingStreamBuilder::new("hooke")
+        .with_blueprint(hooke::record::blueprint())
+        .buffered()
+        .context("starting the Rerun recording")?;
+    let (sink, file) = hooke::rrd_file::create(path, footer)?;
+    rec.set_sink(Box::new(sink));
+    Ok((rec, file))
 }
 
 /// Where a run records, from Rerun's flags: `--stdout`; `--save FILE` alone; `--serve`; a live
@@ -292,20 +345,15 @@ fn open_sink(
         .then(|| m.get_one::<PathBuf>("save").cloned())
         .flatten();
     let connect = explicit(m, "connect");
-    if let Some(path) = save.as_ref().filter(|_| output.no_rrd_footer && !connect) {
-        let rec = rerun::RecordingStreamBuilder::new("hooke")
-            .with_blueprint(blueprint())
-            .buffered()
-            .context("starting the Rerun recording")?;
-        rec.set_sink(Box::new(hooke::record::file_sink(path, false)?));
-        return Ok(Sink::file(rec, save));
-    }
-    if explicit(m, "stdout") || (save.is_some() && !connect) {
+    if explicit(m, "stdout") {
         let (rec, _no_serving) = rerun_args
             .init_with_blueprint("hooke", blueprint())
             .context("starting the Rerun recording")?;
-        let saved = save.filter(|_| !explicit(m, "stdout"));
-        return Ok(Sink::file(rec, saved));
+        return Ok(Sink::stream(rec, None, None));
+    }
+    if let Some(path) = save.as_ref().filter(|_| !connect) {
+        let (rec, file) = file_recording(path, !output.no_rrd_footer)?;
+        return Ok(Sink::stream(rec, save.clone(), Some(file)));
     }
     if explicit(m, "serve") {
         return serve_web_viewer(m, output);
@@ -328,22 +376,19 @@ fn open_sink(
             Err(why) => {
                 let path = PathBuf::from(format!("{scene_name}.rrd"));
                 eprintln!("{why}; recording to {} instead", path.display());
-                let rec = rerun::RecordingStreamBuilder::new("hooke")
-                    .with_blueprint(blueprint())
-                    .save(&path)
-                    .with_context(|| format!("creating {}", path.display()))?;
-                return Ok(Sink::file(rec, Some(path)));
+                let (rec, file) = file_recording(&path, !output.no_rrd_footer)?;
+                return Ok(Sink::stream(rec, Some(path), Some(file)));
             }
         }
     };
     let (link, viewer_sink) =
         hooke::viewer::ViewerLink::connect(&url, save.is_some()).map_err(anyhow::Error::msg)?;
     let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = vec![viewer_sink];
+    let mut file = None;
     if let Some(path) = &save {
-        sinks.push(Box::new(hooke::record::file_sink(
-            path,
-            !output.no_rrd_footer,
-        )?));
+        let (sink, handle) = hooke::rrd_file::create(path, !output.no_rrd_footer)?;
+        sinks.push(Box::new(sink));
+        file = Some(handle);
     }
     let rec = rerun::RecordingStreamBuilder::new("hooke")
         .with_blueprint(blueprint())
@@ -363,6 +408,7 @@ fn open_sink(
             file: save.clone(),
         }),
         saved: save,
+        file,
         serving: None,
     })
 }
@@ -424,6 +470,7 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &cli::OutputArgs) -> anyhow::R
         delivery: Delivery::DropWhenBusy,
         saved: None,
         viewer: None,
+        file: None,
         serving: Some(Serving { page }),
     })
 }
@@ -475,13 +522,23 @@ fn run(
         settings.frames
     );
     let sink = open_sink(rerun_args, output, m, &loaded.scene.name)?;
+    if let Some(file) = &sink.file {
+        let size =
+            hooke::recording_size::estimate(&model, &settings, loaded.scene.view.strain_range)?;
+        eprintln!(
+            "{}",
+            hooke::recording_size::describe_for_file(&size, settings.frames, file.path())
+        );
+    }
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
         progress: std::io::stderr().is_terminal(),
         viewer: sink.viewer.clone(),
+        file: sink.file.clone(),
     };
-    // Ctrl-C or SIGTERM: the first stops stepping, records every frame already produced and
-    // flushes the recording; a second one ends the process at once.
+    // Ctrl-C or SIGTERM: the first stops stepping within a chunk of substeps (the frame in
+    // progress is dropped), records every frame already produced and ends the file; a second
+    // one ends the process at once.
     let cancel = Arc::new(AtomicBool::new(false));
     // After the run, with --serve, an interrupt just ends the serving.
     let serving_only = Arc::new(AtomicBool::new(false));
@@ -498,7 +555,7 @@ fn run(
                 std::process::exit(130);
             }
             eprintln!(
-                "interrupted: stopping after the current frame and saving what was recorded (again to quit at once)"
+                "interrupted: stopping now, dropping the frame in progress and saving every finished frame (again to quit at once)"
             );
         });
         if let Err(e) = installed {
@@ -520,6 +577,8 @@ fn run(
         let open = format!("open it with `rerun {}`", p.display());
         match &result {
             Ok(_) => eprintln!("saved {}; {open}", p.display()),
+            // Its own message says what the file holds.
+            Err(hooke::Error::WriteRecording(_)) => {}
             Err(_) => eprintln!(
                 "the frames recorded before the error are in {}; {open}",
                 p.display()

@@ -647,7 +647,7 @@ pub const NO_LIMITS: SpringLimits = SpringLimits {
 };
 
 /// Grid offsets of each spring kind, one per pair (the positive half of each direction).
-fn kind_offsets(kind: SpringKindTag) -> &'static [[i32; 3]] {
+pub fn kind_offsets(kind: SpringKindTag) -> &'static [[i32; 3]] {
     match kind {
         SpringKindTag::Structural => &[[1, 0, 0], [0, 1, 0], [0, 0, 1]],
         SpringKindTag::Shear => &[

@@ -13,22 +13,6 @@ use crate::state::Snapshot;
 
 type RResult<T = ()> = Result<T, rerun::RecordingStreamError>;
 
-/// A `.rrd` file sink. Without `footer`, the file has no chunk index at its end, and Rerun's sink
-/// no longer keeps that index in memory while the file is open (it grows by about 1.3 KB per
-/// chunk, some 125 chunks a second at the default flush: see BENCHMARKS.md, "Soak").
-pub fn file_sink(
-    path: &std::path::Path,
-    footer: bool,
-) -> Result<rerun::sink::FileSink, crate::Error> {
-    rerun::sink::FileSink::with_options(
-        path,
-        rerun::sink::FileSinkOptions {
-            write_footer: footer,
-        },
-    )
-    .map_err(|e| crate::Error::Rerun(format!("creating {}: {e}", path.display())))
-}
-
 /// Colour of a strain value on the diverging scale: blue (compressed by `range` or more), light
 /// grey (at rest), red (stretched by `range` or more).
 pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {

@@ -2,12 +2,13 @@
 //! thread, join them, and say how it went.
 
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::record::Recorder;
+use crate::rrd_file::RrdFile;
 use crate::scene::LoadedScene;
 use crate::settings::Settings;
 use crate::sim::{self, Delivery};
@@ -24,6 +25,8 @@ pub struct RunOptions {
     pub progress: bool,
     /// The live viewer to watch, when streaming to one.
     pub viewer: Option<ViewerWatch>,
+    /// The `.rrd` file being written, if any: watched for a failed write, ended after the run.
+    pub file: Option<RrdFile>,
 }
 
 /// A live viewer, and where the run goes on if it goes away.
@@ -78,22 +81,29 @@ pub fn run(
     };
     progress.set_message(loaded.scene.name.clone());
 
+    // Set by the recorder when it can take no more: the simulation stops within a chunk.
+    let halt = AtomicBool::new(false);
     let (outcome, recorded, recorder_error) = std::thread::scope(|scope| {
         let sim = std::thread::Builder::new()
             .name("hooke-sim".into())
             .spawn_scoped(scope, {
                 let cancel = cancel.clone();
+                let halt = &halt;
                 let (frames, substeps, delivery) =
                     (settings.frames, settings.substeps, opts.delivery);
                 move || {
                     let mut be = be;
+                    let stop = sim::Stop {
+                        interrupt: &cancel,
+                        halt: Some(halt),
+                    };
                     sim::simulate(
                         be.as_mut(),
                         frames,
                         substeps,
                         &tx,
                         delivery,
-                        &cancel,
+                        stop,
                         Some(&back_rx),
                     )
                 }
@@ -106,10 +116,19 @@ pub fn run(
                 let rx = rx;
                 let mut recorded = 0u64;
                 let mut viewer_lost = false;
+                let stop_simulation = |e: Error| {
+                    halt.store(true, Ordering::SeqCst);
+                    // Returning drops the receiver as well, which a waiting simulation sees.
+                    Some(e)
+                };
                 for snap in rx.iter() {
                     if let Err(e) = recorder.log_snapshot(&snap) {
-                        // Dropping the receiver tells the simulation to stop.
-                        return (recorded, Some(Error::RecorderGone(e.to_string())));
+                        return (recorded, stop_simulation(Error::RecorderGone(e.to_string())));
+                    }
+                    // The flag first: the writer's lock may be held by a long write.
+                    let failed = opts.file.as_ref().filter(|f| f.failed());
+                    if let Some(failure) = failed.and_then(RrdFile::failure) {
+                        return (recorded, stop_simulation(Error::WriteRecording(failure)));
                     }
                     recorded += 1;
                     progress.inc(1);
@@ -163,7 +182,12 @@ pub fn run(
         return Err(gone);
     }
     // Whatever happened, what was logged reaches the sink before we report.
-    rec.flush_blocking().map_err(|e| {
+    let flushed = rec.flush_blocking();
+    if let Some(file) = &opts.file {
+        // A failed write explains a failed flush better than the flush does.
+        file.finish().map_err(Error::WriteRecording)?;
+    }
+    flushed.map_err(|e| {
         Error::Rerun(format!(
             "flushing the recording failed: {e}. If streaming, is a Rerun viewer listening there? \
              Start one with `rerun`, or record to a file with --save FILE"

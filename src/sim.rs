@@ -1,12 +1,120 @@
 //! The simulation thread: steps the backend frame by frame and hands snapshots to the recorder
-//! over a bounded channel.
+//! over a bounded channel. A frame too long to wait for is stepped in chunks, so that a stop
+//! (Ctrl-C, or a recorder that can take no more) takes effect within about [`CHUNK_SECS`]
+//! whatever the frame's length.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::backend::{Backend, BackendError};
 use crate::state::{Snapshot, StepStats};
+
+/// Wall time one chunk of substeps aims at: a stop waits for at most the chunk in progress
+/// (a single step that takes longer is not split).
+pub const CHUNK_SECS: f64 = 0.05;
+
+/// Most substeps in one chunk: bounds what a GPU submission encodes (its stage slots).
+pub const MAX_CHUNK_SUBSTEPS: u32 = 4096;
+
+/// What ends stepping before the last frame, checked before every frame and between chunks.
+#[derive(Debug, Clone, Copy)]
+pub struct Stop<'a> {
+    /// The user asked (Ctrl-C, SIGTERM): the run ends as interrupted.
+    pub interrupt: &'a AtomicBool,
+    /// The recorder can take no more (a full disk, say): the run ends with its error.
+    pub halt: Option<&'a AtomicBool>,
+}
+
+impl Stop<'_> {
+    fn requested(&self) -> bool {
+        self.interrupt.load(Ordering::Relaxed)
+            || self.halt.is_some_and(|h| h.load(Ordering::Relaxed))
+    }
+}
+
+impl<'a> From<&'a AtomicBool> for Stop<'a> {
+    fn from(interrupt: &'a AtomicBool) -> Self {
+        Self {
+            interrupt,
+            halt: None,
+        }
+    }
+}
+
+/// Chooses how many substeps go to the backend at once, from the time the last ones took.
+/// A frame that fits in [`CHUNK_SECS`] goes whole, as one submission: a GPU then reads the last
+/// frame back while it steps this one. A longer frame goes in chunks of about `CHUNK_SECS`,
+/// each waited for, so that at most one chunk is ever queued when a stop comes. The results do
+/// not depend on the split: every backend steps the same substeps in the same order.
+#[derive(Debug, Default)]
+pub struct Chunker {
+    /// Wall seconds per substep, as last measured; unknown before the first chunk.
+    secs_per_substep: Option<f64>,
+    last_chunk: u32,
+}
+
+impl Chunker {
+    /// Whether a frame of `substeps` goes to the backend whole.
+    pub fn whole(&self, substeps: u32) -> bool {
+        self.secs_per_substep
+            .is_some_and(|c| c * f64::from(substeps) <= CHUNK_SECS)
+            && substeps <= MAX_CHUNK_SUBSTEPS
+    }
+
+    /// The next chunk, at most `remaining`: one substep while the cost is unknown, then what
+    /// fits in `CHUNK_SECS`, growing at most fourfold per chunk so that a first measurement
+    /// inflated by fixed costs is corrected step by step.
+    pub fn next(&mut self, remaining: u32) -> u32 {
+        let n = match self.secs_per_substep {
+            None => 1,
+            Some(c) => {
+                let fits = (CHUNK_SECS / c.max(1e-12)).clamp(1.0, f64::from(MAX_CHUNK_SUBSTEPS));
+                (fits as u32).min(self.last_chunk.saturating_mul(4).max(1))
+            }
+        };
+        self.last_chunk = n.min(remaining).max(1);
+        self.last_chunk
+    }
+
+    /// `substeps` took `elapsed` of wall time.
+    pub fn observe(&mut self, substeps: u32, elapsed: Duration) {
+        if substeps > 0 {
+            self.secs_per_substep = Some(elapsed.as_secs_f64() / f64::from(substeps));
+            self.last_chunk = self.last_chunk.max(substeps);
+        }
+    }
+}
+
+/// Step one frame of `substeps`, in chunks where it is long. `Ok(None)`: a stop came first, and
+/// the frame in progress is abandoned (never snapshotted).
+fn step_frame(
+    backend: &mut dyn Backend,
+    substeps: u32,
+    chunker: &mut Chunker,
+    stop: Stop<'_>,
+) -> Result<Option<StepStats>, BackendError> {
+    if chunker.whole(substeps) {
+        return backend.advance(substeps).map(Some);
+    }
+    let mut stats: Option<StepStats> = None;
+    let mut done = 0;
+    while done < substeps {
+        if stop.requested() {
+            return Ok(None);
+        }
+        let n = chunker.next(substeps - done);
+        let start = Instant::now();
+        let s = backend.advance(n)?;
+        // Wait for it: the chunk's real cost is known, and nothing more is queued.
+        backend.finish()?;
+        chunker.observe(n, start.elapsed());
+        stats = Some(stats.map_or(s, |acc| acc.merged(&s)));
+        done += n;
+    }
+    Ok(stats)
+}
 
 /// What happens when the recorder falls behind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,15 +143,16 @@ pub struct SimOutcome {
 /// been handed to the backend, so a GPU keeps stepping while the host reads N back. Whatever
 /// stops the run (divergence, a device fault, cancellation), every good frame already taken is
 /// delivered first.
-pub fn simulate(
+pub fn simulate<'a>(
     backend: &mut dyn Backend,
     frames: u64,
     substeps: u32,
     tx: &Sender<Snapshot>,
     delivery: Delivery,
-    cancel: &AtomicBool,
+    stop: impl Into<Stop<'a>>,
     recycled: Option<&Receiver<Snapshot>>,
 ) -> SimOutcome {
+    let stop: Stop<'a> = stop.into();
     let mut out = SimOutcome {
         frames_sent: 0,
         frames_dropped: 0,
@@ -78,10 +187,10 @@ pub fn simulate(
             false
         }
     };
+    let mut chunker = Chunker::default();
     let mut frame = 1;
     while healthy && frame <= frames {
-        if cancel.load(Ordering::Relaxed) {
-            out.cancelled = true;
+        if stop.requested() {
             break;
         }
         // Snapshots the recorder has finished with: their buffers are refilled, not reallocated.
@@ -90,14 +199,29 @@ pub fn simulate(
                 backend.recycle(s);
             }
         }
-        let stepped = backend
-            .advance(substeps)
-            .and_then(|stats| backend.request_snapshot(frame, stats));
-        if let Err(e) = stepped {
-            out.failed = Some(e);
-            break;
+        let whole = chunker.whole(substeps);
+        let start = Instant::now();
+        let stepped = step_frame(backend, substeps, &mut chunker, stop).and_then(|stats| {
+            stats
+                .map(|stats| backend.request_snapshot(frame, stats))
+                .transpose()
+        });
+        match stepped {
+            Ok(Some(())) => {}
+            // Stopped mid-frame: the frames before it are still delivered below.
+            Ok(None) => break,
+            Err(e) => {
+                out.failed = Some(e);
+                break;
+            }
         }
-        match backend.collect_snapshot() {
+        let collected = backend.collect_snapshot();
+        if whole {
+            // A whole frame's cost, the wait for the last frame's read-back included: on a GPU
+            // that wait is where the stepping time shows.
+            chunker.observe(substeps, start.elapsed());
+        }
+        match collected {
             Ok(Some(snap)) => healthy = deliver(&mut out, snap),
             Ok(None) => {}
             Err(e) => {
@@ -107,6 +231,7 @@ pub fn simulate(
         }
         frame += 1;
     }
+    out.cancelled = stop.interrupt.load(Ordering::Relaxed) && frame <= frames;
     // Deliver what is still pending, unless the state already went bad or the recorder left.
     while healthy {
         match backend.collect_snapshot() {

@@ -112,6 +112,20 @@ pub struct StepStats {
     pub solver_residual: f64,
 }
 
+impl StepStats {
+    /// The statistics of `self` followed by `later` (two chunks of one frame).
+    pub fn merged(&self, later: &StepStats) -> StepStats {
+        StepStats {
+            substeps: self.substeps + later.substeps,
+            dt_secs: later.dt_secs,
+            step_ms: self.step_ms + later.step_ms,
+            projections: self.projections + later.projections,
+            solver_iterations: self.solver_iterations.max(later.solver_iterations),
+            solver_residual: self.solver_residual.max(later.solver_residual),
+        }
+    }
+}
+
 /// One frame as the recorder sees it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Snapshot {

@@ -583,10 +583,12 @@ fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
 }
 
 /// A GPU backend whose device is lost (as a driver reset loses it) before its `at`-th frame.
+/// Loses its device while stepping frame `at` (a frame may go to `advance` in several chunks).
 struct LosesDevice {
     gpu: GpuBackend,
-    at: u32,
-    advances: u32,
+    at: u64,
+    requested: u64,
+    lost: bool,
 }
 
 impl hooke::backend::Backend for LosesDevice {
@@ -597,8 +599,8 @@ impl hooke::backend::Backend for LosesDevice {
         &mut self,
         substeps: u32,
     ) -> Result<hooke::state::StepStats, hooke::backend::BackendError> {
-        self.advances += 1;
-        if self.advances == self.at {
+        if self.requested == self.at && !self.lost {
+            self.lost = true;
             self.gpu.lose_device();
         }
         self.gpu.advance(substeps)
@@ -608,7 +610,11 @@ impl hooke::backend::Backend for LosesDevice {
         frame: u64,
         stats: hooke::state::StepStats,
     ) -> Result<(), hooke::backend::BackendError> {
+        self.requested += 1;
         self.gpu.request_snapshot(frame, stats)
+    }
+    fn finish(&mut self) -> Result<(), hooke::backend::BackendError> {
+        self.gpu.finish()
     }
     fn collect_snapshot(
         &mut self,
@@ -631,7 +637,8 @@ fn a_lost_device_ends_the_run_clearly_and_keeps_the_frames_before_it() {
     let mut be = LosesDevice {
         gpu: ok(GpuBackend::new(model, Integrator::SemiImplicit, dt, None)),
         at: 8,
-        advances: 0,
+        requested: 0,
+        lost: false,
     };
     let (tx, rx) = crossbeam_channel::unbounded();
     let cancel = std::sync::atomic::AtomicBool::new(false);

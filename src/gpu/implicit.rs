@@ -29,6 +29,7 @@ impl GpuBackend {
         }
         self.time_secs = self.time_after(substeps);
         self.steps += u64::from(substeps);
+        self.frame_steps += substeps;
         self.check_device()?;
         Ok(StepStats {
             substeps,

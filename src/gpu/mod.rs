@@ -76,6 +76,9 @@ pub struct GpuBackend {
     /// Bytes of GPU memory held by the simulation's buffers.
     pub memory_bytes: u64,
     advance_started: Option<Instant>,
+    /// Substeps advanced since the last snapshot was requested: a frame stepped in chunks
+    /// numbers its steps on from here, so the first bad step is found within the whole frame.
+    frame_steps: u32,
     /// Snapshots asked for and not yet collected, oldest first.
     pending: std::collections::VecDeque<Pending>,
     /// Snapshots returned by the recorder, their buffers reused.
@@ -570,6 +573,7 @@ impl GpuBackend {
             energy_groups,
             memory_bytes,
             advance_started: None,
+            frame_steps: 0,
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
             solve,
@@ -979,6 +983,7 @@ impl GpuBackend {
         self.ctx.queue.submit([enc.finish()]);
         self.time_secs = self.time_after(steps);
         self.steps += u64::from(steps);
+        self.frame_steps += steps;
         let slice = read.slice(..);
         slice.map_async(wgpu::MapMode::Read, |_| {});
         self.wait_idle()?;
@@ -1014,7 +1019,7 @@ impl GpuBackend {
             let at = |time: f64, weight: f32, next_scale: f32| Stage {
                 weight,
                 next_scale,
-                step: k,
+                step: self.frame_steps + k,
                 ..self.stage_at(time)
             };
             stages.extend([
@@ -1609,6 +1614,7 @@ impl Backend for GpuBackend {
         self.ctx.queue.submit([enc.finish()]);
         self.time_secs = t;
         self.steps += u64::from(substeps);
+        self.frame_steps += substeps;
         self.check_device()?;
         Ok(StepStats {
             substeps,
@@ -1621,6 +1627,7 @@ impl Backend for GpuBackend {
 
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
         let (staging, index) = self.submit_read_back(false)?;
+        self.frame_steps = 0;
         self.pending.push_back(Pending {
             staging,
             index,

@@ -389,5 +389,105 @@ fn body(f: &str, b: &Body) -> Check {
             "shear springs join diagonal neighbours and need a 2D or 3D grid; remove them for a strand",
         );
     }
+    geometry(f, b)
+}
+
+/// How many f32 steps (ulps) of its ends' coordinates a spring must span at least: its strain is
+/// then resolved to 1/64 (1.6%) or better. Shorter, and f32 rounding of the positions alone makes
+/// the force noise, or (at a few ulps and below) puts both ends on one point.
+pub const MIN_SPRING_ULPS: f64 = 64.0;
+
+/// Relative spacing of f32 numbers: one ulp of x is at most |x| · 2⁻²³.
+const F32_EPSILON: f64 = 1.0 / 8_388_608.0;
+
+/// The grid's masses must be distinct points and its springs long enough for f32 to resolve
+/// their strain where the body is: coordinates far from the origin are coarser in f32, so a
+/// small spacing that is fine at the origin collapses at 0.5 m.
+fn geometry(f: &str, b: &Body) -> Check {
+    let dim = b.grid.len();
+    let axes: Vec<glam::DVec3> = match &b.axes {
+        Some(a) => a
+            .iter()
+            .map(|v| glam::Vec3::from(*v).as_dvec3().normalize())
+            .collect(),
+        None => [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][..dim].to_vec(),
+    };
+    // Axes that span no area (volume) put grid points on top of each other.
+    let span = match dim {
+        2 => axes[0].cross(axes[1]).length(),
+        3 => axes[0].cross(axes[1]).dot(axes[2]).abs(),
+        _ => 1.0,
+    };
+    if span < 1e-3 {
+        return fail(
+            format!("{f}.axes"),
+            format!(
+                "body '{}': the axes are (nearly) {}, so masses of the grid lie on top of each \
+                 other and the springs between them have no length; give independent directions",
+                b.name,
+                if dim == 2 { "parallel" } else { "in one plane" }
+            ),
+        );
+    }
+    let s = f64::from(b.spacing_m);
+    let reach: f64 = b.grid.iter().map(|&n| f64::from(n.saturating_sub(1))).sum();
+    let origin = glam::Vec3::from(b.origin_m).as_dvec3().length();
+    // The farthest a mass lies from the origin at the start, and one ulp there.
+    let far = origin + s * reach;
+    let ulp = far * F32_EPSILON;
+    let kinds = [
+        (
+            crate::model::SpringKindTag::Structural,
+            b.springs.structural,
+        ),
+        (crate::model::SpringKindTag::Shear, b.springs.shear),
+        (crate::model::SpringKindTag::Bending, b.springs.bending),
+    ];
+    for (tag, params) in kinds {
+        if params.is_none() {
+            continue;
+        }
+        for off in crate::model::kind_offsets(tag) {
+            if off.iter().enumerate().any(|(a, &o)| {
+                o != 0 && (a >= dim || u32::try_from(o.abs()).is_ok_and(|o| o >= b.grid[a]))
+            }) {
+                continue;
+            }
+            // Rest length in units of the spacing.
+            let g = off
+                .iter()
+                .zip(&axes)
+                .map(|(&o, a)| f64::from(o) * *a)
+                .sum::<glam::DVec3>()
+                .length();
+            let length = s * g;
+            if length >= MIN_SPRING_ULPS * ulp {
+                continue;
+            }
+            // Solve s · g ≥ K ε (|origin| + s · reach) for the smallest usable spacing.
+            let k = MIN_SPRING_ULPS * F32_EPSILON;
+            let room = g - k * reach;
+            let fix = if room > 0.0 {
+                format!(
+                    "the smallest usable spacing_m here is {:.2e} m; or move origin_m nearer to \
+                     [0, 0, 0]",
+                    k * origin / room
+                )
+            } else {
+                "no spacing works for a grid this large in f32: use fewer masses".to_owned()
+            };
+            return fail(
+                format!("{f}.spacing_m"),
+                format!(
+                    "body '{}': {s:e} m is too small for f32 where the body is: its masses lie up \
+                     to {far:.3} m from the origin, where f32 positions are {ulp:.2e} m apart, so \
+                     its {} springs ({length:.2e} m long) would span fewer than {MIN_SPRING_ULPS} \
+                     of those steps and their strain would be rounding noise; {fix}",
+                    b.name,
+                    tag.name(),
+                ),
+            );
+        }
+    }
     Ok(())
 }

@@ -1,0 +1,545 @@
+//! Hostile but possible conditions, end to end: a stop during a frame that would take minutes,
+//! a disk that fills during a recording, geometry too small for f32, and error chains that must
+//! say each cause once. GPU cases run on lavapipe in CI (HOOKE_REQUIRE_ADAPTER=1).
+
+mod common;
+
+use std::path::Path;
+use std::process::Stdio;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use common::{gpu_available, hooke, hooke_command, read_rrd, temp_dir, text};
+use hooke::backend::{Backend, BackendError, BackendKind};
+use hooke::state::{Snapshot, State, StepStats};
+
+/// The promise in the README: a stop takes effect within this, whatever the frame's length.
+const STOP_BOUND: Duration = Duration::from_millis(500);
+
+fn jello_with(replace: &str, with: &str) -> String {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/jello.toml"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(text.contains(replace), "jello.toml has no `{replace}`");
+    text.replace(replace, with)
+}
+
+/// Wait for `child` to exit; how long it took from `since`.
+fn wait_exit(
+    child: &mut std::process::Child,
+    since: Instant,
+) -> (std::process::ExitStatus, Duration) {
+    loop {
+        if let Some(s) = child.try_wait().unwrap_or_else(|e| panic!("{e}")) {
+            return (s, since.elapsed());
+        }
+        assert!(
+            since.elapsed() < Duration::from_secs(60),
+            "the run did not stop"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// jello at 4 000 000 000 substeps per frame (dt = 4.2e-12 s): a frame would take days. SIGTERM
+/// and SIGINT must end the run within the bound, keeping frame 0, with a file that decodes to
+/// its end and carries its index.
+#[test]
+fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
+    let dir = temp_dir("stop-latency");
+    let scene = dir.join("jello-forever.toml");
+    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut cases = vec![("cpu", "-TERM"), ("cpu", "-INT")];
+    if gpu_available() {
+        cases.push(("gpu", "-TERM"));
+    }
+    for (backend, signal) in cases {
+        let path = dir.join(format!("{backend}{signal}.rrd"));
+        let mut child = hooke_command(&[
+            "run",
+            &scene.to_string_lossy(),
+            "--backend",
+            backend,
+            "--save",
+            &path.to_string_lossy(),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{e}"));
+        // Let it get well into frame 1 (the GPU has its pipelines to build first).
+        std::thread::sleep(Duration::from_millis(if backend == "gpu" {
+            4000
+        } else {
+            1500
+        }));
+        assert!(
+            child.try_wait().ok().flatten().is_none(),
+            "{backend}: the run ended early"
+        );
+        let sent_at = Instant::now();
+        let sent = std::process::Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(sent.success());
+        let (status, latency) = wait_exit(&mut child, sent_at);
+        let mut err = String::new();
+        if let Some(mut e) = child.stderr.take() {
+            let _ = std::io::Read::read_to_string(&mut e, &mut err);
+        }
+        assert_eq!(status.code(), Some(130), "{backend}{signal}: {err}");
+        assert!(
+            latency < STOP_BOUND,
+            "{backend}{signal}: the run took {latency:?} to stop (bound {STOP_BOUND:?}): {err}"
+        );
+        let rec = read_rrd(&path);
+        assert_eq!(
+            rec.complete_frames(),
+            1,
+            "{backend}{signal}: frame 0, and only it, is whole"
+        );
+        assert!(
+            rec.has_footer,
+            "{backend}{signal}: the file was not ended with its index"
+        );
+        assert!(
+            err.contains("interrupted: 1 frames"),
+            "{backend}{signal}: {err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A backend whose every substep takes a millisecond of wall time (a CPU or GPU on a huge scene).
+struct Slow {
+    steps: u64,
+    pending: std::collections::VecDeque<Snapshot>,
+}
+
+impl Backend for Slow {
+    fn describe(&self) -> String {
+        "slow".to_owned()
+    }
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        std::thread::sleep(Duration::from_millis(u64::from(substeps)));
+        self.steps += u64::from(substeps);
+        Ok(StepStats {
+            substeps,
+            ..StepStats::default()
+        })
+    }
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        self.pending.push_back(Snapshot {
+            frame,
+            time_secs: 0.0,
+            steps: self.steps,
+            positions: Vec::new(),
+            strain: Vec::new(),
+            energies: Default::default(),
+            stats,
+            collider_positions: Vec::new(),
+        });
+        Ok(())
+    }
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        Ok(self.pending.pop_front())
+    }
+    fn state(&mut self) -> Result<State, BackendError> {
+        Ok(State::new(Vec::new(), Vec::new()))
+    }
+}
+
+/// The simulation thread alone: frames of a million 1 ms substeps are cut into chunks, a stop
+/// is seen within a chunk, the frame in progress is never delivered, and whole frames keep
+/// their substep count.
+#[test]
+fn the_simulation_stops_within_a_chunk_and_drops_the_frame_in_progress() {
+    for (substeps, finished_frames) in [(1_000_000u32, 0u64), (120, 3)] {
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let mut be = Slow {
+            steps: 0,
+            pending: Default::default(),
+        };
+        // Long enough for `finished_frames` frames of `substeps` ms, and part of the next.
+        let wait = Duration::from_millis(u64::from(substeps) * finished_frames + 60);
+        let stopper = {
+            let cancel = cancel.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(wait);
+                cancel.store(true, Ordering::SeqCst);
+                Instant::now()
+            })
+        };
+        let out = hooke::sim::simulate(
+            &mut be,
+            10,
+            substeps,
+            &tx,
+            hooke::sim::Delivery::Lossless,
+            &*cancel,
+            None,
+        );
+        let ended = Instant::now();
+        let stopped = stopper
+            .join()
+            .unwrap_or_else(|_| panic!("stopper panicked"));
+        let latency = ended.saturating_duration_since(stopped);
+        assert!(out.cancelled && out.failed.is_none());
+        assert!(
+            latency
+                < Duration::from_secs_f64(2.0 * hooke::sim::CHUNK_SECS) + Duration::from_millis(20),
+            "{substeps} substeps a frame: stopped {latency:?} after the request"
+        );
+        let frames: Vec<Snapshot> = rx.try_iter().collect();
+        // Frame 0 and the frames finished before the stop; never a partial one.
+        assert!(
+            frames.len() as u64 > finished_frames.saturating_sub(1)
+                && frames.len() as u64 <= 1 + finished_frames,
+            "{substeps}: {} frames delivered",
+            frames.len()
+        );
+        for (k, f) in frames.iter().enumerate() {
+            assert_eq!(f.frame, k as u64);
+            assert_eq!(
+                f.steps,
+                k as u64 * u64::from(substeps),
+                "frame {k} is partial"
+            );
+            if k > 0 {
+                assert_eq!(f.stats.substeps, substeps, "frame {k}'s stats");
+            }
+        }
+    }
+}
+
+/// Stepping a frame in chunks gives the same state, bit for bit, as stepping it whole, on both
+/// backends, and a GPU that diverges inside a later chunk still names the step where it did.
+#[test]
+fn chunked_frames_step_exactly_like_whole_ones() {
+    let mut kinds = vec![BackendKind::Cpu];
+    if gpu_available() {
+        kinds.push(BackendKind::Gpu);
+    }
+    let loaded = hooke::scene::load("jello-sphere").unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    for kind in kinds {
+        let run = |chunks: &[u32]| {
+            let mut be = hooke::backend::create(
+                kind,
+                model.clone(),
+                hooke::integrator::Integrator::Rk4,
+                1.0 / 2400.0,
+                None,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            for &n in chunks {
+                be.advance(n).unwrap_or_else(|e| panic!("{e}"));
+            }
+            be.state().unwrap_or_else(|e| panic!("{e}"))
+        };
+        let whole = run(&[40, 40]);
+        let chunked = run(&[1, 4, 16, 19, 40]);
+        assert_eq!(whole.steps, chunked.steps);
+        assert_eq!(
+            whole.time_secs.to_bits(),
+            chunked.time_secs.to_bits(),
+            "{kind:?}"
+        );
+        assert!(
+            whole.x == chunked.x && whole.v == chunked.v,
+            "{kind:?}: chunked stepping changed the state"
+        );
+    }
+}
+
+/// Run `args` with the file size limited to `limit` bytes (what `ulimit -f` sets).
+fn hooke_with_file_limit(args: &[&str], limit: u64) -> std::process::Output {
+    use std::os::unix::process::CommandExt as _;
+    let mut cmd = hooke_command(args);
+    // SAFETY: setrlimit is async-signal-safe, and only the child's own limit changes.
+    unsafe {
+        cmd.pre_exec(move || {
+            let rl = libc::rlimit {
+                rlim_cur: limit,
+                rlim_max: limit,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &rl) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    cmd.output().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The number N in "after frame N", and the whole frame count the message gives.
+fn frames_said(err: &str) -> (i64, i64) {
+    let after = err
+        .split("after frame ")
+        .nth(1)
+        .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no `after frame N` in: {err}"));
+    let count = err
+        .split(&format!("frames 0 to {after} ("))
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no frame count in: {err}"));
+    (after, count)
+}
+
+/// A full disk, as a file-size limit: the run stops at once with a message that says what
+/// failed and how many frames the file keeps, and those frames are all readable.
+#[test]
+fn a_file_size_limit_mid_recording_keeps_every_frame_written_and_says_so() {
+    let dir = temp_dir("fsize");
+    let path = dir.join("cloth.rrd");
+    let limit = 2_000_000;
+    let out = hooke_with_file_limit(
+        &[
+            "run",
+            "cloth",
+            "--backend",
+            "cpu",
+            "--frames",
+            "2000",
+            "--save",
+            &path.to_string_lossy(),
+        ],
+        limit,
+    );
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_else(|| panic!("no error line: {err}"));
+    assert!(
+        line.contains("File too large") && line.contains(&*path.to_string_lossy()),
+        "{line}"
+    );
+    assert!(!line.contains("viewer"), "blames a viewer: {line}");
+    let (after, count) = frames_said(line);
+    assert_eq!(count, after + 1, "{line}");
+    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    assert!(size <= limit, "{size} bytes");
+    let rec = read_rrd(&path);
+    assert_eq!(
+        rec.complete_frames(),
+        count,
+        "the file holds other frames than it says: {line}"
+    );
+    assert!(count > 1 && count < 2000, "{line}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A real full disk: a 3 MB tmpfs, where the test may mount one (root on Linux; otherwise the
+/// file-size test above covers the same path). The start of the run warns that the recording
+/// will not fit; the end says "No space left on device" and keeps every frame written.
+#[test]
+fn a_full_disk_warns_first_then_stops_with_the_frames_written() {
+    let dir = temp_dir("tmpfs");
+    let mounted = std::process::Command::new("mount")
+        .args([
+            "-t",
+            "tmpfs",
+            "-o",
+            "size=3m",
+            "tmpfs",
+            &dir.to_string_lossy(),
+        ])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("SKIPPED: cannot mount a tmpfs here (not root?)");
+        return;
+    }
+    let path = dir.join("cloth.rrd");
+    let out = hooke(&[
+        "run",
+        "cloth",
+        "--backend",
+        "cpu",
+        "--frames",
+        "2000",
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    let err = text(&out.stderr);
+    let rec = std::panic::catch_unwind(|| read_rrd(&path));
+    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let _ = std::process::Command::new("umount").arg(&dir).status();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        err.contains("warning: only"),
+        "no warning before the run: {err}"
+    );
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_else(|| panic!("no error line: {err}"));
+    assert!(line.contains("No space left on device"), "{line}");
+    let (_, count) = frames_said(line);
+    let rec = rec.unwrap_or_else(|_| panic!("the file does not decode ({size} bytes): {line}"));
+    assert_eq!(rec.complete_frames(), count, "{line}");
+    assert!(count > 1, "{line}");
+}
+
+/// The case: spacing_m = 1e-30 at 0.5 m puts every mass on one f32 point. The scene is
+/// refused, naming the body, the field and the smallest usable spacing; as are axes that fold
+/// the grid onto itself. Every built-in scene still passes.
+#[test]
+fn geometry_below_f32_resolution_is_refused_clearly() {
+    let dir = temp_dir("degenerate");
+    let cases = [
+        (
+            jello_with("spacing_m = 0.05", "spacing_m = 1e-30"),
+            "bodies[0].spacing_m",
+            "smallest usable spacing_m here is",
+        ),
+        (
+            jello_with("spacing_m = 0.05", "spacing_m = 1e-6"),
+            "bodies[0].spacing_m",
+            "smallest usable spacing_m here is",
+        ),
+        (
+            jello_with(
+                "axes = [[0.97, 0.26, 0.0], [-0.26, 0.97, 0.0], [0.0, 0.0, 1.0]]",
+                "axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]",
+            ),
+            "bodies[0].axes",
+            "on top of each other",
+        ),
+    ];
+    for (k, (scene, field, says)) in cases.iter().enumerate() {
+        let path = dir.join(format!("bad{k}.toml"));
+        std::fs::write(&path, scene).unwrap_or_else(|e| panic!("{e}"));
+        let out = hooke(&["check", &path.to_string_lossy(), "--backend", "cpu"]);
+        let err = text(&out.stderr);
+        assert!(!out.status.success(), "case {k} was accepted");
+        assert_eq!(err.lines().count(), 1, "case {k}: one line: {err}");
+        assert!(
+            err.contains(&format!("`{field}`"))
+                && err.contains("body 'jello'")
+                && err.contains(says),
+            "case {k}: {err}"
+        );
+    }
+    // The smallest usable spacing the message names is accepted, and a little less is not.
+    let first = text(&hooke(&["check", &dir.join("bad0.toml").to_string_lossy()]).stderr);
+    let least: f32 = first
+        .split("smallest usable spacing_m here is ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{first}"));
+    for (factor, ok) in [(1.01f32, true), (0.9, false)] {
+        let path = dir.join("edge.toml");
+        let spacing = format!("spacing_m = {:e}", least * factor);
+        std::fs::write(&path, jello_with("spacing_m = 0.05", &spacing))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let out = hooke(&["check", &path.to_string_lossy(), "--backend", "cpu"]);
+        assert_eq!(out.status.success(), ok, "{spacing}: {}", text(&out.stderr));
+    }
+    for b in hooke::scene::BUILT_IN {
+        let loaded = hooke::scene::load(b.name);
+        assert!(loaded.is_ok(), "{}: {:?}", b.name, loaded.err());
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Each cause once: a file that cannot be created used to print its cause three times.
+#[test]
+fn error_messages_say_each_cause_once() {
+    let missing = "/nonexistent-hooke-dir/x.rrd";
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--frames",
+        "2",
+        "--save",
+        missing,
+    ]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success());
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_else(|| panic!("{err}"));
+    assert_eq!(
+        line.matches("No such file or directory").count(),
+        1,
+        "{line}"
+    );
+    assert_eq!(line.matches(missing).count(), 1, "{line}");
+    assert!(!line.contains("viewer"), "{line}");
+    // Scene errors too: one cause, said once.
+    let out = hooke(&["check", "/nonexistent-hooke-dir/scene.toml"]);
+    let err = text(&out.stderr);
+    assert_eq!(
+        err.matches("(os error").count() + err.matches("unknown scene").count(),
+        1,
+        "{err}"
+    );
+}
+
+/// `hooke check` estimates the recording's size, and a real recording is within a factor of
+/// two of it (the estimate records sample frames that compress no better than a moving scene).
+#[test]
+fn the_recording_size_estimate_matches_a_real_recording() {
+    let dir = temp_dir("size");
+    for scene in ["hair", "cloth", "jello"] {
+        let out = hooke(&["check", scene, "--backend", "cpu", "--frames", "60"]);
+        let said = text(&out.stdout);
+        let line = said
+            .lines()
+            .find(|l| l.starts_with("recording (estimated"))
+            .unwrap_or_else(|| panic!("{said}"));
+        let per_frame = parse_size(
+            line.split("about ")
+                .nth(1)
+                .and_then(|s| s.split(" per frame").next())
+                .unwrap_or_else(|| panic!("{line}")),
+        );
+        let path = dir.join(format!("{scene}.rrd"));
+        let out = hooke(&[
+            "run",
+            scene,
+            "--backend",
+            "cpu",
+            "--frames",
+            "60",
+            "--save",
+            &path.to_string_lossy(),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let real = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) as f64 / 61.0;
+        assert!(
+            (0.5..=2.0).contains(&(per_frame / real)),
+            "{scene}: estimated {per_frame:.0} B per frame, recorded {real:.0}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+fn parse_size(s: &str) -> f64 {
+    let (n, unit) = s.trim().split_once(' ').unwrap_or_else(|| panic!("{s}"));
+    let n: f64 = n.parse().unwrap_or_else(|_| panic!("{s}"));
+    n * match unit {
+        "B" => 1.0,
+        "kB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        _ => panic!("{s}"),
+    }
+}

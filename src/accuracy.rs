@@ -39,8 +39,13 @@ pub struct Row {
     pub max_error_m: f64,
     /// Change of (mechanical + dissipated − collider work) over the run.
     pub energy_drift_j: f64,
-    /// Stayed finite, with the energy balance within 10% of the initial mechanical energy.
+    /// Did not diverge: stayed finite and below the runaway speed, and gained less than 10% of
+    /// the initial mechanical energy. A run that loses energy the ledger does not count (the
+    /// numerical damping of implicit Euler) is stable; `dissipated_pct` says how much it lost.
     pub stable: bool,
+    /// Energy lost beyond what the ledger counts, as a percentage of the initial mechanical
+    /// energy (0 when the balance held or grew).
+    pub dissipated_pct: f64,
     pub wall_secs_per_sim_sec: f64,
     /// Where the run happened.
     pub backend: String,
@@ -50,9 +55,35 @@ pub struct Row {
 pub struct StableDt {
     pub integrator: Integrator,
     pub estimate: Option<f64>,
-    /// Largest dt found stable by bisection (None: unstable even at the smallest tried).
-    pub found: Option<f64>,
+    pub found: Found,
+    /// The steps searched, smallest and largest.
+    pub searched: (f64, f64),
 }
+
+/// What the search for the largest stable dt found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Found {
+    /// Stable at this dt, unstable at the next one tried.
+    Largest(f64),
+    /// Stable at the largest dt tried: the true limit is at least this.
+    AtLeast(f64),
+    /// Unstable even at the smallest dt tried.
+    Unstable,
+}
+
+impl Found {
+    /// The largest dt known to be stable.
+    pub fn dt(&self) -> Option<f64> {
+        match *self {
+            Found::Largest(dt) | Found::AtLeast(dt) => Some(dt),
+            Found::Unstable => None,
+        }
+    }
+}
+
+/// Implicit Euler is searched from the scene's dt up to at least this (one step per 10 frames
+/// at 60 Hz): where users take it.
+pub const IMPLICIT_SEARCH_UP_TO_SECS: f64 = 0.1;
 
 #[derive(Debug, Clone)]
 pub struct Accuracy {
@@ -102,13 +133,25 @@ fn energy_scale(model: &Model) -> f64 {
     e0.total_j().abs().max(e0.kinetic_j).max(1e-6)
 }
 
-/// Stable: stays finite, and its energy balance moves by less than a tenth of the initial
-/// mechanical energy (a weakly unstable scheme grows without ever overflowing in a short run).
+/// Stable: stays finite, and gains less than a tenth of the initial mechanical energy (a weakly
+/// unstable scheme grows without ever overflowing in a short run). Losing energy is not
+/// instability: a damped, bounded run is stable, and its loss is reported apart.
 fn stayed_stable(balance_change_j: f64, scale: f64) -> bool {
-    balance_change_j.is_finite() && balance_change_j.abs() < 0.1 * scale
+    balance_change_j.is_finite() && balance_change_j < 0.1 * scale
 }
 
-fn is_stable(model: &Arc<Model>, integrator: Integrator, dt: f64, duration: f64) -> bool {
+/// Energy lost beyond the ledger, in percent of `scale`.
+fn dissipated_pct(balance_change_j: f64, scale: f64) -> f64 {
+    if balance_change_j.is_finite() {
+        100.0 * (-balance_change_j).max(0.0) / scale
+    } else {
+        f64::NAN
+    }
+}
+
+/// Whether `integrator` at `dt` runs `duration` on the CPU without diverging (see
+/// [`stayed_stable`]).
+pub fn is_stable(model: &Arc<Model>, integrator: Integrator, dt: f64, duration: f64) -> bool {
     let steps = (duration / dt).ceil() as u64;
     let mut be = crate::cpu::CpuBackend::new(model.clone(), integrator, dt);
     run_cpu(&mut be, steps).is_ok_and(|change| stayed_stable(change, energy_scale(model)))
@@ -121,19 +164,18 @@ fn run_cpu(be: &mut crate::cpu::CpuBackend, steps: u64) -> std::result::Result<f
     Ok(be.snapshot(0, Default::default())?.energies.balance_j() - b0)
 }
 
-/// Bisection (in log dt) between a stable and an unstable step around the estimate.
-fn search_stable_dt(
+/// Bisection (in log dt) between a stable and an unstable step within `[lo, hi]`.
+pub fn search_stable_dt(
     model: &Arc<Model>,
     integrator: Integrator,
-    estimate: f64,
+    (mut lo, mut hi): (f64, f64),
     duration: f64,
-) -> Option<f64> {
-    let (mut lo, mut hi) = (estimate / 16.0, estimate * 16.0);
+) -> Found {
     if !is_stable(model, integrator, lo, duration) {
-        return None;
+        return Found::Unstable;
     }
     if is_stable(model, integrator, hi, duration) {
-        return Some(hi);
+        return Found::AtLeast(hi);
     }
     for _ in 0..10 {
         let mid = (lo * hi).sqrt();
@@ -143,7 +185,24 @@ fn search_stable_dt(
             hi = mid;
         }
     }
-    Some(lo)
+    Found::Largest(lo)
+}
+
+/// Where to search each integrator's largest stable dt: 16× either side of the estimate (of
+/// the scene's dt where there is none); implicit Euler from the scene's dt to at least
+/// [`IMPLICIT_SEARCH_UP_TO_SECS`], in whole doublings.
+pub fn search_range(integrator: Integrator, estimate: Option<f64>, scene_dt: f64) -> (f64, f64) {
+    match (integrator, estimate) {
+        (Integrator::Implicit, _) => {
+            let doublings = (IMPLICIT_SEARCH_UP_TO_SECS / scene_dt)
+                .log2()
+                .ceil()
+                .max(0.0);
+            (scene_dt, scene_dt * 2f64.powf(doublings))
+        }
+        (_, Some(e)) if e.is_finite() => (e / 16.0, e * 16.0),
+        _ => (scene_dt / 16.0, scene_dt * 16.0),
+    }
 }
 
 pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
@@ -209,6 +268,7 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
                         energy_drift_j: end.balance_change_j,
                         stable: rms.is_finite()
                             && stayed_stable(end.balance_change_j, energy_scale(&model)),
+                        dissipated_pct: dissipated_pct(end.balance_change_j, energy_scale(&model)),
                         wall_secs_per_sim_sec: end.wall_secs / duration,
                         backend: name,
                     }
@@ -221,6 +281,7 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
                     max_error_m: f64::NAN,
                     energy_drift_j: f64::NAN,
                     stable: false,
+                    dissipated_pct: f64::NAN,
                     wall_secs_per_sim_sec: f64::NAN,
                     backend: format!("{:?}", opts.backend).to_lowercase(),
                 },
@@ -233,17 +294,14 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
     let stable = crate::stability::stable_dts(&model)
         .into_iter()
         .filter(|(i, _)| supported(*i))
-        .map(|(integrator, estimate)| StableDt {
-            integrator,
-            estimate,
-            found: match (integrator, estimate) {
-                (Integrator::Implicit, _) => None,
-                (_, Some(e)) if e.is_finite() => {
-                    search_stable_dt(&model, integrator, e, search_time)
-                }
-                // No estimate (unstable in theory): search around the scene's own dt.
-                _ => search_stable_dt(&model, integrator, settings.dt_secs, search_time),
-            },
+        .map(|(integrator, estimate)| {
+            let searched = search_range(integrator, estimate, settings.dt_secs);
+            StableDt {
+                integrator,
+                estimate,
+                found: search_stable_dt(&model, integrator, searched, search_time),
+                searched,
+            }
         })
         .collect();
     let report = Accuracy {
@@ -277,53 +335,101 @@ pub fn markdown(r: &Accuracy) -> String {
     );
     let _ = writeln!(
         s,
-        "| integrator | dt (s) | steps | RMS error (m) | max error (m) | energy drift (J) | stable | wall s per sim s | backend |"
+        "| integrator | dt (s) | steps | RMS error (m) | max error (m) | energy drift (J) | stable | energy dissipated (% of initial) | wall s per sim s | backend |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---|---:|---:|---|");
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "| {} | {:.3e} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {:.3e} | {} | {} | {} | {} | {} | {} | {} | {} |",
             row.integrator,
             row.dt_secs,
             row.steps,
             fmt_num(row.rms_error_m),
             fmt_num(row.max_error_m),
             fmt_num(row.energy_drift_j),
-            if row.stable { "yes" } else { "no" },
+            if row.stable { "yes" } else { "diverged" },
+            if row.dissipated_pct.is_finite() {
+                format!("{:.1}", row.dissipated_pct)
+            } else {
+                "—".to_owned()
+            },
             fmt_num(row.wall_secs_per_sim_sec),
             row.backend
         );
     }
     let _ = writeln!(
         s,
-        "\n| integrator | estimated stable dt (`hooke check`) | largest stable dt found |"
+        "\n| integrator | estimated stable dt (`hooke check`) | largest stable dt measured | dt searched |"
     );
-    let _ = writeln!(s, "|---|---:|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|");
     for st in &r.stable {
         let est = match st.estimate {
             Some(e) if e.is_finite() => format!("{e:.3e} s"),
             Some(_) => "any".to_owned(),
             None => "none (unstable even at ωdt = 0.01)".to_owned(),
         };
-        let found = match (st.integrator, st.found) {
-            (Integrator::Implicit, _) => "any (A-stable)".to_owned(),
-            (_, Some(f)) => format!("{f:.3e} s"),
-            (_, None) => "unstable at every dt tried".to_owned(),
+        let found = match st.found {
+            Found::Largest(f) => format!("{f:.3e} s"),
+            Found::AtLeast(f) => format!("≥ {f:.3e} s (largest tried)"),
+            Found::Unstable => "unstable at every dt tried".to_owned(),
         };
-        let _ = writeln!(s, "| {} | {est} | {found} |", st.integrator);
+        let _ = writeln!(
+            s,
+            "| {} | {est} | {found} | {:.3e} – {:.3e} s |",
+            st.integrator, st.searched.0, st.searched.1
+        );
+    }
+    s.push_str(&guidance(r));
+    s
+}
+
+/// Error levels the guidance table answers for, metres RMS.
+const ERROR_LEVELS_M: [f64; 6] = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
+
+/// For each error level, the cheapest run (least wall time per simulated second) that stayed
+/// stable and reached it: "which solver for this accuracy, at what cost".
+pub fn cheapest_per_level(r: &Accuracy) -> Vec<(f64, Option<&Row>)> {
+    ERROR_LEVELS_M
+        .iter()
+        .map(|&level| {
+            let best = r
+                .rows
+                .iter()
+                .filter(|row| row.stable && row.rms_error_m <= level)
+                .min_by(|a, b| a.wall_secs_per_sim_sec.total_cmp(&b.wall_secs_per_sim_sec));
+            (level, best)
+        })
+        .collect()
+}
+
+fn guidance(r: &Accuracy) -> String {
+    let mut s = String::from(
+        "\n| RMS error at most | cheapest solver measured | dt (s) | wall s per sim s |\n|---:|---|---:|---:|\n",
+    );
+    for (level, best) in cheapest_per_level(r) {
+        let _ = match best {
+            Some(row) => writeln!(
+                s,
+                "| {level:.0e} m | {} | {:.3e} | {} |",
+                row.integrator,
+                row.dt_secs,
+                fmt_num(row.wall_secs_per_sim_sec)
+            ),
+            None => writeln!(s, "| {level:.0e} m | none of the runs | — | — |"),
+        };
     }
     s
 }
 
 fn csv(r: &Accuracy) -> String {
     let mut s = String::from(
-        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,wall_secs_per_sim_sec,backend\n",
+        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend\n",
     );
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},\"{}\"",
+            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\"",
             r.scene,
             row.integrator,
             row.dt_secs,
@@ -332,6 +438,7 @@ fn csv(r: &Accuracy) -> String {
             row.max_error_m,
             row.energy_drift_j,
             row.stable,
+            row.dissipated_pct,
             row.wall_secs_per_sim_sec,
             row.backend
         );
@@ -446,7 +553,7 @@ pub fn svg(r: &Accuracy) -> String {
     }
     let _ = writeln!(
         s,
-        r##"<text x="{}" y="{}" fill="#666">unstable runs are left out</text>"##,
+        r##"<text x="{}" y="{}" fill="#666">diverged runs are left out</text>"##,
         w - mr + 15.0,
         mt + 20.0 + 22.0 * 6.0 + 10.0
     );

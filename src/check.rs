@@ -185,7 +185,10 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
         "  stiffest mode (bound): ω ≈ {:.4e} rad/s, damping ratio {:.3}, at mass {}",
         mode.omega_rad_per_s, mode.damping_ratio, mode.mass
     );
-    let _ = writeln!(s, "  estimated largest stable dt:");
+    let _ = writeln!(
+        s,
+        "  largest stable dt, estimated from that bound (`hooke bench accuracy` measures it):"
+    );
     for (i, dt) in stable_dts(model) {
         let mark = if i == settings.integrator {
             " <- chosen"
@@ -205,7 +208,7 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             Some(_) if i == crate::integrator::Integrator::Implicit => {
                 let _ = writeln!(
                     s,
-                    "    {:<14} any (A-stable; it damps, so accuracy still wants small steps){mark}",
+                    "    {:<14} any in theory (A-stable on linear springs; it damps, so accuracy still wants small steps){mark}",
                     i.name()
                 );
             }

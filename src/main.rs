@@ -141,6 +141,24 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         }
         Command::Bench {
             which:
+                cli::BenchCommand::Record {
+                    scene,
+                    frames,
+                    save,
+                    recording,
+                },
+        } => {
+            let opts = hooke::bench::RecordBenchOptions {
+                frames,
+                record: recording.options(),
+                save,
+            };
+            let b = hooke::bench::record(&scene, &opts)?;
+            println!("{}", hooke::bench::format_record(&b));
+            Ok(Outcome::Done)
+        }
+        Command::Bench {
+            which:
                 cli::BenchCommand::Throughput {
                     scenes,
                     device: cli::DeviceArgs { backend, adapter },
@@ -179,6 +197,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             device: cli::DeviceArgs { backend, adapter },
             rerun,
             output,
+            recording,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
@@ -188,6 +207,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 &solver,
                 (backend, adapter),
                 (&rerun, &output),
+                &recording,
                 run_matches,
             )
         }
@@ -446,6 +466,7 @@ fn run(
     solver: &cli::SolverArgs,
     (kind, adapter): (hooke::backend::BackendKind, Option<String>),
     (rerun_args, output): (&rerun::clap::RerunArgs, &cli::OutputArgs),
+    recording: &cli::RecordingArgs,
     m: &clap::ArgMatches,
 ) -> anyhow::Result<Outcome> {
     // With --stdout the recording owns standard output: messages go to stderr.
@@ -474,10 +495,15 @@ fn run(
         settings.substeps,
         settings.frames
     );
+    for line in hooke::record::describe(&model, &recording.options()) {
+        eprintln!("  recording {line}");
+    }
     let sink = open_sink(rerun_args, output, m, &loaded.scene.name)?;
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
-        progress: std::io::stderr().is_terminal(),
+        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        realtime: recording.realtime,
+        record: recording.options(),
         viewer: sink.viewer.clone(),
     };
     // Ctrl-C or SIGTERM: the first stops stepping, records every frame already produced and

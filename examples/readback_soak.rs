@@ -507,7 +507,9 @@ fn run_pipeline(variant: &str, iterations: u64) {
     };
     let opts = hooke::run::RunOptions {
         delivery: hooke::sim::Delivery::Lossless,
-        progress: false,
+        progress: hooke::progress::ProgressMode::Off,
+        realtime: false,
+        record: hooke::record::RecordOptions::default(),
         viewer: None,
         // Rerun's own file sink on purpose: this bisects Rerun's memory use, not ours.
         file: None,

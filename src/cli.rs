@@ -47,7 +47,49 @@ pub enum Command {
         rerun: rerun::clap::RerunArgs,
         #[command(flatten)]
         output: OutputArgs,
+        #[command(flatten)]
+        recording: RecordingArgs,
     },
+}
+
+/// What the recording holds (`run`, `bench record`).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct RecordedArgs {
+    /// Which springs are logged as lines: all, structural (along the grid) or none. By default a
+    /// strand logs all its springs, a sheet or block its structural springs when it has at most
+    /// 5000 of them, and a larger one none (its surface only).
+    #[arg(long, value_enum)]
+    pub springs: Option<hooke::record::SpringSelection>,
+    /// Also log the masses of sheets and blocks as points every frame (their surface is drawn
+    /// through them anyway; pins always show).
+    #[arg(long)]
+    pub masses: bool,
+}
+
+/// What the recording holds, and how fast it is made.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct RecordingArgs {
+    #[command(flatten)]
+    pub recorded: RecordedArgs,
+    /// Never run ahead of the wall clock: frame k is recorded no earlier than k / frame rate
+    /// seconds after the start (for watching live). Without it the run goes as fast as it can.
+    #[arg(long)]
+    pub realtime: bool,
+}
+
+impl RecordingArgs {
+    pub fn options(&self) -> hooke::record::RecordOptions {
+        self.recorded.options()
+    }
+}
+
+impl RecordedArgs {
+    pub fn options(&self) -> hooke::record::RecordOptions {
+        hooke::record::RecordOptions {
+            springs: self.springs,
+            masses: self.masses,
+        }
+    }
 }
 
 /// How the recording goes out, beside Rerun's own flags: where `--serve` listens (with Rerun's
@@ -109,6 +151,21 @@ pub enum BenchCommand {
         /// Also record the series to this .rrd file.
         #[arg(long)]
         save: Option<std::path::PathBuf>,
+    },
+    /// The recorder alone, on frames made without stepping: bytes per frame per entity, frames/s
+    /// sustained into an .rrd file and into a sink that discards, and peak memory.
+    Record {
+        /// Built-in scene name or .toml file.
+        #[arg(default_value = "cloth-256")]
+        scene: String,
+        /// Frames recorded in each pass.
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u64).range(1..))]
+        frames: u64,
+        /// The .rrd file the file pass writes.
+        #[arg(long, default_value = "bench-record.rrd")]
+        save: std::path::PathBuf,
+        #[command(flatten)]
+        recording: RecordedArgs,
     },
     /// Step scenes headless with no recording and report steps/s and spring updates/s.
     Throughput {

@@ -13,6 +13,8 @@ pub mod error;
 pub mod gpu;
 pub mod integrator;
 pub mod model;
+pub mod pacing;
+pub mod progress;
 pub mod record;
 pub mod recording_size;
 pub mod reference;

@@ -93,10 +93,14 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 "{}",
                 hooke::check::report(&loaded.scene.name, &model, &settings)
             );
-            let size =
-                hooke::recording_size::estimate(&model, &settings, loaded.scene.view.strain_range)?;
+            let size = hooke::recording_size::estimate(
+                &model,
+                &settings,
+                loaded.scene.view.strain_range,
+                hooke::record::RecordOptions::default(),
+            )?;
             println!(
-                "recording (estimated from sample frames): about {} per frame, {} for all {} frames",
+                "recording (estimated from sample frames, default --springs): about {} per frame, {} for all {} frames",
                 hooke::rrd_file::human_bytes(size.bytes_per_frame),
                 hooke::rrd_file::human_bytes(size.total(settings.frames)),
                 settings.frames + 1
@@ -173,6 +177,24 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         }
         Command::Bench {
             which:
+                cli::BenchCommand::Record {
+                    scene,
+                    frames,
+                    save,
+                    recording,
+                },
+        } => {
+            let opts = hooke::bench::RecordBenchOptions {
+                frames,
+                record: recording.options(),
+                save,
+            };
+            let b = hooke::bench::record(&scene, &opts)?;
+            println!("{}", hooke::bench::format_record(&b));
+            Ok(Outcome::Done)
+        }
+        Command::Bench {
+            which:
                 cli::BenchCommand::Throughput {
                     scenes,
                     device: cli::DeviceArgs { backend, adapter },
@@ -211,6 +233,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             device: cli::DeviceArgs { backend, adapter },
             rerun,
             output,
+            recording,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
@@ -220,6 +243,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 &solver,
                 (backend, adapter),
                 (&rerun, &output),
+                &recording,
                 run_matches,
             )
         }
@@ -493,6 +517,7 @@ fn run(
     solver: &cli::SolverArgs,
     (kind, adapter): (hooke::backend::BackendKind, Option<String>),
     (rerun_args, output): (&rerun::clap::RerunArgs, &cli::OutputArgs),
+    recording: &cli::RecordingArgs,
     m: &clap::ArgMatches,
 ) -> anyhow::Result<Outcome> {
     // With --stdout the recording owns standard output: messages go to stderr.
@@ -521,10 +546,17 @@ fn run(
         settings.substeps,
         settings.frames
     );
+    for line in hooke::record::describe(&model, &recording.options()) {
+        eprintln!("  recording {line}");
+    }
     let sink = open_sink(rerun_args, output, m, &loaded.scene.name)?;
     if let Some(file) = &sink.file {
-        let size =
-            hooke::recording_size::estimate(&model, &settings, loaded.scene.view.strain_range)?;
+        let size = hooke::recording_size::estimate(
+            &model,
+            &settings,
+            loaded.scene.view.strain_range,
+            recording.options(),
+        )?;
         eprintln!(
             "{}",
             hooke::recording_size::describe_for_file(&size, settings.frames, file.path())
@@ -532,7 +564,9 @@ fn run(
     }
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
-        progress: std::io::stderr().is_terminal(),
+        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        realtime: recording.realtime,
+        record: recording.options(),
         viewer: sink.viewer.clone(),
         file: sink.file.clone(),
     };

@@ -1,8 +1,23 @@
 //! The recorder: turns snapshots into Rerun entities on the `frame` and `sim_time` timelines.
 //!
-//! Layout (see ARCHITECTURE.md): `world/<body>/masses` points, `world/<body>/springs` lines
-//! coloured by strain, `world/colliders/*`, `world/ground`; `energy/*` and `stats/*` scalars;
-//! `scene`, `legend` text documents. What never changes is logged once with `log_static`.
+//! Layout (see ARCHITECTURE.md and the README, "What a recording holds"):
+//! - `world/<body>/surface`: a sheet, or a block's outer faces, as a `Mesh3D` coloured by strain
+//!   ([`surface`]); triangle indices logged once, per frame only vertex positions and colours;
+//! - `world/<body>/springs`: line segments coloured by strain with hover values ([`springs`]),
+//!   for small bodies and strands by default (`--springs`);
+//! - `world/<body>/masses`: points for strands, and for sheets and blocks with `--masses`;
+//!   `world/<body>/pins` for the pinned masses of sheets and blocks, once;
+//! - `world/most_strained`: the most strained spring of the frame, labelled;
+//! - `world/colliders/*`, `world/ground`; `energy/*` in joules; `stats/*`, one plot per unit, and
+//!   `stats/strain_histogram` ([`histogram`]); `scene`, `legend` text documents.
+//!
+//! What never changes is logged once with `log_static`; nothing is allocated per spring per frame.
+
+pub mod histogram;
+pub mod springs;
+pub mod surface;
+
+use std::time::Instant;
 
 use glam::Vec3;
 use rerun::RecordingStream;
@@ -11,7 +26,30 @@ use crate::model::{Model, Shape};
 use crate::settings::Settings;
 use crate::state::Snapshot;
 
-type RResult<T = ()> = Result<T, rerun::RecordingStreamError>;
+pub use springs::SpringSelection;
+
+/// Why a frame could not be recorded.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error(transparent)]
+    Rerun(#[from] rerun::RecordingStreamError),
+    /// Rerun's component layout is not what this build expects (a version mismatch).
+    #[error("internal: {0}")]
+    Layout(String),
+}
+
+type RResult<T = ()> = Result<T, RecordError>;
+
+/// What a recording holds beyond its defaults (`hooke run --springs … --masses`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RecordOptions {
+    /// Which springs are logged as lines; `None`: each body's default for its size
+    /// ([`springs::DEFAULT_MAX_SPRINGS`]).
+    pub springs: Option<SpringSelection>,
+    /// Log the masses of sheets and blocks as points every frame (their surface's vertices are
+    /// the same positions; strands always log theirs).
+    pub masses: bool,
+}
 
 /// Colour of a strain value on the diverging scale: blue (compressed by `range` or more), light
 /// grey (at rest), red (stretched by `range` or more).
@@ -29,11 +67,26 @@ pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
     [mix(0), mix(1), mix(2)]
 }
 
-/// The default layout: the 3D view beside the energy and statistics plots.
+/// The default layout: the 3D view beside one plot per unit, the strain histogram and the
+/// colour legend. Each plot holds a few series with short names, so that its legend (in a
+/// corner, over the plot) stays small.
 pub fn blueprint() -> rerun::blueprint::Blueprint {
     use rerun::blueprint::components::PanelState;
     use rerun::blueprint::{
-        Blueprint, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical,
+        BarChartView, Blueprint, Horizontal, Spatial3DView, Tabs, TextDocumentView, TimeSeriesView,
+        Vertical,
+    };
+    let plot = |name: &str, paths: &[&str]| {
+        TimeSeriesView::new(name)
+            .with_origin("/")
+            .with_contents(paths.iter().map(|p| format!("+ /{p}")))
+    };
+    let of_plot = |p: Plot| {
+        SERIES
+            .iter()
+            .filter(|s| s.plot == p)
+            .map(|s| s.path)
+            .collect::<Vec<_>>()
     };
     Blueprint::new(
         Horizontal::new([
@@ -42,17 +95,30 @@ pub fn blueprint() -> rerun::blueprint::Blueprint {
                 TimeSeriesView::new("energy (J)")
                     .with_origin("/energy")
                     .into(),
-                TimeSeriesView::new("step statistics")
-                    .with_origin("/stats")
-                    .into(),
-                TextDocumentView::new("strain colour scale")
-                    .with_origin("/legend")
-                    .into(),
+                Horizontal::new([
+                    plot("strain", &of_plot(Plot::Strain)).into(),
+                    BarChartView::new("strain histogram")
+                        .with_origin("/stats/strain_histogram")
+                        .into(),
+                ])
+                .into(),
+                Horizontal::new([
+                    plot("time per frame (ms)", &of_plot(Plot::Millis)).into(),
+                    plot("counts per frame", &of_plot(Plot::Count)).into(),
+                ])
+                .into(),
+                Tabs::new([
+                    TextDocumentView::new("legend")
+                        .with_origin("/legend")
+                        .into(),
+                    TextDocumentView::new("scene").with_origin("/scene").into(),
+                ])
+                .into(),
             ])
-            .with_row_shares([0.45, 0.35, 0.2])
+            .with_row_shares([0.34, 0.22, 0.22, 0.22])
             .into(),
         ])
-        .with_column_shares([0.62, 0.38]),
+        .with_column_shares([0.6, 0.4]),
     )
     .with_auto_views(false)
     .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
@@ -63,35 +129,169 @@ pub fn blueprint() -> rerun::blueprint::Blueprint {
     ))
 }
 
-/// Entity paths for the energy series, with their display names.
-const ENERGY_SERIES: [(&str, &str); 11] = [
-    ("energy/kinetic", "kinetic"),
-    ("energy/elastic", "elastic (springs)"),
-    ("energy/gravity", "gravitational"),
-    ("energy/contact", "contact (penalty)"),
-    ("energy/dissipated", "dissipated (all of the below)"),
-    ("energy/dissipated_damping", "dissipated by spring damping"),
-    ("energy/dissipated_drag", "dissipated by air drag"),
-    (
-        "energy/dissipated_contact",
-        "dissipated by contact damping and friction",
+/// Which plot of the default layout a series is drawn in: one per unit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Plot {
+    /// Joules.
+    Energy,
+    /// Dimensionless strain (ratios).
+    Strain,
+    /// Wall milliseconds per frame.
+    Millis,
+    /// Counts per frame.
+    Count,
+}
+
+/// One scalar series: its entity path, its name in the plot's legend, its plot, and when the
+/// recording has it.
+pub struct Series {
+    pub path: &'static str,
+    pub name: &'static str,
+    pub plot: Plot,
+    pub when: When,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum When {
+    Always,
+    /// Springs yield or tear.
+    SpringsChange,
+    Tearing,
+    Implicit,
+}
+
+/// Every scalar series, in the order they are logged each frame.
+pub const SERIES: [Series; 17] = [
+    s("energy/kinetic", "kinetic", Plot::Energy, When::Always),
+    s("energy/elastic", "elastic", Plot::Energy, When::Always),
+    s("energy/gravity", "gravity", Plot::Energy, When::Always),
+    s("energy/contact", "contact", Plot::Energy, When::Always),
+    s(
+        "energy/dissipated",
+        "dissipated",
+        Plot::Energy,
+        When::Always,
     ),
-    ("energy/collider_work", "work done by moving colliders"),
-    ("energy/total", "total mechanical"),
-    ("energy/balance", "total + dissipated − collider work"),
+    s(
+        "energy/dissipated_damping",
+        "· damping",
+        Plot::Energy,
+        When::Always,
+    ),
+    s(
+        "energy/dissipated_drag",
+        "· drag",
+        Plot::Energy,
+        When::Always,
+    ),
+    s(
+        "energy/dissipated_contact",
+        "· friction",
+        Plot::Energy,
+        When::Always,
+    ),
+    s(
+        "energy/dissipated_plastic",
+        "· plastic",
+        Plot::Energy,
+        When::SpringsChange,
+    ),
+    s(
+        "energy/collider_work",
+        "collider work",
+        Plot::Energy,
+        When::Always,
+    ),
+    s("energy/total", "total", Plot::Energy, When::Always),
+    s("energy/balance", "balance", Plot::Energy, When::Always),
+    s(
+        "stats/max_strain",
+        "max |strain|",
+        Plot::Strain,
+        When::Always,
+    ),
+    s("stats/step_ms", "stepping", Plot::Millis, When::Always),
+    s("stats/record_ms", "recording", Plot::Millis, When::Always),
+    s("stats/substeps", "substeps", Plot::Count, When::Always),
+    s(
+        "stats/projections",
+        "projections",
+        Plot::Count,
+        When::Always,
+    ),
 ];
+
+/// Series beyond [`SERIES`] whose plot holds counts or a residual only on some runs.
+pub const MORE_SERIES: [Series; 3] = [
+    s(
+        "stats/broken_springs",
+        "broken springs",
+        Plot::Count,
+        When::Tearing,
+    ),
+    s(
+        "stats/cg_iterations",
+        "CG iterations",
+        Plot::Count,
+        When::Implicit,
+    ),
+    // A relative residual has no plot of its own in the default layout: it is in the
+    // recording, for a plot the user adds.
+    s(
+        "stats/cg_residual",
+        "CG residual",
+        Plot::Strain,
+        When::Implicit,
+    ),
+];
+
+const fn s(path: &'static str, name: &'static str, plot: Plot, when: When) -> Series {
+    Series {
+        path,
+        name,
+        plot,
+        when,
+    }
+}
+
+/// One body as it is recorded.
+struct BodyRec {
+    name: String,
+    masses: std::ops::Range<usize>,
+    springs: std::ops::Range<usize>,
+    surface: Option<SurfaceRec>,
+    lines: Option<springs::SpringLines>,
+    /// Log the masses as points every frame.
+    masses_per_frame: bool,
+}
+
+/// A body's surface and the buffers a frame is built in.
+struct SurfaceRec {
+    path: String,
+    surface: surface::Surface,
+    /// The vertices are the body's masses in order: positions are a slice of the snapshot's.
+    whole_body: bool,
+    /// The triangles drawn now, and the broken springs of the body when they were chosen.
+    triangles: Vec<[u32; 3]>,
+    broken: Option<usize>,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    strain: Vec<f32>,
+    colors: Vec<rerun::Color>,
+}
 
 pub struct Recorder {
     rec: RecordingStream,
     model: std::sync::Arc<Model>,
     strain_range: f32,
-    /// Per body: springs as (a, b) pairs reused to build line strips each frame.
-    strips: Vec<Vec<[Vec3; 2]>>,
-    colors: Vec<Vec<rerun::Color>>,
+    bodies: Vec<BodyRec>,
     /// The implicit integrator's solver statistics are logged too.
     implicit: bool,
     /// `world/colliders/<kind>_<k>`, k counting colliders of one kind.
     collider_paths: Vec<String>,
+    histogram: Vec<u64>,
+    /// `--springs` was not given: each body logs its default.
+    default_springs: bool,
 }
 
 /// Lowest and highest corner of a set of points.
@@ -102,25 +302,42 @@ fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
     )
 }
 
-/// Logged only when the scene's springs yield or tear.
-const PLASTIC_SERIES: (&str, &str) = (
-    "energy/dissipated_plastic",
-    "let go by plastic flow and tearing",
-);
-const BROKEN_SERIES: (&str, &str) = ("stats/broken_springs", "broken springs (tearing)");
+fn color([r, g, b]: [u8; 3]) -> rerun::Color {
+    rerun::Color::from_rgb(r, g, b)
+}
+
+/// What each body logs under `opts`, for the start of a run: one line per body.
+pub fn describe(model: &Model, opts: &RecordOptions) -> Vec<String> {
+    model
+        .bodies
+        .iter()
+        .map(|b| {
+            let surface = surface::Surface::of_body(model, b);
+            let lines = springs::selected(model, b, opts.springs, surface.is_some()).len();
+            let what = match &surface {
+                Some(s) => format!("surface of {} triangles", s.triangles.len()),
+                None => "masses".to_owned(),
+            };
+            let springs = if lines == 0 && opts.springs.is_none() && !b.springs.is_empty() {
+                format!(
+                    "springs left out (more than {} structural; --springs structural or all shows them)",
+                    springs::DEFAULT_MAX_SPRINGS
+                )
+            } else {
+                format!("{lines} of {} springs as lines", b.springs.len())
+            };
+            format!("{}: {what}, {springs}", b.name)
+        })
+        .collect()
+}
 
 impl Recorder {
-    pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, strain_range: f32) -> Self {
-        let strips = model
-            .bodies
-            .iter()
-            .map(|b| Vec::with_capacity(b.springs.len()))
-            .collect();
-        let colors = model
-            .bodies
-            .iter()
-            .map(|b| Vec::with_capacity(b.springs.len()))
-            .collect();
+    pub fn new(
+        rec: RecordingStream,
+        model: std::sync::Arc<Model>,
+        strain_range: f32,
+        opts: RecordOptions,
+    ) -> Self {
         let mut counts = std::collections::HashMap::new();
         let collider_paths = model
             .effects
@@ -132,14 +349,52 @@ impl Recorder {
                 format!("world/colliders/{}_{}", c.kind(), *k - 1)
             })
             .collect();
+        let bodies = model
+            .bodies
+            .iter()
+            .map(|b| {
+                let surface = surface::Surface::of_body(&model, b).map(|s| SurfaceRec {
+                    path: format!("world/{}/surface", b.name),
+                    whole_body: s.is_whole_body(b),
+                    triangles: Vec::new(),
+                    broken: None,
+                    positions: Vec::with_capacity(s.vertex_mass.len()),
+                    normals: Vec::with_capacity(s.vertex_mass.len()),
+                    strain: Vec::with_capacity(s.vertex_mass.len()),
+                    colors: Vec::with_capacity(s.vertex_mass.len()),
+                    surface: s,
+                });
+                let selected = springs::selected(&model, b, opts.springs, surface.is_some());
+                BodyRec {
+                    name: b.name.clone(),
+                    masses: b.masses.start as usize..b.masses.end as usize,
+                    springs: b.springs.start as usize..b.springs.end as usize,
+                    masses_per_frame: surface.is_none() || opts.masses,
+                    lines: (!selected.is_empty()).then(|| {
+                        springs::SpringLines::new(format!("world/{}/springs", b.name), selected)
+                    }),
+                    surface,
+                }
+            })
+            .collect();
         Self {
             rec,
             model,
             strain_range,
-            strips,
-            colors,
+            bodies,
             implicit: false,
             collider_paths,
+            histogram: Vec::new(),
+            default_springs: opts.springs.is_none(),
+        }
+    }
+
+    fn has(&self, when: When) -> bool {
+        match when {
+            When::Always => true,
+            When::SpringsChange => self.model.effects.springs_change(),
+            When::Tearing => self.model.effects.tearing,
+            When::Implicit => self.implicit,
         }
     }
 
@@ -161,80 +416,130 @@ impl Recorder {
                 settings.integrator, settings.dt_secs, settings.substeps, settings.frames, settings.frame_rate_hz
             )),
         )?;
-        let r = self.strain_range;
-        rec.log_static(
-            "legend",
-            &rerun::TextDocument::from_markdown(format!(
-                "Springs are coloured by strain (|x| − L) / L on a fixed scale:\n\n\
-                 | colour | strain |\n|---|---|\n\
-                 | blue | −{r} or less (compressed) |\n| light grey | 0 (at rest) |\n| red | +{r} or more (stretched) |\n\n\
-                 Set the range with `[view] strain_range` in the scene file. Pinned masses are black; \
-                 `stats/max_strain` plots the largest |strain| of each frame. A spring that tore is \
-                 no longer drawn, and `stats/broken_springs` counts them over time."
-            )),
-        )?;
-        for (path, name) in ENERGY_SERIES {
-            rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
-        }
-        let fx = &self.model.effects;
-        for ((path, name), on) in [
-            (PLASTIC_SERIES, fx.springs_change()),
-            (BROKEN_SERIES, fx.tearing),
-        ] {
-            if on {
-                rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
+        rec.log_static("legend", &rerun::TextDocument::from_markdown(self.legend()))?;
+        for series in SERIES.iter().chain(&MORE_SERIES) {
+            if self.has(series.when) {
+                rec.log_static(
+                    series.path,
+                    &rerun::SeriesLines::new().with_names([series.name]),
+                )?;
             }
         }
-        for (path, name) in [
-            ("stats/max_strain", "max |strain|"),
-            ("stats/step_ms", "wall time per frame (ms)"),
-            ("stats/substeps", "substeps per frame"),
-            ("stats/projections", "contact safeguard projections"),
-            (
-                "stats/cg_iterations",
-                "conjugate-gradient iterations (implicit, most in a step)",
-            ),
-            (
-                "stats/cg_residual",
-                "conjugate-gradient relative residual (implicit, largest)",
-            ),
-        ] {
-            rec.log_static(path, &rerun::SeriesLines::new().with_names([name]))?;
-        }
+        let r = self.strain_range;
+        rec.log_static(
+            "stats/strain_histogram",
+            &rerun::BarChart::update_fields()
+                .with_abscissa(histogram::centres(r))
+                .with_widths(histogram::widths(r))
+                .with_color(rerun::Color::from_rgb(120, 130, 150)),
+        )?;
+        rec.log_static(
+            "world/most_strained",
+            &rerun::LineStrips3D::update_fields()
+                .with_colors([rerun::Color::from_rgb(255, 200, 0)])
+                .with_show_labels(true),
+        )?;
         let m = &self.model;
-        for b in &m.bodies {
-            let range = b.masses.start as usize..b.masses.end as usize;
+        for b in &self.bodies {
             let spacing = b
                 .springs
                 .clone()
-                .map(|s| m.springs[s as usize].rest_m)
+                .map(|s| m.springs[s].rest_m)
                 .fold(f32::INFINITY, f32::min);
             let radius = if spacing.is_finite() {
                 0.12 * spacing
             } else {
                 0.02
             };
-            let colors: Vec<rerun::Color> = m.inv_mass[range]
-                .iter()
-                .map(|&w| {
-                    if w == 0.0 {
-                        rerun::Color::from_rgb(0, 0, 0)
-                    } else {
-                        rerun::Color::from_rgb(230, 170, 40)
-                    }
-                })
-                .collect();
-            rec.log_static(
-                format!("world/{}/masses", b.name),
-                &rerun::Points3D::update_fields()
-                    .with_colors(colors)
-                    .with_radii([radius]),
-            )?;
-            rec.log_static(
-                format!("world/{}/springs", b.name),
-                &rerun::LineStrips3D::update_fields().with_radii([0.25 * radius]),
-            )?;
+            let inv_mass = &m.inv_mass[b.masses.clone()];
+            if b.masses_per_frame {
+                let colors: Vec<rerun::Color> = inv_mass
+                    .iter()
+                    .map(|&w| {
+                        if w == 0.0 {
+                            rerun::Color::from_rgb(0, 0, 0)
+                        } else {
+                            rerun::Color::from_rgb(230, 170, 40)
+                        }
+                    })
+                    .collect();
+                rec.log_static(
+                    format!("world/{}/masses", b.name),
+                    &rerun::Points3D::update_fields()
+                        .with_colors(colors)
+                        .with_radii([radius]),
+                )?;
+            }
+            if b.surface.is_some() {
+                // Pins never move: shown once, whatever else is logged.
+                let pins: Vec<Vec3> = inv_mass
+                    .iter()
+                    .zip(&m.initial.x[b.masses.clone()])
+                    .filter(|(w, _)| **w == 0.0)
+                    .map(|(_, x)| *x)
+                    .collect();
+                if !pins.is_empty() {
+                    rec.log_static(
+                        format!("world/{}/pins", b.name),
+                        &rerun::Points3D::new(pins)
+                            .with_colors([rerun::Color::from_rgb(0, 0, 0)])
+                            .with_radii([2.0 * radius]),
+                    )?;
+                }
+            }
+            if let Some(s) = &b.surface
+                && !s.surface.can_tear
+            {
+                rec.log_static(
+                    s.path.as_str(),
+                    &rerun::Mesh3D::update_fields()
+                        .with_triangle_indices(s.surface.triangles.iter().copied()),
+                )?;
+            }
+            if let Some(lines) = &b.lines {
+                // Thinner over a surface, where they draw its edges.
+                let width = if b.surface.is_some() { 0.15 } else { 0.25 };
+                rec.log_serialized_batches(
+                    lines.path.as_str(),
+                    true,
+                    lines.static_batches(m, width * radius),
+                )?;
+            }
         }
+        self.log_ground_and_colliders()?;
+        Ok(())
+    }
+
+    fn legend(&self) -> String {
+        let r = self.strain_range;
+        let mut bodies = String::new();
+        for b in &self.bodies {
+            let shown = b.lines.as_ref().map_or(0, |l| l.springs.len());
+            let total = b.springs.len();
+            let line = match (&b.surface, shown) {
+                (Some(_), 0) if total > 0 && self.default_springs => format!(
+                    "surface; its {total} springs are not logged (more than {} structural springs: \
+                     add `--springs structural` or `--springs all`)",
+                    springs::DEFAULT_MAX_SPRINGS
+                ),
+                (Some(_), _) => format!("surface, and {shown} of its {total} springs as lines"),
+                (None, _) => format!("masses, and {shown} of its {total} springs as lines"),
+            };
+            bodies.push_str(&format!("- `{}`: {line}\n", b.name));
+        }
+        format!(
+            "Surfaces and springs are coloured by strain (|x| − L) / L on a fixed scale: \
+             **blue** −{r} or less (compressed), **light grey** 0 (at rest), **red** +{r} or more \
+             (stretched); `[view] strain_range` sets it. A surface vertex takes the colour of its \
+             most strained spring, lit as the viewer lights a mesh. Hover a spring for its strain, \
+             kind and rest length (at the start, for plastic springs). Pins are black; the yellow \
+             line marks the most strained spring (`stats/max_strain`). A torn spring is no longer \
+             drawn, and its triangles leave the surface.\n\n{bodies}"
+        )
+    }
+
+    fn log_ground_and_colliders(&self) -> RResult {
+        let (rec, m) = (&self.rec, &self.model);
         if let Some(g) = &m.effects.ground {
             // A grid of lines at the ground height, half a metre beyond the bodies' starting extent,
             // so that the viewer frames the scene rather than the floor.
@@ -318,40 +623,98 @@ impl Recorder {
 
     /// One frame on both timelines.
     pub fn log_snapshot(&mut self, snap: &Snapshot) -> RResult {
-        let rec = &self.rec;
-        rec.set_time_sequence("frame", snap.frame as i64);
-        rec.set_duration_secs("sim_time", snap.time_secs);
-        let m = &self.model;
-        for (bi, b) in m.bodies.iter().enumerate() {
-            let pos = &snap.positions[b.masses.start as usize..b.masses.end as usize];
+        let started = Instant::now();
+        self.rec.set_time_sequence("frame", snap.frame as i64);
+        self.rec.set_duration_secs("sim_time", snap.time_secs);
+        let range = self.strain_range;
+        let strain_color = |s: f32| color(strain_color(s, range));
+        for bi in 0..self.bodies.len() {
+            self.log_body(bi, snap)?;
+            let (rec, m, b) = (&self.rec, &self.model, &mut self.bodies[bi]);
+            if let Some(lines) = &mut b.lines {
+                let batches = lines.frame_batches(snap, m, strain_color)?;
+                rec.log_serialized_batches(lines.path.as_str(), false, batches)?;
+            }
+        }
+        self.log_colliders(snap)?;
+        self.log_scalars(snap)?;
+        histogram::counts(&snap.strain, range, &mut self.histogram);
+        self.rec.log(
+            "stats/strain_histogram",
+            &rerun::BarChart::update_fields().with_values(self.histogram.clone()),
+        )?;
+        self.rec.log(
+            "stats/record_ms",
+            &rerun::Scalars::single(started.elapsed().as_secs_f64() * 1e3),
+        )?;
+        Ok(())
+    }
+
+    /// A body's masses and surface for one frame.
+    fn log_body(&mut self, bi: usize, snap: &Snapshot) -> RResult {
+        let (rec, m, b) = (&self.rec, &self.model, &mut self.bodies[bi]);
+        let pos = &snap.positions[b.masses.clone()];
+        if b.masses_per_frame {
             rec.log(
                 format!("world/{}/masses", b.name),
                 &rerun::Points3D::update_fields().with_positions(pos.iter().copied()),
             )?;
-            if b.springs.is_empty() {
-                continue;
-            }
-            let (strips, colors) = (&mut self.strips[bi], &mut self.colors[bi]);
-            strips.clear();
-            colors.clear();
-            for si in b.springs.clone() {
-                let strain = snap.strain[si as usize];
-                // A broken spring has no strain (NaN) and is not drawn, so the tear shows.
-                if strain.is_nan() {
-                    continue;
-                }
-                let s = &m.springs[si as usize];
-                strips.push([snap.positions[s.a as usize], snap.positions[s.b as usize]]);
-                let [r, g, bl] = strain_color(strain, self.strain_range);
-                colors.push(rerun::Color::from_rgb(r, g, bl));
-            }
-            rec.log(
-                format!("world/{}/springs", b.name),
-                &rerun::LineStrips3D::update_fields()
-                    .with_strips(strips.iter().map(|s| s.to_vec()))
-                    .with_colors(colors.iter().copied()),
-            )?;
         }
+        let Some(s) = &mut b.surface else {
+            return Ok(());
+        };
+        if s.surface.can_tear {
+            // The triangles change only when a spring of this body broke since they were chosen.
+            let broken = snap.strain[b.springs.clone()]
+                .iter()
+                .filter(|x| x.is_nan())
+                .count();
+            if s.broken != Some(broken) {
+                s.triangles = s.surface.intact_triangles(&snap.strain);
+                s.broken = Some(broken);
+                rec.log(
+                    s.path.as_str(),
+                    &rerun::Mesh3D::update_fields()
+                        .with_triangle_indices(s.triangles.iter().copied()),
+                )?;
+            }
+        } else if s.triangles.is_empty() {
+            s.triangles = s.surface.triangles.clone();
+        }
+        s.positions.clear();
+        if s.whole_body {
+            s.positions.extend_from_slice(pos);
+        } else {
+            s.positions.extend(
+                s.surface
+                    .vertex_mass
+                    .iter()
+                    .map(|&i| snap.positions[i as usize]),
+            );
+        }
+        surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
+        surface::vertex_strain(m, &snap.strain, &s.surface.vertex_mass, &mut s.strain);
+        let two_sided = s.surface.two_sided;
+        let range = self.strain_range;
+        s.colors.clear();
+        s.colors
+            .extend(s.strain.iter().zip(&s.normals).map(|(&strain, &n)| {
+                color(surface::shaded(
+                    strain_color(strain, range),
+                    surface::shade(n, two_sided),
+                ))
+            }));
+        rec.log(
+            s.path.as_str(),
+            &rerun::Mesh3D::update_fields()
+                .with_vertex_positions(s.positions.iter().copied())
+                .with_vertex_colors(s.colors.iter().copied()),
+        )?;
+        Ok(())
+    }
+
+    fn log_colliders(&self, snap: &Snapshot) -> RResult {
+        let (rec, m) = (&self.rec, &self.model);
         for ((c, p), path) in m
             .effects
             .colliders
@@ -374,57 +737,86 @@ impl Recorder {
                 Shape::Plane { .. } => {}
             }
         }
+        Ok(())
+    }
+
+    fn log_scalars(&self, snap: &Snapshot) -> RResult {
+        let (rec, m) = (&self.rec, &self.model);
         let e = &snap.energies;
-        let values = [
-            e.kinetic_j,
-            e.elastic_j,
-            e.gravity_j,
-            e.contact_j,
-            e.ledger.dissipated_j(),
-            e.ledger.damping_j,
-            e.ledger.drag_j,
-            e.ledger.contact_j,
-            e.ledger.collider_work_j,
-            e.total_j(),
-            e.balance_j(),
-        ];
-        for ((path, _), v) in ENERGY_SERIES.iter().zip(values) {
-            rec.log(*path, &rerun::Scalars::single(v))?;
-        }
-        if m.effects.springs_change() {
-            rec.log(
-                PLASTIC_SERIES.0,
-                &rerun::Scalars::single(e.ledger.plastic_j),
-            )?;
-        }
-        if m.effects.tearing {
-            rec.log(
-                BROKEN_SERIES.0,
-                &rerun::Scalars::single(snap.broken_springs() as f64),
-            )?;
-        }
         let st = &snap.stats;
-        rec.log(
-            "stats/max_strain",
-            &rerun::Scalars::single(f64::from(snap.max_abs_strain())),
-        )?;
-        rec.log("stats/step_ms", &rerun::Scalars::single(st.step_ms))?;
-        rec.log(
-            "stats/substeps",
-            &rerun::Scalars::single(f64::from(st.substeps)),
-        )?;
-        rec.log(
-            "stats/projections",
-            &rerun::Scalars::single(f64::from(st.projections)),
-        )?;
-        if self.implicit {
-            let iterations = f64::from(st.solver_iterations);
-            rec.log("stats/cg_iterations", &rerun::Scalars::single(iterations))?;
+        let most = most_strained(&snap.strain);
+        let value = |path: &str| -> f64 {
+            match path {
+                "energy/kinetic" => e.kinetic_j,
+                "energy/elastic" => e.elastic_j,
+                "energy/gravity" => e.gravity_j,
+                "energy/contact" => e.contact_j,
+                "energy/dissipated" => e.ledger.dissipated_j(),
+                "energy/dissipated_damping" => e.ledger.damping_j,
+                "energy/dissipated_drag" => e.ledger.drag_j,
+                "energy/dissipated_contact" => e.ledger.contact_j,
+                "energy/dissipated_plastic" => e.ledger.plastic_j,
+                "energy/collider_work" => e.ledger.collider_work_j,
+                "energy/total" => e.total_j(),
+                "energy/balance" => e.balance_j(),
+                "stats/max_strain" => most.map_or(0.0, |(_, s)| f64::from(s.abs())),
+                "stats/step_ms" => st.step_ms,
+                "stats/substeps" => f64::from(st.substeps),
+                "stats/projections" => f64::from(st.projections),
+                "stats/broken_springs" => snap.broken_springs() as f64,
+                "stats/cg_iterations" => f64::from(st.solver_iterations),
+                "stats/cg_residual" => st.solver_residual,
+                _ => f64::NAN,
+            }
+        };
+        for series in SERIES.iter().chain(&MORE_SERIES) {
+            // stats/record_ms is logged last, to time the whole frame.
+            if self.has(series.when) && series.path != "stats/record_ms" {
+                rec.log(series.path, &rerun::Scalars::single(value(series.path)))?;
+            }
+        }
+        // Which spring is the most strained: values beside the plotted number, and a marker in
+        // the 3D view.
+        if let Some((si, strain)) = most {
+            let sp = &m.springs[si];
+            let kind = m.spring_kind[si].name();
+            let body = m
+                .body_of_mass(sp.a)
+                .map_or_else(String::new, |(b, _)| b.name.clone());
+            let label = format!("strain {strain:+.4}: {kind} spring {si} of {body}");
             rec.log(
-                "stats/cg_residual",
-                &rerun::Scalars::single(st.solver_residual),
+                "stats/max_strain",
+                &rerun::AnyValues::default()
+                    .with_component::<rerun::components::Text>("spring", [label.as_str()])
+                    .with_component_from_data(
+                        "spring_index",
+                        std::sync::Arc::new(rerun::external::arrow::array::UInt32Array::from(
+                            vec![si as u32],
+                        )),
+                    ),
+            )?;
+            let (a, b) = (snap.positions[sp.a as usize], snap.positions[sp.b as usize]);
+            rec.log(
+                "world/most_strained",
+                &rerun::LineStrips3D::update_fields()
+                    .with_strips([[a, b]])
+                    .with_labels([label])
+                    .with_radii([rerun::Radius::new_ui_points(3.0)]),
             )?;
         }
         Ok(())
     }
+}
+
+/// The intact spring with the largest |strain|, and its strain.
+pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
+    strain
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, s)| !s.is_nan())
+        .fold(None, |best: Option<(usize, f32)>, (i, s)| match best {
+            Some((_, b)) if b.abs() >= s.abs() => best,
+            _ => Some((i, s)),
+        })
 }

@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::record::Recorder;
+use crate::record::{RecordOptions, Recorder};
 use crate::settings::Settings;
 use crate::state::{Snapshot, StepStats};
 
@@ -84,6 +84,7 @@ pub fn estimate(
     model: &Arc<Model>,
     settings: &Settings,
     strain_range: f32,
+    opts: RecordOptions,
 ) -> Result<RecordingSize> {
     let rerun_error =
         |e: &dyn std::fmt::Display| Error::Rerun(format!("estimating the recording's size: {e}"));
@@ -94,7 +95,7 @@ pub fn estimate(
         rec.flush_blocking().map_err(|e| rerun_error(&e))?;
         Ok(storage.drain_as_bytes().map_err(|e| rerun_error(&e))?.len() as u64)
     };
-    let mut recorder = Recorder::new(rec.clone(), model.clone(), strain_range);
+    let mut recorder = Recorder::new(rec.clone(), model.clone(), strain_range, opts);
     recorder
         .log_static("estimate", "", settings, "estimate")
         .map_err(|e| rerun_error(&e))?;

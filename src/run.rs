@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::record::Recorder;
+use crate::pacing::{Paced, Pacer};
+use crate::progress::{Progress, ProgressMode};
+use crate::record::{RecordOptions, Recorder};
 use crate::rrd_file::RrdFile;
 use crate::scene::LoadedScene;
 use crate::settings::Settings;
@@ -21,8 +23,12 @@ pub const CHANNEL_CAPACITY: usize = 4;
 #[derive(Debug, Clone)]
 pub struct RunOptions {
     pub delivery: Delivery,
-    /// Draw a progress bar on a terminal.
-    pub progress: bool,
+    /// A bar on a terminal, lines in a log, or nothing.
+    pub progress: ProgressMode,
+    /// `--realtime`: never run ahead of the wall clock.
+    pub realtime: bool,
+    /// What the recording holds (`--springs`, `--masses`).
+    pub record: RecordOptions,
     /// The live viewer to watch, when streaming to one.
     pub viewer: Option<ViewerWatch>,
     /// The `.rrd` file being written, if any: watched for a failed write, ended after the run.
@@ -59,7 +65,12 @@ pub fn run(
     cancel: Arc<AtomicBool>,
 ) -> Result<RunSummary> {
     let backend_name = be.describe();
-    let mut recorder = Recorder::new(rec.clone(), model.clone(), loaded.scene.view.strain_range);
+    let mut recorder = Recorder::new(
+        rec.clone(),
+        model.clone(),
+        loaded.scene.view.strain_range,
+        opts.record,
+    );
     recorder
         .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
         .map_err(|e| Error::Rerun(e.to_string()))?;
@@ -68,18 +79,13 @@ pub fn run(
     let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
     // The recorder hands logged snapshots back so that their buffers are reused.
     let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
-    let progress = if opts.progress {
-        indicatif::ProgressBar::new(settings.frames + 1).with_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} {msg} [{bar:30}] {pos}/{len} frames, {per_sec}, eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        )
+    let mut progress = Progress::new(opts.progress, settings.frames + 1, &loaded.scene.name);
+    let frame_rate_hz = settings.frame_rate_hz;
+    let be: Box<dyn Backend> = if opts.realtime {
+        Box::new(Paced::new(be, Pacer::start(frame_rate_hz)))
     } else {
-        indicatif::ProgressBar::hidden()
+        be
     };
-    progress.set_message(loaded.scene.name.clone());
 
     // Set by the recorder when it can take no more: the simulation stops within a chunk.
     let halt = AtomicBool::new(false);
@@ -131,7 +137,7 @@ pub fn run(
                         return (recorded, stop_simulation(Error::WriteRecording(failure)));
                     }
                     recorded += 1;
-                    progress.inc(1);
+                    progress.frame(recorded, snap.frame as f64 / frame_rate_hz);
                     // A lost viewer is said once; then the run finishes into the file, or stops.
                     if let Some(w) = opts.viewer.as_ref().filter(|_| !viewer_lost)
                         && let LinkState::Gone(why) = w.link.state()
@@ -175,7 +181,7 @@ pub fn run(
             (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
         }
     });
-    progress.finish_and_clear();
+    progress.finish();
     if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
         // Nothing more can reach that viewer; do not wait for it.
         let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));

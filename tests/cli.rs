@@ -214,7 +214,7 @@ fn a_saved_recording_has_every_frame_on_both_timelines() {
     let e = read_rrd(&path);
     let want_frames: BTreeSet<i64> = (0..=frames as i64).collect();
     for entity in [
-        "/world/jello/masses",
+        "/world/jello/surface",
         "/world/jello/springs",
         "/world/colliders/sphere_0",
         "/energy/kinetic",
@@ -970,7 +970,7 @@ fn an_interrupted_recording_keeps_every_frame_it_produced() {
             err.contains("interrupted:") && err.contains("saved"),
             "{signal}: {err}"
         );
-        let frames = &read_rrd(&path)["/world/cloth/masses"].0;
+        let frames = &read_rrd(&path)["/world/cloth/surface"].0;
         let n = frames.len() as i64;
         assert!(n > 1, "{signal}: only {n} frames");
         assert_eq!(

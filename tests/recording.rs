@@ -1,0 +1,615 @@
+//! What a recording holds, read back from the .rrd with Rerun's own decoder and compared with the
+//! snapshots it was made from: surfaces (triangles, vertex positions and colours, tearing),
+//! spring lines and their hover values, the strain histogram, `--springs`, and `--realtime`.
+
+mod common;
+
+use std::collections::{BTreeMap, BTreeSet, HashSet};
+use std::path::Path;
+use std::sync::Arc;
+
+use common::{hooke, temp_dir};
+
+use glam::Vec3;
+use hooke::backend::Backend as _;
+use hooke::model::Model;
+use hooke::record::{RecordOptions, Recorder, SpringSelection, strain_color, surface};
+use hooke::state::Snapshot;
+use rerun::Loggable as _;
+use rerun::external::arrow::array::{Array as _, ArrayRef, Float32Array, StringArray};
+use rerun::log::{Chunk, LogMsg};
+
+/// One logged row of a component: its frame (`None`: static) and its values.
+type Rows = Vec<(Option<i64>, ArrayRef)>;
+
+/// Decode an .rrd with Rerun's decoder: per (entity, component), every row logged.
+fn read_components(path: &Path) -> BTreeMap<(String, String), Rows> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut out: BTreeMap<(String, String), Rows> = BTreeMap::new();
+    for msg in re_log_encoding::DecoderApp::decode_lazy(std::io::BufReader::new(file)) {
+        let msg = msg.unwrap_or_else(|e| panic!("decoding {}: {e}", path.display()));
+        let LogMsg::ArrowMsg(_, arrow) = msg else {
+            continue;
+        };
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap_or_else(|e| panic!("{e}"));
+        let frames = chunk
+            .timelines()
+            .iter()
+            .find(|(name, _)| name.as_str() == "frame")
+            .map(|(_, col)| col.times_raw().to_vec());
+        for id in chunk.components_identifiers() {
+            let Some(list) = chunk.components().get_array(id) else {
+                continue;
+            };
+            let rows = out
+                .entry((chunk.entity_path().to_string(), id.to_string()))
+                .or_default();
+            for i in 0..list.len() {
+                if list.is_valid(i) {
+                    let frame = frames.as_ref().map(|f| f[i]);
+                    rows.push((frame, list.value(i)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The row of `component` on `entity` in force at `frame` (the latest at or before it, or static).
+fn at_frame<'a>(
+    c: &'a BTreeMap<(String, String), Rows>,
+    entity: &str,
+    component: &str,
+    frame: i64,
+) -> &'a ArrayRef {
+    let rows = c
+        .get(&(entity.to_owned(), component.to_owned()))
+        .unwrap_or_else(|| {
+            panic!(
+                "no {component} on {entity}; have {:?}",
+                c.keys().filter(|(e, _)| e == entity).collect::<Vec<_>>()
+            )
+        });
+    rows.iter()
+        .filter(|(f, _)| f.is_none_or(|f| f <= frame))
+        .max_by_key(|(f, _)| f.unwrap_or(i64::MIN))
+        .map(|(_, a)| a)
+        .unwrap_or_else(|| panic!("{entity} {component}: nothing at frame {frame}"))
+}
+
+fn positions(a: &ArrayRef) -> Vec<Vec3> {
+    rerun::components::Position3D::from_arrow(a)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .into_iter()
+        .map(|p| Vec3::new(p.x(), p.y(), p.z()))
+        .collect()
+}
+
+fn triangles(a: &ArrayRef) -> Vec<[u32; 3]> {
+    rerun::components::TriangleIndices::from_arrow(a)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .into_iter()
+        .map(|t| [t.0.x(), t.0.y(), t.0.z()])
+        .collect()
+}
+
+fn colors(a: &ArrayRef) -> Vec<[u8; 3]> {
+    rerun::components::Color::from_arrow(a)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .into_iter()
+        .map(|c| {
+            let [r, g, b, _] = c.to_array();
+            [r, g, b]
+        })
+        .collect()
+}
+
+fn floats(a: &ArrayRef) -> Vec<f32> {
+    a.as_any()
+        .downcast_ref::<Float32Array>()
+        .unwrap_or_else(|| panic!("not f32: {:?}", a.data_type()))
+        .values()
+        .to_vec()
+}
+
+/// A scene's model, stepped `frames` frames on the CPU, and the snapshots of frame 0 and the last.
+fn stepped(scene: &str, frames: u64) -> (hooke::scene::LoadedScene, Arc<Model>, Vec<Snapshot>) {
+    let loaded = hooke::scene::load(scene).unwrap_or_else(|e| panic!("{e}"));
+    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let mut be = hooke::cpu::CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
+    let first = be
+        .snapshot(0, Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    for _ in 0..frames {
+        be.advance(settings.substeps)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    let last = be
+        .snapshot(frames, Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    (loaded, model, vec![first, last])
+}
+
+/// Record `snaps` with the hooke recorder into `path`.
+fn record(
+    loaded: &hooke::scene::LoadedScene,
+    model: &Arc<Model>,
+    snaps: &[Snapshot],
+    opts: RecordOptions,
+    path: &Path,
+) {
+    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let rec = rerun::RecordingStreamBuilder::new("hooke-test")
+        .save(path)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut r = Recorder::new(
+        rec.clone(),
+        model.clone(),
+        loaded.scene.view.strain_range,
+        opts,
+    );
+    r.log_static(&loaded.scene.name, &loaded.text, &settings, "test")
+        .unwrap_or_else(|e| panic!("{e}"));
+    for s in snaps {
+        r.log_snapshot(s).unwrap_or_else(|e| panic!("{e}"));
+    }
+    drop(r);
+    rec.flush_blocking().unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Grid coordinates of a body's local mass index.
+fn coords(grid: &[u32], i: u32) -> [u32; 3] {
+    let n = [0, 1, 2].map(|a| grid.get(a).copied().unwrap_or(1));
+    [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])]
+}
+
+/// The strain of the most strained intact structural spring at each mass (0 where none), from
+/// the snapshot.
+fn strain_at_masses(model: &Model, snap: &Snapshot) -> Vec<f32> {
+    let mut best = vec![0.0f32; model.mass_count()];
+    for (s, sp) in model.springs.iter().enumerate() {
+        let e = snap.strain[s];
+        if e.is_nan() || model.spring_kind[s] != hooke::model::SpringKindTag::Structural {
+            continue;
+        }
+        for m in [sp.a, sp.b] {
+            if e.abs() > best[m as usize].abs() {
+                best[m as usize] = e;
+            }
+        }
+    }
+    best
+}
+
+/// Checks one body's surface at `frame` against `snap`: the vertices are `vertex_masses` (mass
+/// order), the triangle count is `triangles`, and every colour is the documented function.
+struct Want<'a> {
+    body: &'a str,
+    vertex_masses: &'a [u32],
+    triangles: usize,
+    two_sided: bool,
+    range: f32,
+}
+
+fn check_surface(c: &BTreeMap<(String, String), Rows>, model: &Model, snap: &Snapshot, w: &Want) {
+    let Want {
+        body,
+        vertex_masses,
+        triangles: want_triangles,
+        two_sided,
+        range,
+    } = *w;
+    let entity = format!("/world/{body}/surface");
+    let frame = snap.frame as i64;
+    let tris = triangles(at_frame(c, &entity, "Mesh3D:triangle_indices", frame));
+    assert_eq!(tris.len(), want_triangles, "{body}: triangles");
+    let pos = positions(at_frame(c, &entity, "Mesh3D:vertex_positions", frame));
+    let want: Vec<Vec3> = vertex_masses
+        .iter()
+        .map(|&m| snap.positions[m as usize])
+        .collect();
+    assert_eq!(pos, want, "{body}: vertex positions are the snapshot's");
+    // Colour: strain of the most strained spring at the vertex, on the strain scale, lit by the
+    // viewer's lighting of the (area-weighted) vertex normal.
+    let mut normals = vec![Vec3::ZERO; pos.len()];
+    for t in &tris {
+        let n = (pos[t[1] as usize] - pos[t[0] as usize])
+            .cross(pos[t[2] as usize] - pos[t[0] as usize]);
+        for v in t {
+            normals[*v as usize] += n;
+        }
+    }
+    let strain = strain_at_masses(model, snap);
+    let got = colors(at_frame(c, &entity, "Mesh3D:vertex_colors", frame));
+    assert_eq!(got.len(), pos.len());
+    let mut distinct = HashSet::new();
+    for (v, &m) in vertex_masses.iter().enumerate() {
+        let want = surface::shaded(
+            strain_color(strain[m as usize], range),
+            surface::shade(normals[v].normalize_or_zero(), two_sided),
+        );
+        assert_eq!(got[v], want, "{body}: colour of vertex {v} (mass {m})");
+        distinct.insert(got[v]);
+    }
+    // At rest (frame 0) every vertex is alike; once it moves, strain and light vary.
+    if snap.frame > 0 {
+        assert!(distinct.len() > 10, "{body}: colours vary: {distinct:?}");
+    }
+}
+
+#[test]
+fn a_sheet_and_a_block_record_their_surface_with_the_snapshot_positions_and_strain_colours() {
+    let dir = temp_dir("surface");
+    // cloth: a 32 × 32 sheet, 31 × 31 quads of two triangles; jello: a 10³ block, six faces of
+    // 9 × 9 quads, its 10³ − 8³ outer masses as vertices.
+    for (scene, body, triangles, two_sided) in [
+        ("cloth", "cloth", 31 * 31 * 2, true),
+        ("jello", "jello", 6 * 9 * 9 * 2, false),
+    ] {
+        let (loaded, model, snaps) = stepped(scene, 20);
+        let path = dir.join(format!("{scene}.rrd"));
+        record(&loaded, &model, &snaps, RecordOptions::default(), &path);
+        let c = read_components(&path);
+        let b = &model.bodies[0];
+        let vertex_masses: Vec<u32> = b
+            .masses
+            .clone()
+            .filter(|&m| {
+                let g = coords(&b.grid, m - b.masses.start);
+                b.grid.len() == 2 || (0..3).any(|a| g[a] == 0 || g[a] + 1 == b.grid[a])
+            })
+            .collect();
+        if scene == "jello" {
+            assert_eq!(vertex_masses.len(), 1000 - 512);
+        }
+        let want = Want {
+            body,
+            vertex_masses: &vertex_masses,
+            triangles,
+            two_sided,
+            range: loaded.scene.view.strain_range,
+        };
+        for snap in &snaps {
+            check_surface(&c, &model, snap, &want);
+        }
+        // Triangle indices never change here: logged once, static.
+        let idx = &c[&(
+            format!("/world/{body}/surface"),
+            "Mesh3D:triangle_indices".into(),
+        )];
+        assert_eq!(idx.len(), 1, "{scene}: triangle indices logged once");
+        assert_eq!(idx[0].0, None, "{scene}: triangle indices are static");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_torn_spring_removes_its_triangles_from_the_surface() {
+    // tear: the sphere breaks the cloth's springs within its first second.
+    let loaded = hooke::scene::load("tear").unwrap_or_else(|e| panic!("{e}"));
+    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let mut be = hooke::cpu::CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
+    let mut snaps = vec![
+        be.snapshot(0, Default::default())
+            .unwrap_or_else(|e| panic!("{e}")),
+    ];
+    for frame in 1..=120 {
+        be.advance(settings.substeps)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let s = be
+            .snapshot(frame, Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let torn = s.broken_springs() > 0;
+        snaps.push(s);
+        if torn {
+            break;
+        }
+    }
+    let last = snaps.last().unwrap_or_else(|| panic!("no frames"));
+    let broken: HashSet<(u32, u32)> = (0..model.spring_count())
+        .filter(|&s| last.strain[s].is_nan())
+        .map(|s| {
+            let sp = model.springs[s];
+            (sp.a.min(sp.b), sp.a.max(sp.b))
+        })
+        .collect();
+    assert!(!broken.is_empty(), "the tear scene tore nothing in 2 s");
+    let dir = temp_dir("tear");
+    let path = dir.join("tear.rrd");
+    record(&loaded, &model, &snaps, RecordOptions::default(), &path);
+    let c = read_components(&path);
+    let entity = "/world/cloth/surface";
+    let before = triangles(at_frame(&c, entity, "Mesh3D:triangle_indices", 0));
+    assert_eq!(before.len(), 31 * 31 * 2);
+    let after = triangles(at_frame(
+        &c,
+        entity,
+        "Mesh3D:triangle_indices",
+        last.frame as i64,
+    ));
+    // The sheet's vertices are its masses: vertex v is mass v. A triangle goes when a spring along
+    // one of its edges broke.
+    let edge_broke = |t: &[u32; 3]| {
+        [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
+            .iter()
+            .any(|&(a, b)| broken.contains(&(a.min(b), a.max(b))))
+    };
+    let want: Vec<[u32; 3]> = before.iter().copied().filter(|t| !edge_broke(t)).collect();
+    assert!(want.len() < before.len(), "some triangle has a broken edge");
+    assert_eq!(after, want);
+    // Indices are resent only when the broken count changes: at frame 0 and at the tear.
+    let rows = &c[&(entity.to_owned(), "Mesh3D:triangle_indices".to_owned())];
+    let frames: Vec<Option<i64>> = rows.iter().map(|(f, _)| *f).collect();
+    assert_eq!(frames, vec![Some(0), Some(last.frame as i64)]);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn hovering_a_spring_reads_the_snapshot_strain_kind_and_rest_length() {
+    let (loaded, model, snaps) = stepped("jello", 15);
+    let dir = temp_dir("hover");
+    let path = dir.join("jello.rrd");
+    let all = RecordOptions {
+        springs: Some(SpringSelection::All),
+        masses: false,
+    };
+    record(&loaded, &model, &snaps, all, &path);
+    let c = read_components(&path);
+    let e = "/world/jello/springs";
+    // With `--springs all`, every spring is a line, one instance each in spring order.
+    let n = model.spring_count();
+    let kinds = at_frame(&c, e, "kind", 0);
+    let kinds = kinds
+        .as_any()
+        .downcast_ref::<StringArray>()
+        .unwrap_or_else(|| panic!("kind is not text"));
+    let rest = floats(at_frame(&c, e, "rest_length_m", 0));
+    assert_eq!((kinds.len(), rest.len()), (n, n));
+    for (s, r) in rest.iter().enumerate() {
+        assert_eq!(kinds.value(s), model.spring_kind[s].name());
+        assert_eq!(*r, model.springs[s].rest_m);
+    }
+    for snap in &snaps {
+        let strain = floats(at_frame(&c, e, "strain", snap.frame as i64));
+        assert_eq!(strain, snap.strain, "frame {}", snap.frame);
+        // The line of spring s runs between its masses' positions in this snapshot.
+        let strips = rerun::components::LineStrip3D::from_arrow(at_frame(
+            &c,
+            e,
+            "LineStrips3D:strips",
+            snap.frame as i64,
+        ))
+        .unwrap_or_else(|err| panic!("{err}"));
+        assert_eq!(strips.len(), n);
+        for (s, strip) in strips.iter().enumerate().step_by(97) {
+            let sp = model.springs[s];
+            let ends: Vec<Vec3> = strip.0.iter().map(|p| Vec3::from(p.0)).collect();
+            assert_eq!(
+                ends,
+                vec![snap.positions[sp.a as usize], snap.positions[sp.b as usize]]
+            );
+        }
+    }
+    assert!(snaps[1].strain.iter().any(|&s| s != 0.0), "the jello moved");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn the_strain_histogram_counts_every_spring_in_its_bin() {
+    let (loaded, model, snaps) = stepped("cloth", 30);
+    let dir = temp_dir("histogram");
+    let path = dir.join("cloth.rrd");
+    record(&loaded, &model, &snaps, RecordOptions::default(), &path);
+    let c = read_components(&path);
+    let range = loaded.scene.view.strain_range;
+    let bins = hooke::record::histogram::BINS;
+    for snap in &snaps {
+        let values = rerun::components::TensorData::from_arrow(at_frame(
+            &c,
+            "/stats/strain_histogram",
+            "BarChart:values",
+            snap.frame as i64,
+        ))
+        .unwrap_or_else(|e| panic!("{e}"));
+        let counts: Vec<u64> = match &values[0].0.buffer {
+            rerun::datatypes::TensorBuffer::U64(b) => b.to_vec(),
+            other => panic!("histogram values are not counts: {other:?}"),
+        };
+        assert_eq!(counts.len(), bins + 2);
+        assert_eq!(
+            counts.iter().sum::<u64>(),
+            model.spring_count() as u64,
+            "frame {}",
+            snap.frame
+        );
+        // Bar k of the bins holds −range + k·w ≤ strain < −range + (k + 1)·w.
+        let w = 2.0 * range / bins as f32;
+        let beyond = snap.strain.iter().filter(|s| s.abs() > range).count() as u64;
+        assert_eq!(counts[0] + counts[bins + 1], beyond);
+        for k in [0usize, bins / 2 - 1, bins / 2, bins - 1] {
+            let (lo, hi) = (-range + k as f32 * w, -range + (k + 1) as f32 * w);
+            let n = snap
+                .strain
+                .iter()
+                .filter(|&&s| s >= lo && (s < hi || (k == bins - 1 && s <= range)))
+                .count() as u64;
+            assert_eq!(counts[k + 1], n, "frame {} bin {k}", snap.frame);
+        }
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Entities of a recording made by `hooke run` with `args`.
+fn run_entities(name: &str, args: &[&str]) -> BTreeSet<String> {
+    let dir = temp_dir(name);
+    let path = dir.join("run.rrd");
+    let path_s = path.to_string_lossy().into_owned();
+    let mut all = vec!["run"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--backend", "cpu", "--save", &path_s]);
+    let out = hooke(&all);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let entities = read_components(&path).into_keys().map(|(e, _)| e).collect();
+    let _ = std::fs::remove_dir_all(dir);
+    entities
+}
+
+#[test]
+fn springs_none_logs_no_lines_and_structural_only_the_structural_springs() {
+    for scene in ["hair", "cloth", "jello"] {
+        let e = run_entities(scene, &[scene, "--frames", "3", "--springs", "none"]);
+        let lines: Vec<&String> = e.iter().filter(|p| p.ends_with("/springs")).collect();
+        assert!(lines.is_empty(), "{scene}: {lines:?}");
+    }
+    // Structural: exactly the structural springs, as hover kinds say.
+    let (loaded, model, snaps) = stepped("cloth", 1);
+    let dir = temp_dir("structural");
+    let path = dir.join("cloth.rrd");
+    let opts = RecordOptions {
+        springs: Some(SpringSelection::Structural),
+        masses: false,
+    };
+    record(&loaded, &model, &snaps, opts, &path);
+    let c = read_components(&path);
+    let kinds = at_frame(&c, "/world/cloth/springs", "kind", 0);
+    let kinds = kinds
+        .as_any()
+        .downcast_ref::<StringArray>()
+        .unwrap_or_else(|| panic!("kind is not text"));
+    let structural = model
+        .spring_kind
+        .iter()
+        .filter(|k| **k == hooke::model::SpringKindTag::Structural)
+        .count();
+    assert_eq!(kinds.len(), structural);
+    assert!((0..kinds.len()).all(|i| kinds.value(i) == "structural"));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_large_sheet_leaves_its_springs_out_by_default_and_masses_are_on_demand() {
+    let default = run_entities("large", &["cloth-64", "--frames", "1"]);
+    assert!(default.contains("/world/cloth/surface"));
+    assert!(default.contains("/world/cloth/pins"));
+    assert!(!default.contains("/world/cloth/springs"), "{default:?}");
+    assert!(!default.contains("/world/cloth/masses"), "{default:?}");
+    let asked = run_entities(
+        "large-asked",
+        &["cloth-64", "--frames", "1", "--springs", "all", "--masses"],
+    );
+    assert!(asked.contains("/world/cloth/springs"));
+    assert!(asked.contains("/world/cloth/masses"));
+}
+
+#[test]
+fn realtime_never_delivers_a_frame_before_its_time() {
+    let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
+    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let be = Box::new(hooke::cpu::CpuBackend::new(
+        model,
+        settings.integrator,
+        settings.dt_secs,
+    ));
+    let pacer = hooke::pacing::Pacer::start(settings.frame_rate_hz);
+    let mut paced = hooke::pacing::Paced::new(be, pacer);
+    let (tx, rx) = crossbeam_channel::bounded(64);
+    let frames = 12;
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let received = std::thread::scope(|s| {
+        let receiver = s.spawn(|| {
+            rx.iter()
+                .map(|snap: Snapshot| (snap.frame, pacer.started().elapsed()))
+                .collect::<Vec<_>>()
+        });
+        let out = hooke::sim::simulate(
+            &mut paced,
+            frames,
+            settings.substeps,
+            &tx,
+            hooke::sim::Delivery::Lossless,
+            &cancel,
+            None,
+        );
+        drop(tx);
+        assert_eq!(out.frames_sent, frames + 1);
+        receiver
+            .join()
+            .unwrap_or_else(|_| panic!("receiver panicked"))
+    });
+    assert_eq!(received.len(), frames as usize + 1);
+    for (frame, at) in received {
+        let due = pacer.due(frame);
+        assert!(
+            at >= due,
+            "frame {frame} delivered at {at:?}, due at {due:?}"
+        );
+    }
+}
+
+#[test]
+fn realtime_from_the_command_line_takes_at_least_the_simulated_time() {
+    let dir = temp_dir("realtime");
+    let path = dir.join("hair.rrd");
+    let start = std::time::Instant::now();
+    // 30 frames at 60 Hz: half a second of simulated time.
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--frames",
+        "30",
+        "--realtime",
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(start.elapsed() >= std::time::Duration::from_millis(500));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn bad_recording_options_are_one_clear_error() {
+    let out = hooke(&["run", "cloth", "--springs", "some"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--springs") && err.contains("all") && err.contains("structural"),
+        "{err}"
+    );
+    let out = hooke(&["bench", "record", "cloth", "--frames", "0"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("--frames") && err.contains('0'), "{err}");
+    let out = hooke(&["run", "cloth", "--masses=yes"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--masses"), "{err}");
+}
+
+#[test]
+fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_structural_spring() {
+    let (_, model, snaps) = stepped("jello", 10);
+    let snap = &snaps[1];
+    let masses: Vec<u32> = (0..model.mass_count() as u32).collect();
+    let mut got = Vec::new();
+    surface::vertex_strain(&model, &snap.strain, &masses, &mut got);
+    let want = strain_at_masses(&model, snap);
+    assert_eq!(got, want);
+    assert!(got.iter().any(|s| *s < 0.0) && got.iter().any(|s| *s > 0.0));
+}

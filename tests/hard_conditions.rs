@@ -257,6 +257,23 @@ fn chunked_frames_step_exactly_like_whole_ones() {
     }
 }
 
+/// `hooke run cloth` for far more frames than the disk under `path` holds.
+fn long_cloth_run(path: &Path) -> Vec<&str> {
+    let path = path
+        .to_str()
+        .unwrap_or_else(|| panic!("{}", path.display()));
+    vec![
+        "run",
+        "cloth",
+        "--backend",
+        "cpu",
+        "--frames",
+        "2000",
+        "--save",
+        path,
+    ]
+}
+
 /// Run `args` with the file size limited to `limit` bytes (what `ulimit -f` sets).
 fn hooke_with_file_limit(args: &[&str], limit: u64) -> std::process::Output {
     use std::os::unix::process::CommandExt as _;
@@ -301,19 +318,7 @@ fn a_file_size_limit_mid_recording_keeps_every_frame_written_and_says_so() {
     let dir = temp_dir("fsize");
     let path = dir.join("cloth.rrd");
     let limit = 2_000_000;
-    let out = hooke_with_file_limit(
-        &[
-            "run",
-            "cloth",
-            "--backend",
-            "cpu",
-            "--frames",
-            "2000",
-            "--save",
-            &path.to_string_lossy(),
-        ],
-        limit,
-    );
+    let out = hooke_with_file_limit(&long_cloth_run(&path), limit);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     let line = err
@@ -362,16 +367,7 @@ fn a_full_disk_warns_first_then_stops_with_the_frames_written() {
         return;
     }
     let path = dir.join("cloth.rrd");
-    let out = hooke(&[
-        "run",
-        "cloth",
-        "--backend",
-        "cpu",
-        "--frames",
-        "2000",
-        "--save",
-        &path.to_string_lossy(),
-    ]);
+    let out = hooke(&long_cloth_run(&path));
     let err = text(&out.stderr);
     let rec = std::panic::catch_unwind(|| read_rrd(&path));
     let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);

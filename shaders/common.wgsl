@@ -1,6 +1,6 @@
 // Structs and helpers shared by every kernel. Keep the structs in sync with src/gpu/layout.rs (a test
 // checks sizes).
-// Each kernel module is this file followed by one of forces/integrate/collide/reduce.wgsl.
+// Each program is this file followed by one kernel file (src/gpu/shaders.rs compiles them).
 
 // Effects present in the scene: absent ones are specialised away at pipeline creation.
 override HAS_GRAVITY: bool = false;
@@ -29,7 +29,7 @@ override PAIR_STICK_SHARE: f32 = 0.25;
 const WORKGROUP: u32 = 64u;
 // Hash-grid buckets per block of the prefix sum (grid.wgsl): four per invocation.
 const SCAN_BLOCK: u32 = 4u * WORKGROUP;
-// A spring shorter than this has no direction and exerts nothing (as src/cpu/forces.rs).
+// A spring shorter than this has no direction and exerts nothing (as src/cpu/law.rs).
 const MIN_SPRING_LENGTH: f32 = 1.1754944e-32;
 
 struct Params {
@@ -189,7 +189,7 @@ struct Contact {
     dissipated: f32,
 }
 
-// Penalty contact along unit normal n at depth > 0 (src/cpu/forces.rs): force and the power its
+// Penalty contact along unit normal n at depth > 0 (src/cpu/law.rs): force and the power its
 // damping and friction dissipate; friction stops at most stick_share of the sliding in a step.
 fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
     let vn = dot(v_rel, n);

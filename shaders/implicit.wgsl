@@ -108,19 +108,23 @@ fn total_of_partials(lid: u32, take_max: bool) -> vec4<f32> {
     return workgroup_reduce(lid, acc, take_max);
 }
 
-// Whether the current solve runs, read once by the workgroup (a uniform value for the barriers).
-fn solve_running(lid: u32) -> bool {
+// `flag` as read by the workgroup's first thread, the same for every thread (a uniform value for
+// the barriers that follow).
+fn uniform_flag(lid: u32, flag: bool) -> bool {
     if (lid == 0u) {
-        flag_sh = scratch.solver.cg_active;
+        flag_sh = select(0u, 1u, flag);
     }
     return workgroupUniformLoad(&flag_sh) != 0u;
 }
 
+// Whether the current solve runs.
+fn solve_running(lid: u32) -> bool {
+    return uniform_flag(lid, scratch.solver.cg_active != 0u);
+}
+
+// Whether the Newton update waits: the solve has stopped and its update is not yet applied.
 fn newton_update_due(lid: u32) -> bool {
-    if (lid == 0u) {
-        flag_sh = select(0u, 1u, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
-    }
-    return workgroupUniformLoad(&flag_sh) != 0u;
+    return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
 struct SpringTerms {

@@ -89,10 +89,6 @@ pub fn step(
     s: &mut Scratch,
     dt: f32,
 ) -> Option<SolveStats> {
-    if integrator == Integrator::Implicit {
-        let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
-        return Some(implicit_step(model, &mut s.gather, state, work, dt));
-    }
     match integrator {
         Integrator::Euler | Integrator::SemiImplicit => {
             first_order_step(model, integrator, state, s, dt)
@@ -100,7 +96,11 @@ pub fn step(
         Integrator::Rk2 => rk2_step(model, state, s, dt),
         Integrator::Rk4 => rk4_step(model, state, s, dt),
         Integrator::Verlet => verlet_step(model, state, s, dt),
-        Integrator::Implicit => unreachable!("handled above"),
+        // It keeps its own time.
+        Integrator::Implicit => {
+            let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
+            return Some(implicit_step(model, &mut s.gather, state, work, dt));
+        }
     }
     state.time_secs += f64::from(dt);
     state.steps += 1;

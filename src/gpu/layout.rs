@@ -1,5 +1,6 @@
 //! Host-side copies of the structs in `shaders/common.wgsl`. Same field order, sizes and padding;
-//! `tests/shaders.rs` checks each against naga's layout of the WGSL.
+//! `shared_structs_match_their_wgsl_layout` in tests/gpu.rs checks each against naga's layout of
+//! the WGSL.
 
 use bytemuck::{Pod, Zeroable};
 

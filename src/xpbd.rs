@@ -316,4 +316,53 @@ mod tests {
             );
         }
     }
+
+    /// One mass on a damped spring from a pinned anchor, released stretched: XPBD's position
+    /// error against the analytic solution falls about in proportion to the substep.
+    #[test]
+    fn a_damped_oscillator_converges_to_the_analytic_solution_as_substeps_shrink() {
+        let (k, c, m, rest, stretch) = (100.0f64, 0.2f64, 0.05f64, 0.1f64, 0.01f64);
+        let springs = [spring(0, 1, rest as f32, k as f32, c as f32)];
+        let inv_mass = [0.0, (1.0 / m) as f32];
+        let omega0 = (k / m).sqrt();
+        let zeta = c / (2.0 * (k * m).sqrt());
+        let omega_d = omega0 * (1.0 - zeta * zeta).sqrt();
+        let t_end = 0.5f64;
+        // u(t) = e^{−ζω₀t} (u₀ cos ω_d t + (ζω₀u₀/ω_d) sin ω_d t), released at rest.
+        let analytic = |t: f64| {
+            (-zeta * omega0 * t).exp()
+                * stretch
+                * ((omega_d * t).cos() + zeta * omega0 / omega_d * (omega_d * t).sin())
+        };
+        let col = colour_springs(&springs, &inv_mass);
+        let error = |steps: u32| {
+            let h = t_end / f64::from(steps);
+            let constants = xpbd_constants(&springs, h);
+            let mut x = vec![Vec3::ZERO, Vec3::new((rest + stretch) as f32, 0.0, 0.0)];
+            let (mut v, mut dx, mut lambda) = (vec![Vec3::ZERO; 2], vec![Vec3::ZERO; 2], [0.0]);
+            for _ in 0..steps {
+                dx[1] = h as f32 * v[1];
+                xpbd_solve(
+                    &springs,
+                    &constants,
+                    &col,
+                    &inv_mass,
+                    1,
+                    &x,
+                    &mut dx,
+                    &mut lambda,
+                );
+                xpbd_update_velocity(&inv_mass, &dx, h as f32, &mut x, &mut v);
+            }
+            (f64::from(x[1].x) - rest - analytic(t_end)).abs()
+        };
+        let errors: Vec<f64> = [250, 500, 1000, 2000].into_iter().map(error).collect();
+        for w in errors.windows(2) {
+            let ratio = w[0] / w[1];
+            assert!(
+                (1.6..2.6).contains(&ratio),
+                "halving the substep divides the error by {ratio} (errors {errors:?})"
+            );
+        }
+    }
 }

@@ -26,5 +26,6 @@ pub mod sim;
 pub mod stability;
 pub mod state;
 pub mod viewer;
+pub mod xpbd;
 
 pub use error::{Error, Result};

@@ -345,10 +345,10 @@ fn file_recording(
     path: &std::path::Path,
     footer: bool,
 ) -> anyhow::Result<(rerun::RecordingStream, hooke::rrd_file::RrdFile)> {
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(hooke::record::blueprint())
+    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
         .buffered()
         .context("starting the Rerun recording")?;
+    hooke::record::send_blueprint(&rec)?;
     let (sink, file) = hooke::rrd_file::create(path, footer)?;
     rec.set_sink(Box::new(sink));
     Ok((rec, file))
@@ -364,15 +364,15 @@ fn open_sink(
     m: &clap::ArgMatches,
     scene_name: &str,
 ) -> anyhow::Result<Sink> {
-    let blueprint = hooke::record::blueprint;
     let save = explicit(m, "save")
         .then(|| m.get_one::<PathBuf>("save").cloned())
         .flatten();
     let connect = explicit(m, "connect");
     if explicit(m, "stdout") {
         let (rec, _no_serving) = rerun_args
-            .init_with_blueprint("hooke", blueprint())
+            .init(hooke::record::APPLICATION_ID)
             .context("starting the Rerun recording")?;
+        hooke::record::send_blueprint(&rec)?;
         return Ok(Sink::stream(rec, None, None));
     }
     if let Some(path) = save.as_ref().filter(|_| !connect) {
@@ -414,10 +414,10 @@ fn open_sink(
         sinks.push(Box::new(sink));
         file = Some(handle);
     }
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(blueprint())
+    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
         .buffered()
         .context("starting the Rerun recording")?;
+    hooke::record::send_blueprint(&rec)?;
     rec.set_sinks(sinks);
     Ok(Sink {
         rec,
@@ -455,8 +455,7 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &cli::OutputArgs) -> anyhow::R
         })?,
         cors_allowed_origins: Vec::new(),
     };
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(hooke::record::blueprint())
+    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
         .serve_grpc_opts(&bind, output.grpc_port, options)
         .with_context(|| {
             format!(
@@ -464,6 +463,7 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &cli::OutputArgs) -> anyhow::R
                 output.grpc_port
             )
         })?;
+    hooke::record::send_blueprint(&rec)?;
     let source = format!("rerun+http://localhost:{}/proxy", output.grpc_port);
     rerun::serve_web_viewer(rerun::web_viewer::WebViewerConfig {
         bind_ip: bind.clone(),

@@ -68,45 +68,48 @@ pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
 }
 
 /// The default layout: the 3D view beside one plot per unit, the strain histogram and the
-/// colour legend. Each plot holds a few series with short names, so that its legend (in a
-/// corner, over the plot) stays small.
-pub fn blueprint() -> rerun::blueprint::Blueprint {
+/// colour legend. Returns the layout and the blueprint paths of its plots (the histogram's
+/// included).
+fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
     use rerun::blueprint::components::PanelState;
     use rerun::blueprint::{
-        BarChartView, Blueprint, Horizontal, Spatial3DView, Tabs, TextDocumentView, TimeSeriesView,
-        Vertical,
+        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, Tabs, TextDocumentView,
+        TimeSeriesView, Vertical,
     };
-    let plot = |name: &str, paths: &[&str]| {
-        TimeSeriesView::new(name)
+    let mut plots = Vec::new();
+    let mut plot = |name: &str, p: Plot| {
+        let view: ContainerLike = TimeSeriesView::new(name)
             .with_origin("/")
-            .with_contents(paths.iter().map(|p| format!("+ /{p}")))
+            .with_contents(
+                SERIES
+                    .iter()
+                    .chain(&MORE_SERIES)
+                    .filter(|s| s.plot == p)
+                    .map(|s| format!("+ /{}", s.path)),
+            )
+            .into();
+        if let ContainerLike::View(v) = &view {
+            plots.push(v.blueprint_path());
+        }
+        view
     };
-    let of_plot = |p: Plot| {
-        SERIES
-            .iter()
-            .filter(|s| s.plot == p)
-            .map(|s| s.path)
-            .collect::<Vec<_>>()
-    };
-    Blueprint::new(
+    let energy = plot("energy (J)", Plot::Energy);
+    let strain = plot("strain", Plot::Strain);
+    let millis = plot("time per frame (ms)", Plot::Millis);
+    let counts = plot("counts per frame", Plot::Count);
+    let histogram: ContainerLike = BarChartView::new("strain histogram")
+        .with_origin("/stats/strain_histogram")
+        .into();
+    if let ContainerLike::View(v) = &histogram {
+        plots.push(v.blueprint_path());
+    }
+    let blueprint = Blueprint::new(
         Horizontal::new([
             Spatial3DView::new("world").with_origin("/world").into(),
             Vertical::new([
-                TimeSeriesView::new("energy (J)")
-                    .with_origin("/energy")
-                    .into(),
-                Horizontal::new([
-                    plot("strain", &of_plot(Plot::Strain)).into(),
-                    BarChartView::new("strain histogram")
-                        .with_origin("/stats/strain_histogram")
-                        .into(),
-                ])
-                .into(),
-                Horizontal::new([
-                    plot("time per frame (ms)", &of_plot(Plot::Millis)).into(),
-                    plot("counts per frame", &of_plot(Plot::Count)).into(),
-                ])
-                .into(),
+                energy,
+                Horizontal::new([strain, histogram]).into(),
+                Horizontal::new([millis, counts]).into(),
                 Tabs::new([
                     TextDocumentView::new("legend")
                         .with_origin("/legend")
@@ -126,8 +129,70 @@ pub fn blueprint() -> rerun::blueprint::Blueprint {
     ))
     .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
         PanelState::Collapsed,
-    ))
+    ));
+    (blueprint, plots)
 }
+
+/// Sends the default layout to `rec`, made active at once.
+///
+/// Its plots have no legend inside them: a legend is drawn over the plot, and in plots this
+/// size it hides the data. Each series has a fixed colour instead, named in the `legend`
+/// document, and the viewer names a line when it is hovered. Rerun 0.36's Rust blueprint API
+/// cannot set a view's legend, so the legend properties are logged into the blueprint's own
+/// store beside the layout, as the viewer reads them.
+pub fn send_blueprint(rec: &RecordingStream) -> RResult {
+    use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreKind};
+    use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+    let (blueprint, plots) = layout();
+    let activation = rerun::blueprint::BlueprintActivation {
+        make_active: true,
+        make_default: true,
+    };
+    // The layout's messages, as the SDK makes them, caught in memory.
+    let (mem, layout_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID).memory()?;
+    blueprint.send(&mem, activation)?;
+    let mut msgs: Vec<LogMsg> = layout_msgs
+        .take()
+        .into_iter()
+        .filter(|m| {
+            m.store_id().kind() == StoreKind::Blueprint
+                && !matches!(m, LogMsg::BlueprintActivationCommand(_))
+        })
+        .collect();
+    let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) else {
+        return Ok(());
+    };
+    // The legends, logged into that same blueprint store.
+    let (legends, legend_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
+        .recording_id(blueprint_id.recording_id().clone())
+        .blueprint()
+        .memory()?;
+    legends.set_time_sequence("blueprint", 0);
+    for view in &plots {
+        legends.log(
+            format!("{view}/PlotLegend"),
+            &PlotLegend::new().with_visible(false),
+        )?;
+    }
+    msgs.extend(
+        legend_msgs
+            .take()
+            .into_iter()
+            .filter(|m| matches!(m, LogMsg::ArrowMsg(..))),
+    );
+    rec.send_blueprint(
+        msgs,
+        BlueprintActivationCommand {
+            blueprint_id,
+            make_active: activation.make_active,
+            make_default: activation.make_default,
+        },
+    );
+    Ok(())
+}
+
+/// The application every recording of ours belongs to: the viewer keeps one layout per id.
+pub const APPLICATION_ID: &str = "hooke";
 
 /// Which plot of the default layout a series is drawn in: one per unit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -140,16 +205,40 @@ pub enum Plot {
     Millis,
     /// Counts per frame.
     Count,
+    /// In the recording, in no plot of the default layout (a relative residual: the user adds
+    /// a plot, with a log scale, when they want it).
+    Unplotted,
 }
 
-/// One scalar series: its entity path, its name in the plot's legend, its plot, and when the
-/// recording has it.
+/// One scalar series: its entity path, its name (shown when its line is hovered), its plot,
+/// its colour and that colour's name for the legend, and when the recording has it.
 pub struct Series {
     pub path: &'static str,
     pub name: &'static str,
     pub plot: Plot,
+    pub color: Rgb,
     pub when: When,
 }
+
+/// A series colour and its name in the legend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rgb(pub u8, pub u8, pub u8, pub &'static str);
+
+// Series colours: distinct within each plot on the viewer's dark background.
+const ORANGE: Rgb = Rgb(255, 160, 40, "orange");
+const GREEN: Rgb = Rgb(90, 200, 90, "green");
+const BLUE: Rgb = Rgb(80, 140, 255, "blue");
+const VIOLET: Rgb = Rgb(170, 110, 230, "violet");
+const RED: Rgb = Rgb(230, 60, 60, "red");
+const SALMON: Rgb = Rgb(245, 150, 130, "salmon");
+const PINK: Rgb = Rgb(240, 110, 200, "pink");
+const BROWN: Rgb = Rgb(170, 120, 70, "brown");
+const DARK_RED: Rgb = Rgb(140, 30, 40, "dark red");
+const CYAN: Rgb = Rgb(60, 200, 220, "cyan");
+const WHITE: Rgb = Rgb(235, 235, 235, "white");
+// The yellow of `world/most_strained`, so that the strain plot and the marked spring match.
+const YELLOW: Rgb = Rgb(255, 200, 0, "yellow");
+const GREY: Rgb = Rgb(150, 150, 150, "grey");
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum When {
@@ -161,95 +250,41 @@ pub enum When {
 }
 
 /// Every scalar series, in the order they are logged each frame.
+#[rustfmt::skip]
 pub const SERIES: [Series; 17] = [
-    s("energy/kinetic", "kinetic", Plot::Energy, When::Always),
-    s("energy/elastic", "elastic", Plot::Energy, When::Always),
-    s("energy/gravity", "gravity", Plot::Energy, When::Always),
-    s("energy/contact", "contact", Plot::Energy, When::Always),
-    s(
-        "energy/dissipated",
-        "dissipated",
-        Plot::Energy,
-        When::Always,
-    ),
-    s(
-        "energy/dissipated_damping",
-        "· damping",
-        Plot::Energy,
-        When::Always,
-    ),
-    s(
-        "energy/dissipated_drag",
-        "· drag",
-        Plot::Energy,
-        When::Always,
-    ),
-    s(
-        "energy/dissipated_contact",
-        "· friction",
-        Plot::Energy,
-        When::Always,
-    ),
-    s(
-        "energy/dissipated_plastic",
-        "· plastic",
-        Plot::Energy,
-        When::SpringsChange,
-    ),
-    s(
-        "energy/collider_work",
-        "collider work",
-        Plot::Energy,
-        When::Always,
-    ),
-    s("energy/total", "total", Plot::Energy, When::Always),
-    s("energy/balance", "balance", Plot::Energy, When::Always),
-    s(
-        "stats/max_strain",
-        "max |strain|",
-        Plot::Strain,
-        When::Always,
-    ),
-    s("stats/step_ms", "stepping", Plot::Millis, When::Always),
-    s("stats/record_ms", "recording", Plot::Millis, When::Always),
-    s("stats/substeps", "substeps", Plot::Count, When::Always),
-    s(
-        "stats/projections",
-        "projections",
-        Plot::Count,
-        When::Always,
-    ),
+    s("energy/kinetic", "kinetic", Plot::Energy, ORANGE, When::Always),
+    s("energy/elastic", "elastic", Plot::Energy, GREEN, When::Always),
+    s("energy/gravity", "gravity", Plot::Energy, BLUE, When::Always),
+    s("energy/contact", "contact", Plot::Energy, VIOLET, When::Always),
+    s("energy/dissipated", "dissipated", Plot::Energy, RED, When::Always),
+    s("energy/dissipated_damping", "· damping", Plot::Energy, SALMON, When::Always),
+    s("energy/dissipated_drag", "· drag", Plot::Energy, PINK, When::Always),
+    s("energy/dissipated_contact", "· friction", Plot::Energy, BROWN, When::Always),
+    s("energy/dissipated_plastic", "· plastic", Plot::Energy, DARK_RED, When::SpringsChange),
+    s("energy/collider_work", "collider work", Plot::Energy, CYAN, When::Always),
+    s("energy/total", "total", Plot::Energy, WHITE, When::Always),
+    s("energy/balance", "balance", Plot::Energy, YELLOW, When::Always),
+    s("stats/max_strain", "max |strain|", Plot::Strain, YELLOW, When::Always),
+    s("stats/step_ms", "stepping", Plot::Millis, BLUE, When::Always),
+    s("stats/record_ms", "recording", Plot::Millis, ORANGE, When::Always),
+    s("stats/substeps", "substeps", Plot::Count, WHITE, When::Always),
+    s("stats/projections", "projections", Plot::Count, GREEN, When::Always),
 ];
 
-/// Series beyond [`SERIES`] whose plot holds counts or a residual only on some runs.
+/// Series beyond [`SERIES`] that only some runs have.
+#[rustfmt::skip]
 pub const MORE_SERIES: [Series; 3] = [
-    s(
-        "stats/broken_springs",
-        "broken springs",
-        Plot::Count,
-        When::Tearing,
-    ),
-    s(
-        "stats/cg_iterations",
-        "CG iterations",
-        Plot::Count,
-        When::Implicit,
-    ),
-    // A relative residual has no plot of its own in the default layout: it is in the
-    // recording, for a plot the user adds.
-    s(
-        "stats/cg_residual",
-        "CG residual",
-        Plot::Strain,
-        When::Implicit,
-    ),
+    s("stats/broken_springs", "broken springs", Plot::Count, RED, When::Tearing),
+    s("stats/cg_iterations", "CG iterations", Plot::Count, CYAN, When::Implicit),
+    s("stats/cg_residual", "CG residual", Plot::Unplotted, GREY, When::Implicit),
 ];
 
-const fn s(path: &'static str, name: &'static str, plot: Plot, when: When) -> Series {
+const fn s(path: &'static str, name: &'static str, plot: Plot, color: Rgb, when: When) -> Series {
     Series {
         path,
         name,
         plot,
+        color,
         when,
     }
 }
@@ -421,7 +456,13 @@ impl Recorder {
             if self.has(series.when) {
                 rec.log_static(
                     series.path,
-                    &rerun::SeriesLines::new().with_names([series.name]),
+                    &rerun::SeriesLines::new()
+                        .with_names([series.name])
+                        .with_colors([rerun::Color::from_rgb(
+                            series.color.0,
+                            series.color.1,
+                            series.color.2,
+                        )]),
                 )?;
             }
         }
@@ -534,8 +575,31 @@ impl Recorder {
              most strained spring, lit as the viewer lights a mesh. Hover a spring for its strain, \
              kind and rest length (at the start, for plastic springs). Pins are black; the yellow \
              line marks the most strained spring (`stats/max_strain`). A torn spring is no longer \
-             drawn, and its triangles leave the surface.\n\n{bodies}"
+             drawn, and its triangles leave the surface.\n\n{bodies}\n{}",
+            self.plot_key()
         )
+    }
+
+    /// The colour of each line in each plot: the plots have no legend inside them, which
+    /// would hide their data.
+    fn plot_key(&self) -> String {
+        let plots = [
+            (Plot::Energy, "energy (J)"),
+            (Plot::Strain, "strain"),
+            (Plot::Millis, "time per frame (ms)"),
+            (Plot::Count, "counts per frame"),
+        ];
+        let mut key = String::from("Plot lines (hover a line for its name):\n");
+        for (plot, title) in plots {
+            let lines: Vec<String> = SERIES
+                .iter()
+                .chain(&MORE_SERIES)
+                .filter(|s| s.plot == plot && self.has(s.when))
+                .map(|s| format!("{} **{}**", s.name.trim_start_matches("· "), s.color.3))
+                .collect();
+            key.push_str(&format!("- *{title}*: {}\n", lines.join(", ")));
+        }
+        key
     }
 
     fn log_ground_and_colliders(&self) -> RResult {

@@ -8,15 +8,19 @@ use std::collections::{BTreeMap, BTreeSet, HashSet};
 use std::path::Path;
 use std::sync::Arc;
 
-use common::{hooke, temp_dir};
+use common::{hooke, temp_dir, text};
 
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::model::Model;
-use hooke::record::{RecordOptions, Recorder, SpringSelection, strain_color, surface};
+use hooke::record::{
+    MORE_SERIES, Plot, RecordOptions, Recorder, SERIES, SpringSelection, strain_color, surface,
+};
 use hooke::state::Snapshot;
 use rerun::Loggable as _;
-use rerun::external::arrow::array::{Array as _, ArrayRef, Float32Array, StringArray};
+use rerun::external::arrow::array::{
+    Array as _, ArrayRef, BooleanArray, Float32Array, StringArray, UInt32Array,
+};
 use rerun::log::{Chunk, LogMsg};
 
 /// One logged row of a component: its frame (`None`: static) and its values.
@@ -612,4 +616,92 @@ fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_struct
     let want = strain_at_masses(&model, snap);
     assert_eq!(got, want);
     assert!(got.iter().any(|s| *s < 0.0) && got.iter().any(|s| *s > 0.0));
+}
+
+#[test]
+fn every_plot_hides_its_legend_and_every_series_has_its_own_colour() {
+    let dir = temp_dir("legends");
+    let path = dir.join("run.rrd");
+    let path_s = path.to_string_lossy().into_owned();
+    let out = hooke(&[
+        "run",
+        "cloth",
+        "--frames",
+        "2",
+        "--backend",
+        "cpu",
+        "--integrator",
+        "implicit",
+        "--save",
+        &path_s,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let c = read_components(&path);
+    let strings = |a: &ArrayRef| -> Vec<String> {
+        let a = a
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .unwrap_or_else(|| panic!("not strings: {a:?}"));
+        (0..a.len()).map(|i| a.value(i).to_owned()).collect()
+    };
+    // Every plot of the layout (time series and bar chart) has a hidden legend.
+    let plots: Vec<&String> = c
+        .iter()
+        .filter(|((_, comp), _)| comp.ends_with("class_identifier"))
+        .filter(|(_, rows)| {
+            rows.iter().any(|(_, a)| {
+                strings(a)
+                    .iter()
+                    .any(|s| s == "TimeSeries" || s == "BarChart")
+            })
+        })
+        .map(|((e, _), _)| e)
+        .collect();
+    assert_eq!(plots.len(), 5, "4 time-series plots and the histogram");
+    for view in plots {
+        let legend = format!("{view}/PlotLegend");
+        let rows = c
+            .iter()
+            .find(|((e, comp), _)| *e == legend && comp.ends_with("visible"))
+            .map(|(_, rows)| rows)
+            .unwrap_or_else(|| panic!("{legend} has no visibility"));
+        let (_, a) = &rows[0];
+        let b = a
+            .as_any()
+            .downcast_ref::<BooleanArray>()
+            .unwrap_or_else(|| panic!("not a bool: {a:?}"));
+        assert!(!b.value(0), "{legend} is shown");
+    }
+    // Within each plot, the series the run logs have distinct colours, so that they read
+    // without a legend; the legend document names them.
+    for plot in [Plot::Energy, Plot::Strain, Plot::Millis, Plot::Count] {
+        let mut colours = BTreeSet::new();
+        for s in SERIES.iter().chain(&MORE_SERIES).filter(|s| s.plot == plot) {
+            let Some((_, rows)) = c.iter().find(|((e, comp), _)| {
+                e.trim_start_matches('/') == s.path && comp.ends_with("colors")
+            }) else {
+                continue;
+            };
+            let a = rows[0]
+                .1
+                .as_any()
+                .downcast_ref::<UInt32Array>()
+                .unwrap_or_else(|| panic!("{}: colours not u32", s.path));
+            assert!(colours.insert(a.value(0)), "{} shares a colour", s.path);
+        }
+        assert!(!colours.is_empty(), "{plot:?} has no series");
+    }
+    let legend = c
+        .iter()
+        .find(|((e, comp), _)| e == "/legend" && comp.ends_with("text"))
+        .map(|(_, rows)| strings(&rows[0].1).concat())
+        .unwrap_or_default();
+    for s in [
+        "CG iterations **cyan**",
+        "kinetic **orange**",
+        "stepping **blue**",
+    ] {
+        assert!(legend.contains(s), "legend lacks {s:?}: {legend}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
 }

@@ -8,11 +8,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::backend::{self, BackendError, BackendKind};
+use crate::backend::{self, BackendError};
 use crate::error::{Error, Result};
 use crate::integrator::Integrator;
 use crate::model::{self, Model};
 use crate::reference::Reference;
+use crate::select::{self, BackendKind};
 use crate::settings::{Overrides, Settings};
 
 #[derive(Debug, Clone)]
@@ -109,7 +110,7 @@ fn run(
     dt: f64,
     steps: u64,
 ) -> std::result::Result<(RunEnd, String), BackendError> {
-    let mut be = backend::create(kind, model.clone(), integrator, dt, adapter)?;
+    let mut be = select::create(kind, model.clone(), integrator, dt, adapter)?;
     let name = be.describe();
     let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
     let start = Instant::now();

@@ -5,10 +5,11 @@
 
 use std::sync::Arc;
 
-use crate::backend::{self, BackendKind};
+use crate::backend;
 use crate::error::Result;
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::select::{self, BackendKind};
 use crate::settings::Settings;
 use crate::stability::stable_dts;
 
@@ -60,7 +61,7 @@ fn positions_after(
     dt: f64,
     steps: u64,
 ) -> Result<Vec<glam::Vec3>> {
-    let mut be = backend::create(kind, model.clone(), integrator, dt, adapter)?;
+    let mut be = select::create(kind, model.clone(), integrator, dt, adapter)?;
     backend::advance_steps(be.as_mut(), steps, 1000)?;
     Ok(be.state()?.x)
 }

@@ -4,11 +4,12 @@ use std::fmt::Write as _;
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::backend::{self, BackendKind};
+use crate::backend;
 use crate::error::Result;
 use crate::integrator::Integrator;
 use crate::model;
 use crate::scene;
+use crate::select::{self, BackendKind};
 use crate::settings::{Overrides, Settings};
 
 #[derive(Debug, Clone)]
@@ -62,7 +63,7 @@ fn throughput_of(scene: &scene::Scene, opts: &ThroughputOptions) -> Result<Throu
         },
     )?;
     let model = Arc::new(model::build(scene));
-    let mut be = backend::create(
+    let mut be = select::create(
         opts.backend,
         model.clone(),
         settings.integrator,
@@ -341,7 +342,7 @@ pub fn soak(
         },
     )?;
     let model = Arc::new(model::build(&loaded.scene));
-    let be = backend::create(
+    let be = select::create(
         backend_kind,
         model.clone(),
         settings.integrator,

@@ -2,8 +2,8 @@
 
 use clap::{Args, Parser, Subcommand};
 
-use hooke::backend::BackendKind;
 use hooke::integrator::Integrator;
+use hooke::select::BackendKind;
 use hooke::settings::Overrides;
 
 #[derive(Debug, Parser)]

@@ -106,10 +106,10 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 settings.frames + 1
             );
             match backend {
-                hooke::backend::BackendKind::Cpu => {
+                hooke::select::BackendKind::Cpu => {
                     println!("backend: cpu ({} threads)", rayon::current_num_threads())
                 }
-                hooke::backend::BackendKind::Gpu => {
+                hooke::select::BackendKind::Gpu => {
                     match hooke::gpu::adapter_report(
                         adapter.as_deref(),
                         &model,
@@ -255,7 +255,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
 fn prepare(
     scene_arg: &str,
     solver: &cli::SolverArgs,
-    kind: hooke::backend::BackendKind,
+    kind: hooke::select::BackendKind,
     adapter: Option<&str>,
     say: impl Fn(&str),
 ) -> anyhow::Result<(scene::LoadedScene, Settings, Arc<hooke::model::Model>)> {
@@ -515,7 +515,7 @@ fn percent_encode(s: &str) -> String {
 fn run(
     scene_arg: &str,
     solver: &cli::SolverArgs,
-    (kind, adapter): (hooke::backend::BackendKind, Option<String>),
+    (kind, adapter): (hooke::select::BackendKind, Option<String>),
     (rerun_args, output): (&rerun::clap::RerunArgs, &cli::OutputArgs),
     recording: &cli::RecordingArgs,
     m: &clap::ArgMatches,
@@ -528,7 +528,7 @@ fn run(
         eprintln!("warning: {w}");
     }
     // The backend first: a missing GPU or a scene beyond its limits fails before any file exists.
-    let backend = hooke::backend::create(
+    let backend = hooke::select::create(
         kind,
         model.clone(),
         settings.integrator,

@@ -637,7 +637,7 @@ fn auto_dt_meets_the_requested_accuracy() {
         let auto = hooke::auto_dt::choose(
             &model,
             &settings,
-            hooke::backend::BackendKind::Cpu,
+            hooke::select::BackendKind::Cpu,
             None,
             tolerance,
         )

@@ -1,7 +1,7 @@
 //! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
 //! [`super::from_toml`] adds the file position.
 
-use super::{Body, Keyframe, Scene, SelfCollision, SpringKind};
+use super::format::{Body, Keyframe, Scene, SelfCollision, SpringKind};
 use crate::integrator::Integrator;
 
 type Check = Result<(), (String, String)>;
@@ -96,7 +96,7 @@ fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Chec
     non_negative(&format!("{field}.friction"), f64::from(friction))?;
     let r = f64::from(restitution);
     finite(&format!("{field}.restitution"), r)?;
-    let least = crate::model::MIN_RESTITUTION;
+    let least = crate::contact_law::MIN_RESTITUTION;
     if !(f64::from(least)..=1.0).contains(&r) {
         return fail(
             format!("{field}.restitution"),
@@ -437,17 +437,20 @@ fn geometry(f: &str, b: &Body) -> Check {
     let ulp = far * F32_EPSILON;
     let kinds = [
         (
-            crate::model::SpringKindTag::Structural,
+            crate::spring_kind::SpringKindTag::Structural,
             b.springs.structural,
         ),
-        (crate::model::SpringKindTag::Shear, b.springs.shear),
-        (crate::model::SpringKindTag::Bending, b.springs.bending),
+        (crate::spring_kind::SpringKindTag::Shear, b.springs.shear),
+        (
+            crate::spring_kind::SpringKindTag::Bending,
+            b.springs.bending,
+        ),
     ];
     for (tag, params) in kinds {
         if params.is_none() {
             continue;
         }
-        for off in crate::model::kind_offsets(tag) {
+        for off in crate::spring_kind::kind_offsets(tag) {
             if off.iter().enumerate().any(|(a, &o)| {
                 o != 0 && (a >= dim || u32::try_from(o.abs()).is_ok_and(|o| o >= b.grid[a]))
             }) {

@@ -14,7 +14,7 @@ use crate::integrator::Integrator;
 use crate::model::{self, Model};
 use crate::reference::Reference;
 use crate::select::{self, BackendKind};
-use crate::settings::{Overrides, Settings};
+use crate::settings::{Overrides, Settings, SettingsError};
 
 #[derive(Debug, Clone)]
 pub struct AccuracyOptions {
@@ -212,9 +212,9 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
     let model = Arc::new(model::build(&loaded.scene));
     let duration = opts.duration_secs;
     if !(duration.is_finite() && duration > 0.0) {
-        return Err(Error::Settings(format!(
+        return Err(Error::Settings(SettingsError(format!(
             "--duration must be a positive number of seconds, got {duration}"
-        )));
+        ))));
     }
     let ladder: Vec<f64> = (0..opts.points.max(2))
         .map(|k| {
@@ -563,8 +563,9 @@ pub fn svg(r: &Accuracy) -> String {
 }
 
 fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
-    let io =
-        |e: std::io::Error, p: &Path| Error::Settings(format!("cannot write {}: {e}", p.display()));
+    let io = |e: std::io::Error, p: &Path| {
+        Error::Settings(SettingsError(format!("cannot write {}: {e}", p.display())))
+    };
     std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
     for (ext, text) in [("md", markdown(r)), ("csv", csv(r)), ("svg", svg(r))] {
         let p = dir.join(format!("accuracy-{}.{ext}", r.scene));
@@ -578,8 +579,8 @@ fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
 fn record(r: &Accuracy, path: &Path) -> Result<()> {
     let rec = rerun::RecordingStreamBuilder::new("hooke-accuracy")
         .save(path)
-        .map_err(|e| Error::Rerun(format!("creating {}: {e}", path.display())))?;
-    let err = |e: rerun::RecordingStreamError| Error::Rerun(e.to_string());
+        .map_err(|e| Error::rerun_while(format!("creating {}", path.display()), e))?;
+    let err = |e: rerun::RecordingStreamError| Error::Rerun(e.into());
     for integrator in Integrator::ALL {
         for (k, row) in r
             .rows
@@ -617,7 +618,6 @@ fn record(r: &Accuracy, path: &Path) -> Result<()> {
         &rerun::TextDocument::from_markdown(markdown(r)),
     )
     .map_err(err)?;
-    rec.flush_blocking()
-        .map_err(|e| Error::Rerun(e.to_string()))?;
+    rec.flush_blocking().map_err(|e| Error::Rerun(e.into()))?;
     Ok(())
 }

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::backend;
-use crate::error::Result;
+use crate::error::{RerunError, Result};
 use crate::integrator::Integrator;
 use crate::model;
 use crate::scene;
@@ -352,7 +352,7 @@ pub fn soak(
     let name = be.describe();
     let rec = rerun::RecordingStreamBuilder::new("hooke-soak")
         .buffered()
-        .map_err(|e| crate::Error::Rerun(format!("starting the recording: {e}")))?;
+        .map_err(|e| crate::Error::rerun_while("starting the recording", e))?;
     let (sink, file) = crate::rrd_file::create(rrd, footer)?;
     rec.set_sink(Box::new(sink));
     let done = Arc::new(AtomicBool::new(false));
@@ -564,7 +564,6 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
     )?;
     let model = Arc::new(model::build(&loaded.scene));
     let frames = bench_frames(&model, settings.frame_rate_hz, BENCH_DISTINCT_FRAMES);
-    let rerun_err = |e: &dyn std::fmt::Display| crate::Error::Rerun(e.to_string());
     let new_recorder = |rec: &rerun::RecordingStream| -> Result<crate::record::Recorder> {
         let mut r = crate::record::Recorder::new(
             rec.clone(),
@@ -578,7 +577,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
             &settings,
             "bench (no stepping)",
         )
-        .map_err(|e| rerun_err(&e))?;
+        .map_err(RerunError::from)?;
         Ok(r)
     };
     let run_frames = |r: &mut crate::record::Recorder, n: u64| -> Result<()> {
@@ -586,7 +585,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
             let mut snap = frames[(k % frames.len() as u64) as usize].clone();
             snap.frame = k;
             snap.time_secs = k as f64 / settings.frame_rate_hz;
-            r.log_snapshot(&snap).map_err(|e| rerun_err(&e))?;
+            r.log_snapshot(&snap).map_err(RerunError::from)?;
         }
         Ok(())
     };
@@ -594,12 +593,12 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
     let mut passes = Vec::new();
 
     // Into a sink that discards: the recorder and Rerun's batcher only.
-    let rec = builder().buffered().map_err(|e| rerun_err(&e))?;
+    let rec = builder().buffered().map_err(RerunError::from)?;
     rec.set_sink(Box::new(Discard));
     let mut r = new_recorder(&rec)?;
     let start = Instant::now();
     run_frames(&mut r, opts.frames)?;
-    rec.flush_blocking().map_err(|e| rerun_err(&e))?;
+    rec.flush_blocking().map_err(RerunError::from)?;
     passes.push(RecordPass {
         sink: "discard",
         frames: opts.frames,
@@ -609,13 +608,13 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
     drop((r, rec));
 
     // Into an .rrd file: encoding, compression and writing too.
-    let rec = builder().buffered().map_err(|e| rerun_err(&e))?;
+    let rec = builder().buffered().map_err(RerunError::from)?;
     let (sink, file) = crate::rrd_file::create(&opts.save, true)?;
     rec.set_sink(Box::new(sink));
     let mut r = new_recorder(&rec)?;
     let start = Instant::now();
     run_frames(&mut r, opts.frames)?;
-    rec.flush_blocking().map_err(|e| rerun_err(&e))?;
+    rec.flush_blocking().map_err(RerunError::from)?;
     file.finish().map_err(crate::Error::WriteRecording)?;
     passes.push(RecordPass {
         sink: "file",
@@ -626,16 +625,19 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
     drop((r, rec));
     let file_bytes = std::fs::metadata(&opts.save)
         .map(|m| m.len())
-        .map_err(|e| crate::Error::Rerun(format!("{}: {e}", opts.save.display())))?;
+        .map_err(|source| crate::Error::ReadRecording {
+            path: opts.save.clone(),
+            source,
+        })?;
 
     // Into memory, to weigh each entity.
-    let (rec, storage) = builder().memory().map_err(|e| rerun_err(&e))?;
+    let (rec, storage) = builder().memory().map_err(RerunError::from)?;
     let mut r = new_recorder(&rec)?;
-    rec.flush_blocking().map_err(|e| rerun_err(&e))?;
+    rec.flush_blocking().map_err(RerunError::from)?;
     let static_bytes: u64 = arrow_bytes_by_entity(storage.take()).values().sum();
     let n = BENCH_ENTITY_FRAMES.min(opts.frames);
     run_frames(&mut r, n)?;
-    rec.flush_blocking().map_err(|e| rerun_err(&e))?;
+    rec.flush_blocking().map_err(RerunError::from)?;
     let mut entity_bytes_per_frame: Vec<(String, f64)> = arrow_bytes_by_entity(storage.take())
         .into_iter()
         .map(|(e, b)| (e, b as f64 / n as f64))

@@ -405,8 +405,7 @@ fn open_sink(
             }
         }
     };
-    let (link, viewer_sink) =
-        hooke::viewer::ViewerLink::connect(&url, save.is_some()).map_err(anyhow::Error::msg)?;
+    let (link, viewer_sink) = hooke::viewer::ViewerLink::connect(&url, save.is_some())?;
     let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = vec![viewer_sink];
     let mut file = None;
     if let Some(path) = &save {

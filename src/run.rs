@@ -73,7 +73,7 @@ pub fn run(
     );
     recorder
         .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
-        .map_err(|e| Error::Rerun(e.to_string()))?;
+        .map_err(|e| Error::Rerun(e.into()))?;
 
     let start = std::time::Instant::now();
     let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
@@ -129,7 +129,7 @@ pub fn run(
                 };
                 for snap in rx.iter() {
                     if let Err(e) = recorder.log_snapshot(&snap) {
-                        return (recorded, stop_simulation(Error::RecorderGone(e.to_string())));
+                        return (recorded, stop_simulation(Error::RecorderGone(e)));
                     }
                     // The flag first: the writer's lock may be held by a long write.
                     let failed = opts.file.as_ref().filter(|f| f.failed());
@@ -169,16 +169,16 @@ pub fn run(
             (Ok(s), Ok(r)) => {
                 let outcome = s
                     .join()
-                    .map_err(|_| "the simulation thread panicked".to_owned());
+                    .map_err(|p| Error::panicked(p.as_ref(), Error::SimulationPanicked));
                 let rec_out = r
                     .join()
-                    .map_err(|_| "the recorder thread panicked".to_owned());
+                    .map_err(|p| Error::panicked(p.as_ref(), Error::RecorderPanicked));
                 match (outcome, rec_out) {
                     (Ok(o), Ok((n, err))) => (Ok(o), n, err),
                     (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
                 }
             }
-            (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
+            (Err(e), _) | (_, Err(e)) => (Err(Error::SpawnThread(e)), 0, None),
         }
     });
     progress.finish();
@@ -193,13 +193,8 @@ pub fn run(
         // A failed write explains a failed flush better than the flush does.
         file.finish().map_err(Error::WriteRecording)?;
     }
-    flushed.map_err(|e| {
-        Error::Rerun(format!(
-            "flushing the recording failed: {e}. If streaming, is a Rerun viewer listening there? \
-             Start one with `rerun`, or record to a file with --save FILE"
-        ))
-    })?;
-    let outcome = outcome.map_err(Error::Rerun)?;
+    flushed.map_err(Error::FlushRun)?;
+    let outcome = outcome?;
     if let Some(e) = recorder_error {
         return Err(e);
     }
@@ -215,4 +210,78 @@ pub fn run(
         wall_secs: start.elapsed().as_secs_f64(),
         cancelled: outcome.cancelled,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::BackendError;
+    use crate::settings::Overrides;
+    use crate::state::{Snapshot, State, StepStats};
+
+    /// A backend with a bug: it panics on its first step.
+    struct PanicsWhenStepped;
+
+    impl Backend for PanicsWhenStepped {
+        fn describe(&self) -> String {
+            "a backend that panics".to_owned()
+        }
+        fn advance(&mut self, _substeps: u32) -> Result<StepStats, BackendError> {
+            let doing = "stepping";
+            panic!("the test backend panicked while {doing}");
+        }
+        fn request_snapshot(&mut self, _frame: u64, _stats: StepStats) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+            Ok(None)
+        }
+        fn state(&mut self) -> Result<State, BackendError> {
+            Err(BackendError::Device("no state".to_owned()))
+        }
+    }
+
+    #[test]
+    fn a_panicking_simulation_thread_is_reported_as_one_with_its_message() {
+        let loaded = crate::scene::load("hair").expect("the built-in hair scene loads");
+        let model = Arc::new(crate::model::build(&loaded.scene));
+        let overrides = Overrides {
+            frames: Some(2),
+            substeps: Some(3),
+            ..Overrides::default()
+        };
+        let settings = Settings::resolve(&loaded.scene, &overrides).expect("settings resolve");
+        let (rec, _storage) = rerun::RecordingStreamBuilder::new("hooke-test")
+            .memory()
+            .expect("an in-memory recording");
+        let opts = RunOptions {
+            delivery: Delivery::Lossless,
+            progress: ProgressMode::Off,
+            realtime: false,
+            record: RecordOptions::default(),
+            viewer: None,
+            file: None,
+        };
+        let cancel = Arc::new(AtomicBool::new(false));
+        let result = run(
+            &loaded,
+            model,
+            Box::new(PanicsWhenStepped),
+            &settings,
+            rec,
+            &opts,
+            cancel,
+        );
+        let Err(e) = result else {
+            panic!("a run whose backend panics must fail");
+        };
+        assert!(
+            matches!(&e, Error::SimulationPanicked(Some(m)) if m == "the test backend panicked while stepping"),
+            "{e:?}"
+        );
+        assert_eq!(
+            e.to_string(),
+            "the simulation thread panicked: the test backend panicked while stepping"
+        );
+    }
 }

@@ -15,6 +15,7 @@ pub mod gpu;
 pub mod integrator;
 pub mod model;
 pub mod pacing;
+pub mod prepare;
 pub mod progress;
 pub mod record;
 pub mod recording_size;

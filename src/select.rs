@@ -26,6 +26,14 @@ pub struct Device {
 }
 
 impl Device {
+    /// The CPU reference (which has no adapter).
+    pub fn cpu() -> Self {
+        Self {
+            kind: BackendKind::Cpu,
+            adapter: None,
+        }
+    }
+
     /// A backend of this kind stepping `model` by `dt_secs` with `integrator`.
     pub fn create(
         &self,

@@ -8,9 +8,10 @@
 use std::sync::Arc;
 
 use glam::Vec3;
-use hooke::backend::{Backend, BackendKind};
+use hooke::backend::Backend;
 use hooke::integrator::Integrator;
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
+use hooke::select::BackendKind;
 
 fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
     r.unwrap_or_else(|e| panic!("{e}"))
@@ -65,7 +66,7 @@ fn survive(
         frames,
         substeps,
     } = stepping;
-    let mut be: Box<dyn Backend> = ok(hooke::backend::create(
+    let mut be: Box<dyn Backend> = ok(hooke::select::create(
         kind,
         model.clone(),
         integrator,
@@ -412,7 +413,7 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
         "dt {dt} should be far past the explicit limit {explicit_limit}"
     );
     for kind in backends() {
-        let mut be = ok(hooke::backend::create(
+        let mut be = ok(hooke::select::create(
             kind,
             model.clone(),
             Integrator::Implicit,

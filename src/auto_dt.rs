@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::backend;
 use crate::error::Result;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 use crate::select::Device;
 use crate::settings::Settings;
@@ -56,11 +56,11 @@ impl std::fmt::Display for AutoDt {
 fn positions_after(
     model: &Arc<Model>,
     device: &Device,
-    integrator: Integrator,
+    (integrator, options): (Integrator, StepOptions),
     dt: f64,
     steps: u64,
 ) -> Result<Vec<glam::Vec3>> {
-    let mut be = device.create(model.clone(), integrator, dt)?;
+    let mut be = device.create(model.clone(), integrator, dt, options)?;
     backend::advance_steps(be.as_mut(), steps, 1000)?;
     Ok(be.state()?.x)
 }
@@ -82,7 +82,7 @@ pub fn choose(
         .filter(|l| l.is_finite())
         .map(|l| 0.5 * l);
     // A scheme with no stable step at all (forward Euler undamped) still gets a small one.
-    let cap = if integrator == Integrator::Implicit {
+    let cap = if matches!(integrator, Integrator::Implicit | Integrator::Xpbd) {
         None
     } else {
         Some(cap.unwrap_or(frame / 1000.0))
@@ -96,8 +96,9 @@ pub fn choose(
     for _ in 0..6 {
         let dt = frame / f64::from(substeps);
         let steps = (probe / dt).round().max(1.0) as u64;
-        let coarse = positions_after(model, device, integrator, dt, steps)?;
-        let fine = positions_after(model, device, integrator, dt / 2.0, 2 * steps)?;
+        let scheme = (integrator, settings.options);
+        let coarse = positions_after(model, device, scheme, dt, steps)?;
+        let fine = positions_after(model, device, scheme, dt / 2.0, 2 * steps)?;
         let sq: f64 = coarse
             .iter()
             .zip(&fine)

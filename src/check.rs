@@ -199,6 +199,13 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                     (1.0 / (settings.frame_rate_hz * dt)).ceil()
                 );
             }
+            Some(_) if i == crate::integrator::Integrator::Xpbd => {
+                let _ = writeln!(
+                    s,
+                    "    {:<14} any for one spring in theory (a projection is a backward-Euler step of it); coupled springs at large substeps stay stretched, and their energy swings: `hooke bench accuracy` measures it{mark}",
+                    i.name()
+                );
+            }
             Some(_) if i == crate::integrator::Integrator::Implicit => {
                 let _ = writeln!(
                     s,

@@ -1,4 +1,4 @@
-//! The explicit integrators, what they cost, and how large a step each survives.
+//! The integrators, what they cost, and how large a step each survives.
 
 use serde::{Deserialize, Serialize};
 
@@ -22,16 +22,40 @@ pub enum Integrator {
     /// Backward (implicit) Euler, solved by preconditioned conjugate gradients: first order,
     /// stable at any dt (it damps), for stiff scenes and large steps.
     Implicit,
+    /// Extended position-based dynamics: springs as compliant constraints (α = 1/k), projected
+    /// by graph-coloured Gauss–Seidel, in many substeps of one iteration each ("small steps"):
+    /// first order, stable at any dt on a spring, softer than the springs when substeps are
+    /// large (see src/cpu/xpbd.rs).
+    Xpbd,
 }
 
+/// What an integrator needs beyond its name and step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepOptions {
+    /// XPBD's constraint iterations per substep (≥ 1; the others ignore it).
+    pub xpbd_iterations: u32,
+}
+
+impl Default for StepOptions {
+    fn default() -> Self {
+        Self {
+            xpbd_iterations: DEFAULT_XPBD_ITERATIONS,
+        }
+    }
+}
+
+/// "Small Steps": one iteration per substep, and more substeps where accuracy is wanted.
+pub const DEFAULT_XPBD_ITERATIONS: u32 = 1;
+
 impl Integrator {
-    pub const ALL: [Integrator; 6] = [
+    pub const ALL: [Integrator; 7] = [
         Integrator::Euler,
         Integrator::SemiImplicit,
         Integrator::Rk2,
         Integrator::Rk4,
         Integrator::Verlet,
         Integrator::Implicit,
+        Integrator::Xpbd,
     ];
 
     /// The explicit schemes, which both backends run.
@@ -52,13 +76,17 @@ impl Integrator {
             Integrator::Rk4 => "rk4",
             Integrator::Verlet => "verlet",
             Integrator::Implicit => "implicit",
+            Integrator::Xpbd => "xpbd",
         }
     }
 
     /// Global order of accuracy: halving dt divides the error by `2^order`.
     pub fn order(self) -> u32 {
         match self {
-            Integrator::Euler | Integrator::SemiImplicit | Integrator::Implicit => 1,
+            Integrator::Euler
+            | Integrator::SemiImplicit
+            | Integrator::Implicit
+            | Integrator::Xpbd => 1,
             Integrator::Rk2 | Integrator::Verlet => 2,
             Integrator::Rk4 => 4,
         }
@@ -100,6 +128,15 @@ impl Integrator {
                     / (1.0 + 2.0 * zeta * omega * dt + omega * omega * dt * dt);
                 (x + dt * v1, v1)
             }
+            Integrator::Xpbd => {
+                // Unit mass on a spring k = ω² with dashpot c = 2ζω: predict dx = h v, then one
+                // projection (src/cpu/xpbd.rs) with α̃ = 1 / (k h²) and γ = c / (k h).
+                let alpha = 1.0 / (omega * omega * dt * dt);
+                let gamma = 2.0 * zeta / (omega * dt);
+                let dx = dt * v;
+                let dl = (-(x + dx) - gamma * dx) / (1.0 + gamma + alpha);
+                (x + dx + dl, (dx + dl) / dt)
+            }
             Integrator::Verlet => {
                 let a0 = acc(x, v);
                 let x1 = x + dt * v + 0.5 * dt * dt * a0;
@@ -132,8 +169,9 @@ impl Integrator {
         if omega <= 0.0 {
             return Some(f64::INFINITY);
         }
-        if self == Integrator::Implicit {
-            // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane.
+        if matches!(self, Integrator::Implicit | Integrator::Xpbd) {
+            // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane. One XPBD
+            // projection of a spring is a backward-Euler step of it (the tests check both).
             return Some(f64::INFINITY);
         }
         let stable = |dt: f64| self.amplification(omega, zeta, dt) <= 1.0 + 1e-12;
@@ -186,6 +224,10 @@ mod tests {
             Integrator::Implicit.amplification(w, 0.0, 100.0) < 1.0,
             "backward Euler must damp at any dt"
         );
+        for dt in [1e-3, 0.1, 1.0, 100.0] {
+            let r = Integrator::Xpbd.amplification(w, 0.0, dt);
+            assert!(r <= 1.0 + 1e-12, "xpbd grows by {r} at ωdt = {}", w * dt);
+        }
         let rk4 = Integrator::Rk4.stable_dt(w, 0.0).unwrap_or(0.0);
         assert!(
             (rk4 * w - 8f64.sqrt()).abs() < 1e-6,

@@ -30,6 +30,5 @@ pub mod spring_kind;
 pub mod stability;
 pub mod state;
 pub mod viewer;
-pub mod xpbd;
 
 pub use error::{Error, Result};

@@ -135,7 +135,12 @@ pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepare
     }
     let backend = request
         .device
-        .create(model.clone(), settings.integrator, settings.dt_secs)?;
+        .create(
+            model.clone(),
+            settings.integrator,
+            settings.dt_secs,
+            settings.options,
+        )?;
     Ok(Prepared {
         loaded,
         settings,

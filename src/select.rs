@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use crate::backend::{Backend, BackendError};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 
 /// Which backend steps the simulation.
@@ -40,12 +40,12 @@ impl Device {
         model: Arc<Model>,
         integrator: Integrator,
         dt_secs: f64,
+        options: StepOptions,
     ) -> Result<Box<dyn Backend>, BackendError> {
-        create(
+        create_with(
             self.kind,
             model,
-            integrator,
-            dt_secs,
+            (integrator, dt_secs, options),
             self.adapter.as_deref(),
         )
     }
@@ -60,8 +60,25 @@ pub fn create(
     dt_secs: f64,
     adapter: Option<&str>,
 ) -> Result<Box<dyn Backend>, BackendError> {
+    create_with(
+        kind,
+        model,
+        (integrator, dt_secs, StepOptions::default()),
+        adapter,
+    )
+}
+
+/// [`create`] with the integrator's options.
+pub fn create_with(
+    kind: BackendKind,
+    model: Arc<Model>,
+    (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+    adapter: Option<&str>,
+) -> Result<Box<dyn Backend>, BackendError> {
     Ok(match kind {
-        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
+        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::with_options(
+            model, integrator, dt_secs, options,
+        )),
         BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(
             model, integrator, dt_secs, adapter,
         )?),

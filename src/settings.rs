@@ -1,6 +1,6 @@
 //! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
 
-use crate::integrator::Integrator;
+use crate::integrator::{DEFAULT_XPBD_ITERATIONS, Integrator, StepOptions};
 use crate::scene::Scene;
 
 /// A value the run cannot use, and what would fix it.
@@ -18,6 +18,7 @@ pub struct Overrides {
     pub substeps: Option<u32>,
     pub frames: Option<u64>,
     pub duration_secs: Option<f64>,
+    pub xpbd_iterations: Option<u32>,
 }
 
 /// How a run steps: `frames` frames of `substeps` steps of `dt_secs`.
@@ -28,6 +29,8 @@ pub struct Settings {
     pub substeps: u32,
     pub dt_secs: f64,
     pub frames: u64,
+    /// What the integrator needs beyond its name and step.
+    pub options: StepOptions,
     /// Things the user should know about how their values were applied.
     pub notes: Vec<String>,
 }
@@ -53,6 +56,11 @@ impl Settings {
                 "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
                  use semi-implicit, verlet or rk4"
                     .into(),
+            ));
+        }
+        if o.xpbd_iterations == Some(0) {
+            return Err(SettingsError(
+                "--xpbd-iterations must be at least 1 (each substep projects every spring that many times)".into(),
             ));
         }
         if o.substeps == Some(0) {
@@ -109,6 +117,12 @@ impl Settings {
             substeps,
             dt_secs: frame_secs / f64::from(substeps),
             frames,
+            options: StepOptions {
+                xpbd_iterations: o
+                    .xpbd_iterations
+                    .or(s.xpbd_iterations)
+                    .unwrap_or(DEFAULT_XPBD_ITERATIONS),
+            },
             notes,
         })
     }

@@ -222,6 +222,10 @@ pub struct SolverArgs {
     /// Simulated time in seconds.
     #[arg(long, allow_negative_numbers = true)]
     pub duration: Option<f64>,
+    /// With --integrator xpbd: constraint iterations per substep (default 1: many substeps of
+    /// one iteration each are cheaper for the same accuracy).
+    #[arg(long, allow_negative_numbers = true)]
+    pub xpbd_iterations: Option<u32>,
 }
 
 /// `--dt`: seconds, or `auto`.
@@ -275,6 +279,7 @@ impl SolverArgs {
             substeps: self.substeps,
             frames: self.frames,
             duration_secs: self.duration,
+            xpbd_iterations: self.xpbd_iterations,
         }
     }
 }

@@ -12,9 +12,10 @@ use super::law::{contact_force, spring_force};
 use crate::model::{Model, Pose, Spring, poses_at};
 use crate::state::Power;
 
-/// Force on mass `i` and its contributions to the ledger's rates.
+/// Force on mass `i` and its contributions to the ledger's rates; without the springs' when
+/// `SPRINGS` is false (XPBD projects them as constraints instead).
 #[inline(always)]
-fn force_on_mass(
+fn force_on_mass<const SPRINGS: bool>(
     model: &Model,
     gather: &Gather,
     poses: &[Pose],
@@ -29,7 +30,12 @@ fn force_on_mass(
     let mut f = Vec3::ZERO;
     let mut damping_w = 0.0f32;
     let tearing = model.effects.tearing;
-    for e in &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize] {
+    let entries = if SPRINGS {
+        &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize]
+    } else {
+        &[]
+    };
+    for e in entries {
         // A broken spring exerts nothing; skipping it saves reading the other end.
         if tearing && e.spring.is_broken() {
             continue;
@@ -156,12 +162,39 @@ pub fn compute_forces(
     dt: f32,
     acc: &mut [Vec3],
 ) -> Power {
+    forces::<true>(model, gather, x, v, t, dt, acc)
+}
+
+/// [`compute_forces`] less the springs: what XPBD integrates before it projects them. The GPU
+/// runs `compute_forces` compiled with `XPBD` for it.
+pub fn compute_external_forces(
+    model: &Model,
+    gather: &mut Gather,
+    x: &[Vec3],
+    v: &[Vec3],
+    t: f64,
+    dt: f32,
+    acc: &mut [Vec3],
+) -> Power {
+    forces::<false>(model, gather, x, v, t, dt, acc)
+}
+
+fn forces<const SPRINGS: bool>(
+    model: &Model,
+    gather: &mut Gather,
+    x: &[Vec3],
+    v: &[Vec3],
+    t: f64,
+    dt: f32,
+    acc: &mut [Vec3],
+) -> Power {
     let poses = poses_at(&model.effects.colliders, t);
     let springs = &*gather;
     let chunk_sum = |(ci, out): (usize, &mut [Vec3])| -> [f64; 4] {
         let mut sum = [0.0f64; 4];
         for (k, a) in out.iter_mut().enumerate() {
-            let (ai, p) = force_on_mass(model, springs, &poses, x, v, ci * CHUNK + k, dt);
+            let (ai, p) =
+                force_on_mass::<SPRINGS>(model, springs, &poses, x, v, ci * CHUNK + k, dt);
             *a = ai;
             for (s, q) in sum.iter_mut().zip(p) {
                 *s += f64::from(q);

@@ -5,10 +5,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use super::forces::{Gather, compute_forces};
+use super::forces::{Gather, compute_external_forces, compute_forces};
 use super::implicit::{ImplicitWork, SolveStats, implicit_step};
 use super::springs::update_springs;
-use crate::integrator::Integrator;
+use super::xpbd::XpbdWork;
+use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 use crate::state::{Power, State};
 
@@ -27,15 +28,22 @@ pub struct Scratch {
     limits: Vec<crate::model::SpringLimits>,
     /// Only for the implicit integrator.
     implicit: Option<ImplicitWork>,
+    /// Only for XPBD.
+    xpbd: Option<XpbdWork>,
+    options: StepOptions,
+    dt_secs: f64,
 }
 
 impl Scratch {
-    pub fn new(model: &Model, dt_secs: f64) -> Self {
+    pub fn new(model: &Model, dt_secs: f64, options: StepOptions) -> Self {
         let n = model.mass_count();
         Self {
             gather: Gather::new(model),
             limits: model.spring_limits(dt_secs),
             implicit: None,
+            xpbd: None,
+            options,
+            dt_secs,
             acc: vec![Vec3::ZERO; n],
             xt: vec![Vec3::ZERO; n],
             vt: vec![Vec3::ZERO; n],
@@ -96,6 +104,7 @@ pub fn step(
         Integrator::Rk2 => rk2_step(model, state, s, dt),
         Integrator::Rk4 => rk4_step(model, state, s, dt),
         Integrator::Verlet => verlet_step(model, state, s, dt),
+        Integrator::Xpbd => xpbd_step(model, state, s, dt),
         // It keeps its own time.
         Integrator::Implicit => {
             let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
@@ -128,6 +137,35 @@ fn first_order_step(
         semi_implicit_update(x, v, &s.acc, dt);
     }
     ledger.accumulate(&p, f64::from(dt));
+}
+
+/// One XPBD substep (src/cpu/xpbd.rs): the kick of every force that is not a spring, then the
+/// springs projected as constraints. The dashpots' dissipation enters the ledger as damping.
+fn xpbd_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
+    let State {
+        x,
+        v,
+        ledger,
+        time_secs,
+        ..
+    } = state;
+    let p = compute_external_forces(model, &mut s.gather, x, v, *time_secs, dt, &mut s.acc);
+    xpbd_predict(v, &s.acc, dt);
+    let (h, iterations) = (s.dt_secs, s.options.xpbd_iterations);
+    let work = s
+        .xpbd
+        .get_or_insert_with(|| XpbdWork::new(&model.springs, &model.inv_mass, h, iterations));
+    let damped = work.substep(s.gather.springs(), &model.inv_mass, dt, x, v);
+    ledger.accumulate(&p, f64::from(dt));
+    ledger.damping_j += damped;
+}
+
+/// XPBD's kick: `v += dt · a` from the forces that are not springs (a pinned mass has none).
+pub fn xpbd_predict(v: &mut [Vec3], acc: &[Vec3], dt: f32) {
+    let n = v.len();
+    for_each_mass!(n, |i| (v) {
+        *v += dt * acc[i];
+    });
 }
 
 fn rk2_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {

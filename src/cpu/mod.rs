@@ -14,11 +14,12 @@ pub(crate) mod integrate;
 pub(crate) mod law;
 pub(crate) mod reduce;
 pub(crate) mod springs;
+pub(crate) mod xpbd;
 
 pub use chunks::PARALLEL_MIN_MASSES;
 pub use collide::project_contacts;
 pub use collide_masses::{PAIR_STICK_SHARE, collide_masses, mass_contact_energy, pair_contact};
-pub use forces::{Gather, compute_forces};
+pub use forces::{Gather, compute_external_forces, compute_forces};
 pub use grid::{MassGrid, SCAN_BLOCK, grid_cell, grid_hash, inv_cell_per_m, table_size};
 pub use implicit::{
     CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
@@ -26,9 +27,10 @@ pub use implicit::{
 pub use law::{Real, contact_force, spring_force};
 pub use reduce::{compute_energies, compute_strain};
 pub use springs::update_springs;
+pub use xpbd::{Colouring, XpbdSpring, XpbdWork, colour_springs, xpbd_constants};
 
 use crate::backend::{Backend, BackendError, find_divergence};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 use crate::state::{Snapshot, State, StepStats};
 
@@ -45,9 +47,18 @@ pub struct CpuBackend {
 
 impl CpuBackend {
     pub fn new(model: std::sync::Arc<Model>, integrator: Integrator, dt_secs: f64) -> Self {
+        Self::with_options(model, integrator, dt_secs, StepOptions::default())
+    }
+
+    pub fn with_options(
+        model: std::sync::Arc<Model>,
+        integrator: Integrator,
+        dt_secs: f64,
+        options: StepOptions,
+    ) -> Self {
         Self {
             state: model.initial.clone(),
-            scratch: integrate::Scratch::new(&model, dt_secs),
+            scratch: integrate::Scratch::new(&model, dt_secs, options),
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
             model,

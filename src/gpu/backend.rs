@@ -59,6 +59,13 @@ impl GpuBackend {
                     .to_owned(),
             ));
         }
+        if integrator == Integrator::Xpbd {
+            return Err(BackendError::Device(
+                "--integrator xpbd runs on the CPU backend only in this version (its GPU kernels \
+                 are not written yet): add --backend cpu"
+                    .to_owned(),
+            ));
+        }
         let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;

@@ -92,7 +92,8 @@ pub fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<
             }
             p
         }
-        Integrator::Implicit => Vec::new(),
+        // Implicit's solve is planned apart; XPBD does not reach the GPU yet (backend.rs).
+        Integrator::Implicit | Integrator::Xpbd => Vec::new(),
     };
     if effects.has_contact() && integrator != Integrator::Implicit {
         plan.push(at(ProjectContacts, 3));

@@ -41,6 +41,9 @@ pub struct Solver {
     pub duration_secs: Option<f64>,
     #[serde(default)]
     pub frames: Option<u64>,
+    /// XPBD's constraint iterations per substep (`integrator = "xpbd"`); 1 when absent.
+    #[serde(default)]
+    pub xpbd_iterations: Option<u32>,
 }
 
 fn default_frame_rate() -> f64 {
@@ -56,6 +59,7 @@ impl Default for Solver {
             dt_secs: None,
             duration_secs: None,
             frames: None,
+            xpbd_iterations: None,
         }
     }
 }

@@ -143,6 +143,12 @@ fn solver(s: &super::format::Solver) -> Check {
     if let Some(d) = s.duration_secs {
         positive("solver.duration_secs", d)?;
     }
+    if s.xpbd_iterations == Some(0) {
+        return fail(
+            "solver.xpbd_iterations",
+            "must be at least 1 (each substep projects every spring that many times)",
+        );
+    }
     if s.frames == Some(0) {
         return fail("solver.frames", "must be at least 1");
     }

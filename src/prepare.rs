@@ -133,14 +133,12 @@ pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepare
     if let Some(w) = crate::stability::dt_warning(&model, &settings) {
         say(Notice::AboveStableLimit(w));
     }
-    let backend = request
-        .device
-        .create(
-            model.clone(),
-            settings.integrator,
-            settings.dt_secs,
-            settings.options,
-        )?;
+    let backend = request.device.create(
+        model.clone(),
+        settings.integrator,
+        settings.dt_secs,
+        settings.options,
+    )?;
     Ok(Prepared {
         loaded,
         settings,

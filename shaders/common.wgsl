@@ -22,6 +22,13 @@ override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
+
+// Implicit Euler with contacts: compute_forces writes their linearisation after the derivatives
+// (deriv[2n + 2i], deriv[2n + 2i + 1]) and the solve adds it to its system (as deriv_bytes in
+// src/gpu/limits.rs sizes it).
+fn has_contact_terms() -> bool {
+    return IMPLICIT && (HAS_GROUND || HAS_COLLIDERS);
+}
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/cpu/collide_masses.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;

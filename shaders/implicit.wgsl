@@ -192,7 +192,7 @@ fn implicit_rhs(
             let m = mass[i].x;
             b = stage.dt * m * deriv[2u * i].xyz - m * work[block(DV_TOTAL, i)].xyz;
             diag = vec3<f32>(own_mass_term(i));
-            if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
+            if (has_contact_terms()) {
                 diag += deriv[2u * params.mass_count + 2u * i].xyz;
             }
             let end = offsets[i + 1u];
@@ -274,7 +274,7 @@ fn apply_system(
                 let dn = dot(t.n, dp);
                 out += (t.stiff_along + t.damp_along) * dn * t.n + t.stiff_across * (dp - dn * t.n);
             }
-            if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
+            if (has_contact_terms()) {
                 out += contact_times(i, pi);
             }
         }

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::context::GpuContext;
+use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
 use super::implicit::ImplicitStep;
 use super::limits::check_fits;
@@ -53,11 +53,7 @@ impl GpuBackend {
     ) -> Result<Self, BackendError> {
         let implicit = integrator == Integrator::Implicit;
         if implicit && model.effects.self_collision.is_some() {
-            return Err(BackendError::Device(
-                "implicit Euler does not support mass–mass contact ([effects.self_collision]): \
-                 use semi-implicit, verlet or rk4"
-                    .to_owned(),
-            ));
+            return Err(DeviceError::ImplicitWithMassContact.into());
         }
         if integrator == Integrator::Xpbd {
             return Err(BackendError::Device(
@@ -150,9 +146,7 @@ impl GpuBackend {
         self.prepare_stages(substeps);
         let post = step_plan(self.integrator, &self.model.effects, false);
         let Some(solver) = self.resources.solver.as_ref() else {
-            return Err(BackendError::Device(
-                "internal: no implicit solver".to_owned(),
-            ));
+            return Err(DeviceError::Internal("no implicit solver".to_owned()).into());
         };
         let step = ImplicitStep {
             ctx: &self.ctx,
@@ -196,9 +190,7 @@ impl GpuBackend {
     ) -> Result<(usize, wgpu::SubmissionIndex), BackendError> {
         let k = (0..2)
             .find(|k| self.pending.iter().all(|p| p.staging != *k))
-            .ok_or_else(|| {
-                BackendError::Device("internal: both snapshot buffers are in use".to_owned())
-            })?;
+            .ok_or_else(|| DeviceError::Internal("both snapshot buffers are in use".to_owned()))?;
         // The reductions' stage slot: the current time, after the stepping slots.
         let slot = self.stages.last();
         let stage = self.clock.stage_at(&self.model, self.clock.time_secs);

@@ -52,6 +52,34 @@ pub enum AdapterError {
     },
 }
 
+/// What stops a run on an open device, or before the GPU backend takes a run at all.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(
+        "implicit Euler does not support mass–mass contact ([effects.self_collision]): \
+         use semi-implicit, verlet or rk4"
+    )]
+    ImplicitWithMassContact,
+    /// An asynchronous error, or the device lost (the first reported, as `describe_error` and
+    /// `describe_loss` put it).
+    #[error("the GPU reported an error on {adapter}: {cause}")]
+    Reported { adapter: String, cause: String },
+    #[error("waiting for {adapter} failed: {cause}")]
+    Wait { adapter: String, cause: String },
+    /// `what`: "back from <adapter>", "the solver status from <adapter>", "timestamps", ….
+    #[error("reading {what} failed: {cause}")]
+    ReadBack { what: String, cause: String },
+    /// A bug in Hooke rather than a problem with the device.
+    #[error("internal: {0}")]
+    Internal(String),
+}
+
+impl From<DeviceError> for BackendError {
+    fn from(e: DeviceError) -> Self {
+        BackendError::Device(e.to_string())
+    }
+}
+
 impl From<AdapterError> for BackendError {
     fn from(e: AdapterError) -> Self {
         BackendError::Device(e.to_string())
@@ -212,18 +240,20 @@ impl GpuContext {
     }
 
     fn reported(&self, cause: String) -> BackendError {
-        BackendError::Device(format!(
-            "the GPU reported an error on {}: {cause}",
-            self.describe()
-        ))
+        DeviceError::Reported {
+            adapter: self.describe(),
+            cause,
+        }
+        .into()
     }
 
     /// Wait until everything submitted has run.
     pub fn wait_idle(&self) -> Result<(), BackendError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| {
-                BackendError::Device(format!("waiting for {} failed: {e}", self.describe()))
+            .map_err(|e| DeviceError::Wait {
+                adapter: self.describe(),
+                cause: e.to_string(),
             })?;
         self.check()
     }
@@ -257,7 +287,11 @@ impl GpuContext {
     }
 
     pub fn read_back_failed(&self, e: impl std::fmt::Display) -> BackendError {
-        BackendError::Device(format!("reading back from {} failed: {e}", self.describe()))
+        DeviceError::ReadBack {
+            what: format!("back from {}", self.describe()),
+            cause: e.to_string(),
+        }
+        .into()
     }
 
     pub fn encoder(&self, label: &'static str) -> wgpu::CommandEncoder {

@@ -1,6 +1,7 @@
 //! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
 //! count, all as the kernel table says.
 
+use super::context::DeviceError;
 use super::pipelines::Pipelines;
 use super::plan::Dispatch;
 use super::resources::Resources;
@@ -25,8 +26,12 @@ impl Dispatcher<'_> {
         base: u32,
     ) -> Result<(), BackendError> {
         let spec = d.kernel.spec();
-        let internal =
-            |why: &str| BackendError::Device(format!("internal: kernel {} {why}", spec.entry));
+        let internal = |why: &str| {
+            BackendError::from(DeviceError::Internal(format!(
+                "kernel {} {why}",
+                spec.entry
+            )))
+        };
         let pipeline = self.pipelines.get(d.kernel);
         let group0 = self.resources.group(spec.group);
         let (Some(pipeline), Some(group0)) = (pipeline, group0) else {

@@ -5,7 +5,7 @@
 //! further chunks, each twice as long. Kernels of a solve that has stopped do nothing, so a chunk
 //! longer than needed costs only empty dispatches.
 
-use super::context::GpuContext;
+use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
 use super::layout::SolverStatus;
 use super::plan::{Dispatch, implicit::*};
@@ -94,12 +94,12 @@ impl ImplicitStep<'_> {
         let slice = s.status.slice(..);
         self.ctx.map_and_wait(&slice, index)?;
         let status = {
-            let data = slice.get_mapped_range().map_err(|e| {
-                BackendError::Device(format!(
-                    "reading the solver status from {} failed: {e}",
-                    self.ctx.describe()
-                ))
-            })?;
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| DeviceError::ReadBack {
+                    what: format!("the solver status from {}", self.ctx.describe()),
+                    cause: e.to_string(),
+                })?;
             bytemuck::pod_read_unaligned::<SolverStatus>(&data[..size as usize])
         };
         s.status.unmap();

@@ -1,6 +1,7 @@
 //! Hooks for tests: the GPU's hash grid read back, and a device lost on purpose.
 
 use super::backend::GpuBackend;
+use super::context::DeviceError;
 use super::encode::in_pass;
 use super::plan::{StateIn, grid_build};
 use crate::backend::BackendError;
@@ -51,7 +52,10 @@ impl GpuBackend {
         let out = {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| BackendError::Device(format!("reading the grid failed: {e}")))?;
+                .map_err(|e| DeviceError::ReadBack {
+                    what: "the grid".to_owned(),
+                    cause: e.to_string(),
+                })?;
             let words: &[u32] = bytemuck::cast_slice(&data);
             let (a, b) = words.split_at(starts as usize / 4);
             GridReadBack {

@@ -1,6 +1,5 @@
 //! Host-side copies of the structs in `shaders/common.wgsl`. Same field order, sizes and padding;
-//! `shared_structs_match_their_wgsl_layout` in tests/gpu.rs checks each against naga's layout of
-//! the WGSL.
+//! `tests/shaders.rs` checks each against naga's layout of the WGSL.
 
 use bytemuck::{Pod, Zeroable};
 

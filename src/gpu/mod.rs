@@ -30,7 +30,9 @@ mod shaders;
 mod stages;
 
 pub use backend::GpuBackend;
-pub use context::{AdapterError, GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error};
+pub use context::{
+    AdapterError, DeviceError, GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error,
+};
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
 pub use plan::step_passes;

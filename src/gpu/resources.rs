@@ -251,6 +251,7 @@ struct GroupSet<'a> {
 impl GroupSet<'_> {
     /// Bind `buffers` in order as group `g`.
     fn set(&mut self, g: Group, buffers: &[&wgpu::Buffer]) {
+        debug_assert_eq!(buffers.len(), g.slots().len(), "{g:?}");
         let label = format!("{g:?}");
         let bg = bind_group(self.device, self.layouts.group(g), &label, buffers);
         self.groups[g as usize] = Some(bg);

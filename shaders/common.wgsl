@@ -22,6 +22,9 @@ override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
+// XPBD: compute_forces leaves the springs out (they are projected as constraints, xpbd.wgsl) but
+// for their dashpots' power, which the ledger books.
+override XPBD: bool = false;
 
 // Implicit Euler with contacts: compute_forces writes their linearisation after the derivatives
 // (deriv[2n + 2i], deriv[2n + 2i + 1]) and the solve adds it to its system (as deriv_bytes in

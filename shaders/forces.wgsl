@@ -27,7 +27,8 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let m = mass[i].x;
     var f = vec3<f32>(0.0);
     var damping_w = 0.0;
-    let end = offsets[i + 1u];
+    // XPBD without dashpots needs nothing of the springs here.
+    let end = select(offsets[i + 1u], offsets[i], XPBD && !HAS_DAMPING);
     for (var e = offsets[i]; e < end; e++) {
         let nb = neighbors[e];
         let s = springs[nb.spring];
@@ -44,9 +45,11 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         let elastic = -s.stiffness * (len - s.rest);
         if (HAS_DAMPING) {
             let damping = -s.damping * dot(vi - v_in[nb.other].xyz, n);
-            f += n * (elastic + damping);
+            if (!XPBD) {
+                f += n * (elastic + damping);
+            }
             damping_w += damping * dot(n, vi);
-        } else {
+        } else if (!XPBD) {
             f += n * elastic;
         }
     }

@@ -12,8 +12,9 @@ use super::law::{contact_force, spring_force};
 use crate::model::{Model, Pose, Spring, poses_at};
 use crate::state::Power;
 
-/// Force on mass `i` and its contributions to the ledger's rates; without the springs' when
-/// `SPRINGS` is false (XPBD projects them as constraints instead).
+/// Force on mass `i` and its contributions to the ledger's rates; without the springs' force
+/// when `SPRINGS` is false (XPBD projects them as constraints instead), but with their dashpots'
+/// power, which the ledger books either way.
 #[inline(always)]
 fn force_on_mass<const SPRINGS: bool>(
     model: &Model,
@@ -30,19 +31,16 @@ fn force_on_mass<const SPRINGS: bool>(
     let mut f = Vec3::ZERO;
     let mut damping_w = 0.0f32;
     let tearing = model.effects.tearing;
-    let entries = if SPRINGS {
-        &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize]
-    } else {
-        &[]
-    };
-    for e in entries {
+    for e in &gather.entries[gather.offsets[i] as usize..gather.offsets[i + 1] as usize] {
         // A broken spring exerts nothing; skipping it saves reading the other end.
         if tearing && e.spring.is_broken() {
             continue;
         }
         let j = e.other as usize;
         let (fs, pw) = spring_force::<f32>(&e.spring, xi, x[j], vi, v[j]);
-        f += fs;
+        if SPRINGS {
+            f += fs;
+        }
         damping_w += pw;
     }
     let e = &model.effects;
@@ -165,7 +163,8 @@ pub fn compute_forces(
     forces::<true>(model, gather, x, v, t, dt, acc)
 }
 
-/// [`compute_forces`] less the springs: what XPBD integrates before it projects them. The GPU
+/// [`compute_forces`] less the springs' force: what XPBD integrates before it projects them.
+/// The rates still hold the dashpots' power at (x, v), which XPBD books as its damping. The GPU
 /// runs `compute_forces` compiled with `XPBD` for it.
 pub fn compute_external_forces(
     model: &Model,

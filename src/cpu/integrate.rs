@@ -140,7 +140,8 @@ fn first_order_step(
 }
 
 /// One XPBD substep (src/cpu/xpbd.rs): the kick of every force that is not a spring, then the
-/// springs projected as constraints. The dashpots' dissipation enters the ledger as damping.
+/// springs projected as constraints. The dashpots' power at the substep's start, h c (n · v)²
+/// per spring, enters the ledger as damping.
 fn xpbd_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
     let State {
         x,
@@ -150,21 +151,22 @@ fn xpbd_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
         ..
     } = state;
     let p = compute_external_forces(model, &mut s.gather, x, v, *time_secs, dt, &mut s.acc);
-    xpbd_predict(v, &s.acc, dt);
     let (h, iterations) = (s.dt_secs, s.options.xpbd_iterations);
     let work = s
         .xpbd
         .get_or_insert_with(|| XpbdWork::new(&model.springs, &model.inv_mass, h, iterations));
-    let damped = work.substep(s.gather.springs(), &model.inv_mass, dt, x, v);
+    xpbd_predict(v, &mut work.dx, &s.acc, dt);
+    work.project(s.gather.springs(), &model.inv_mass, dt, x, v);
     ledger.accumulate(&p, f64::from(dt));
-    ledger.damping_j += damped;
 }
 
-/// XPBD's kick: `v += dt · a` from the forces that are not springs (a pinned mass has none).
-pub fn xpbd_predict(v: &mut [Vec3], acc: &[Vec3], dt: f32) {
+/// XPBD's kick, `v += dt · a` from the forces that are not springs (a pinned mass has none),
+/// and its predicted displacement `dx = dt · v`.
+pub fn xpbd_predict(v: &mut [Vec3], dx: &mut [Vec3], acc: &[Vec3], dt: f32) {
     let n = v.len();
-    for_each_mass!(n, |i| (v) {
+    for_each_mass!(n, |i| (v, dx) {
         *v += dt * acc[i];
+        *dx = dt * *v;
     });
 }
 

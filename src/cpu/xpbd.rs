@@ -181,13 +181,11 @@ pub fn xpbd_solve(
 }
 
 /// Step 3 of a substep: the velocity the masses moved with, `dx / h`, and their new positions.
-/// Pinned masses keep theirs.
-pub fn xpbd_update_velocity(inv_mass: &[f32], dx: &[Vec3], h: f32, x: &mut [Vec3], v: &mut [Vec3]) {
-    for (i, (x, v)) in x.iter_mut().zip(v.iter_mut()).enumerate() {
-        if inv_mass[i] > 0.0 {
-            *v = dx[i] / h;
-            *x += dx[i];
-        }
+/// A pinned mass has no velocity and no correction, so its dx is zero and it stays.
+pub fn xpbd_update_velocity(dx: &[Vec3], h: f32, x: &mut [Vec3], v: &mut [Vec3]) {
+    for ((x, v), dx) in x.iter_mut().zip(v.iter_mut()).zip(dx) {
+        *v = *dx / h;
+        *x += *dx;
     }
 }
 
@@ -198,7 +196,8 @@ pub struct XpbdWork {
     pub colouring: Colouring,
     pub constants: Vec<XpbdSpring>,
     pub iterations: u32,
-    dx: Vec<Vec3>,
+    /// The substep's displacement: `xpbd_predict` (src/cpu/integrate.rs) fills it.
+    pub dx: Vec<Vec3>,
     lambda: Vec<f32>,
 }
 
@@ -213,21 +212,17 @@ impl XpbdWork {
         }
     }
 
-    /// Steps 1 (its second half) to 3 of a substep, once `v` has had its kick from the forces
-    /// that are not springs: predict, project the springs, take the velocities. `springs` are
-    /// the springs as they are now (plasticity and tearing change them). Returns the energy
-    /// the dashpots dissipated ([`xpbd_damping_energy`]).
-    pub fn substep(
+    /// Steps 2 and 3 of a substep, once `dx` holds the prediction: project the springs, then
+    /// take the velocities and positions. `springs` are the springs as they are now
+    /// (plasticity and tearing change them).
+    pub fn project(
         &mut self,
         springs: &[Spring],
         inv_mass: &[f32],
         h: f32,
         x: &mut [Vec3],
         v: &mut [Vec3],
-    ) -> f64 {
-        for (dx, v) in self.dx.iter_mut().zip(v.iter()) {
-            *dx = h * *v;
-        }
+    ) {
         xpbd_solve(
             springs,
             &self.constants,
@@ -238,35 +233,34 @@ impl XpbdWork {
             &mut self.dx,
             &mut self.lambda,
         );
-        xpbd_update_velocity(inv_mass, &self.dx, h, x, v);
-        xpbd_damping_energy(springs, x, v, f64::from(h))
+        xpbd_update_velocity(&self.dx, h, x, v);
     }
-}
-
-/// Energy the springs' dashpots dissipated over a substep of `h`, at the substep's final
-/// velocities: h Σ c (n · v_ab)². It enters the ledger as damping, as a dashpot's power does for
-/// the other integrators; what XPBD loses beyond it is its own numerical dissipation, which the
-/// energy balance shows.
-pub fn xpbd_damping_energy(springs: &[Spring], x: &[Vec3], v: &[Vec3], h: f64) -> f64 {
-    springs
-        .iter()
-        .filter(|s| !s.is_broken() && s.damping_n_s_per_m > 0.0)
-        .map(|s| {
-            let (a, b) = (s.a as usize, s.b as usize);
-            let d = x[a] - x[b];
-            let len = d.length();
-            if len == 0.0 {
-                return 0.0;
-            }
-            let rate = f64::from((d / len).dot(v[a] - v[b]));
-            f64::from(s.damping_n_s_per_m) * rate * rate * h
-        })
-        .sum()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Energy the springs' dashpots dissipate over a substep of `h` at state (x, v):
+    /// h Σ c (n · v_ab)², the power XPBD's damping term applies in the limit of small substeps. The
+    /// backends book it at each substep's start (as `compute_forces`' damping rate); what XPBD loses
+    /// beyond it is its own numerical dissipation, which the energy balance shows.
+    fn xpbd_damping_energy(springs: &[Spring], x: &[Vec3], v: &[Vec3], h: f64) -> f64 {
+        springs
+            .iter()
+            .filter(|s| !s.is_broken() && s.damping_n_s_per_m > 0.0)
+            .map(|s| {
+                let (a, b) = (s.a as usize, s.b as usize);
+                let d = x[a] - x[b];
+                let len = d.length();
+                if len == 0.0 {
+                    return 0.0;
+                }
+                let rate = f64::from((d / len).dot(v[a] - v[b]));
+                f64::from(s.damping_n_s_per_m) * rate * rate * h
+            })
+            .sum()
+    }
 
     fn spring(a: u32, b: u32, rest: f32, k: f32, c: f32) -> Spring {
         Spring {
@@ -352,10 +346,14 @@ mod tests {
         let e0 = energy(&x, &v);
         let mut damped = 0.0;
         for _ in 0..(10.0 / h).round() as u32 {
+            damped += xpbd_damping_energy(&springs, &x, &v, f64::from(h));
             for v in &mut v[1..] {
                 v.y -= h * g;
             }
-            damped += work.substep(&springs, &inv_mass, h, &mut x, &mut v);
+            for (dx, v) in work.dx.iter_mut().zip(&v) {
+                *dx = h * *v;
+            }
+            work.project(&springs, &inv_mass, h, &mut x, &mut v);
         }
         let stretch = (0..n)
             .map(|i| ((x[i] - x[i + 1]).length() - 0.1) / ((n - i) as f32 * m * g / k))
@@ -430,7 +428,7 @@ mod tests {
                     &mut dx,
                     &mut lambda,
                 );
-                xpbd_update_velocity(&inv_mass, &dx, h as f32, &mut x, &mut v);
+                xpbd_update_velocity(&dx, h as f32, &mut x, &mut v);
             }
             (f64::from(x[1].x) - rest - analytic(t_end)).abs()
         };

@@ -1,6 +1,6 @@
 // Structs and helpers shared by every kernel. Keep the structs in sync with src/gpu/layout.rs (a test
 // checks sizes).
-// Each kernel module is this file followed by one of forces/integrate/collide/reduce.wgsl.
+// Each program is this file followed by one kernel file (src/gpu/shaders.rs compiles them).
 
 // Effects present in the scene: absent ones are specialised away at pipeline creation.
 override HAS_GRAVITY: bool = false;
@@ -22,6 +22,13 @@ override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
+
+// Implicit Euler with contacts: compute_forces writes their linearisation after the derivatives
+// (deriv[2n + 2i], deriv[2n + 2i + 1]) and the solve adds it to its system (as deriv_bytes in
+// src/gpu/limits.rs sizes it).
+fn has_contact_terms() -> bool {
+    return IMPLICIT && (HAS_GROUND || HAS_COLLIDERS);
+}
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/cpu/collide_masses.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
@@ -29,7 +36,7 @@ override PAIR_STICK_SHARE: f32 = 0.25;
 const WORKGROUP: u32 = 64u;
 // Hash-grid buckets per block of the prefix sum (grid.wgsl): four per invocation.
 const SCAN_BLOCK: u32 = 4u * WORKGROUP;
-// A spring shorter than this has no direction and exerts nothing (as src/cpu/forces.rs).
+// A spring shorter than this has no direction and exerts nothing (as src/cpu/law.rs).
 const MIN_SPRING_LENGTH: f32 = 1.1754944e-32;
 
 struct Params {
@@ -189,7 +196,7 @@ struct Contact {
     dissipated: f32,
 }
 
-// Penalty contact along unit normal n at depth > 0 (src/cpu/forces.rs): force and the power its
+// Penalty contact along unit normal n at depth > 0 (src/cpu/law.rs): force and the power its
 // damping and friction dissipate; friction stops at most stick_share of the sliding in a step.
 fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
     let vn = dot(v_rel, n);

@@ -99,7 +99,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         }
     }
     let w = mass[i].y;
-    if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
+    if (has_contact_terms()) {
         let n2 = 2u * params.mass_count;
         if (w == 0.0) {
             jac_diag = vec3<f32>(0.0);

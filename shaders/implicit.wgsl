@@ -108,19 +108,23 @@ fn total_of_partials(lid: u32, take_max: bool) -> vec4<f32> {
     return workgroup_reduce(lid, acc, take_max);
 }
 
-// Whether the current solve runs, read once by the workgroup (a uniform value for the barriers).
-fn solve_running(lid: u32) -> bool {
+// `flag` as read by the workgroup's first thread, the same for every thread (a uniform value for
+// the barriers that follow).
+fn uniform_flag(lid: u32, flag: bool) -> bool {
     if (lid == 0u) {
-        flag_sh = scratch.solver.cg_active;
+        flag_sh = select(0u, 1u, flag);
     }
     return workgroupUniformLoad(&flag_sh) != 0u;
 }
 
+// Whether the current solve runs.
+fn solve_running(lid: u32) -> bool {
+    return uniform_flag(lid, scratch.solver.cg_active != 0u);
+}
+
+// Whether the Newton update waits: the solve has stopped and its update is not yet applied.
 fn newton_update_due(lid: u32) -> bool {
-    if (lid == 0u) {
-        flag_sh = select(0u, 1u, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
-    }
-    return workgroupUniformLoad(&flag_sh) != 0u;
+    return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
 struct SpringTerms {
@@ -188,7 +192,7 @@ fn implicit_rhs(
             let m = mass[i].x;
             b = stage.dt * m * deriv[2u * i].xyz - m * work[block(DV_TOTAL, i)].xyz;
             diag = vec3<f32>(own_mass_term(i));
-            if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
+            if (has_contact_terms()) {
                 diag += deriv[2u * params.mass_count + 2u * i].xyz;
             }
             let end = offsets[i + 1u];
@@ -270,7 +274,7 @@ fn apply_system(
                 let dn = dot(t.n, dp);
                 out += (t.stiff_along + t.damp_along) * dn * t.n + t.stiff_across * (dp - dn * t.n);
             }
-            if (IMPLICIT && (HAS_GROUND || HAS_COLLIDERS)) {
+            if (has_contact_terms()) {
                 out += contact_times(i, pi);
             }
         }

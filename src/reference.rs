@@ -1,41 +1,19 @@
 //! The f64 reference solution the accuracy benchmark measures against: the model's full force
 //! (springs, gravity, drag, contact with friction, mass–mass contact) evaluated in double precision and integrated
-//! by classic RK4 at a step much finer than any it judges. Same formulas as `cpu::forces`
-//! (`compute_forces`), so what differs is only precision and step size.
+//! by classic RK4 at a step much finer than any it judges. The force laws are the backends' own
+//! (`cpu::law`, generic over the precision), so what differs is only precision and step size.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::model::{ContactModel, Model};
+use crate::cpu::{MassGrid, PAIR_STICK_SHARE, PARALLEL_MIN_MASSES, contact_force, spring_force};
+use crate::model::{MassContact, Model};
 
 pub struct Reference {
     model: std::sync::Arc<Model>,
     pub x: Vec<DVec3>,
     pub v: Vec<DVec3>,
     pub time_secs: f64,
-}
-
-/// `stick_share`: the share of the sliding friction may stop in one step (1 for colliders,
-/// `PAIR_STICK_SHARE` between masses).
-fn contact_force_f64(
-    c: &ContactModel,
-    depth: f64,
-    n: DVec3,
-    v_rel: DVec3,
-    mass: f64,
-    dt: f64,
-    stick_share: f64,
-) -> DVec3 {
-    let k = f64::from(c.stiffness_n_per_m);
-    let vn = v_rel.dot(n);
-    let fn_total = (k * depth - 2.0 * f64::from(c.damping_ratio) * (k * mass).sqrt() * vn).max(0.0);
-    let mut f = n * fn_total;
-    let vt = v_rel - vn * n;
-    let speed = vt.length();
-    if c.friction > 0.0 && speed > 0.0 {
-        f -= vt * ((f64::from(c.friction) * fn_total).min(stick_share * mass * speed / dt) / speed);
-    }
-    f
 }
 
 impl Reference {
@@ -54,11 +32,14 @@ impl Reference {
     /// reference is judged against, not its own.
     fn acceleration(&self, x: &[DVec3], v: &[DVec3], t: f64, dt: f64) -> Vec<DVec3> {
         let m = &*self.model;
-        let fx = &m.effects;
-        let poses: Vec<(DVec3, DVec3)> =
-            fx.colliders.iter().map(|c| c.path.pose_at_f64(t)).collect();
-        let grid = fx.self_collision.map(|c| {
-            let mut g = crate::cpu::MassGrid::new(x.len(), c.radius_m);
+        let poses: Vec<(DVec3, DVec3)> = m
+            .effects
+            .colliders
+            .iter()
+            .map(|c| c.path.pose_at_f64(t))
+            .collect();
+        let grid = m.effects.self_collision.map(|c| {
+            let mut g = MassGrid::new(x.len(), c.radius_m);
             g.build_f64(x);
             (c, g)
         });
@@ -66,66 +47,13 @@ impl Reference {
             if m.inv_mass[i] == 0.0 {
                 return DVec3::ZERO;
             }
-            let (xi, vi, mass) = (x[i], v[i], f64::from(m.mass_kg[i]));
-            let mut f = DVec3::ZERO;
-            for nb in m.adjacency.of(i) {
-                let s = &m.springs[nb.spring as usize];
-                let j = nb.other as usize;
-                let d = xi - x[j];
-                let len = d.length();
-                if len > 1e-30 {
-                    let n = d / len;
-                    let elastic = -f64::from(s.stiffness_n_per_m) * (len - f64::from(s.rest_m));
-                    let damping = -f64::from(s.damping_n_s_per_m) * (vi - v[j]).dot(n);
-                    f += n * (elastic + damping);
-                }
-            }
-            if let Some(g) = fx.gravity_m_per_s2 {
-                f += mass * g.as_dvec3();
-            }
-            if let Some(gamma) = fx.air_drag_per_s {
-                f -= mass * f64::from(gamma) * vi;
-            }
-            if let Some(g) = &fx.ground {
-                let depth = f64::from(g.height_m) - xi.y;
-                if depth > 0.0 {
-                    f += contact_force_f64(&g.contact, depth, DVec3::Y, vi, mass, dt, 1.0);
-                }
-            }
-            for (c, (center, u)) in fx.colliders.iter().zip(&poses) {
-                if let Some((depth, n)) = c.shape.penetration_f64(*center, xi) {
-                    f += contact_force_f64(&c.contact, depth, n, vi - *u, mass, dt, 1.0);
-                }
-            }
+            let mut f = force_on_mass(m, &poses, x, v, i, dt);
             if let Some((c, g)) = &grid {
-                let diameter = 2.0 * f64::from(c.radius_m);
-                let cell = (xi * f64::from(g.inv_cell_per_m())).floor().as_ivec3();
-                g.for_each_candidate(cell, |j| {
-                    if j == i || !(c.within_bodies || m.mass_body[i] != m.mass_body[j]) {
-                        return;
-                    }
-                    let d = xi - x[j];
-                    let dist = d.length();
-                    if dist >= diameter || dist == 0.0 {
-                        return;
-                    }
-                    // The pair's reduced mass (a pinned partner weighs infinitely much).
-                    let wj = f64::from(m.inv_mass[j]);
-                    let mu = 1.0 / (1.0 / mass + wj);
-                    f += contact_force_f64(
-                        &c.contact,
-                        diameter - dist,
-                        d / dist,
-                        vi - v[j],
-                        mu,
-                        dt,
-                        f64::from(crate::cpu::PAIR_STICK_SHARE),
-                    );
-                });
+                f += pair_contacts(m, c, g, x, v, i, dt);
             }
-            f / mass
+            f / f64::from(m.mass_kg[i])
         };
-        if x.len() >= crate::cpu::PARALLEL_MIN_MASSES {
+        if x.len() >= PARALLEL_MIN_MASSES {
             (0..x.len()).into_par_iter().map(one).collect()
         } else {
             (0..x.len()).map(one).collect()
@@ -163,4 +91,81 @@ impl Reference {
             self.time_secs += h;
         }
     }
+}
+
+/// The force on mass `i` from its springs, gravity, drag, the ground and the colliders (at
+/// `poses`, each a position and velocity).
+fn force_on_mass(
+    m: &Model,
+    poses: &[(DVec3, DVec3)],
+    x: &[DVec3],
+    v: &[DVec3],
+    i: usize,
+    dt: f64,
+) -> DVec3 {
+    let fx = &m.effects;
+    let (xi, vi, mass) = (x[i], v[i], f64::from(m.mass_kg[i]));
+    let mut f = DVec3::ZERO;
+    for nb in m.adjacency.of(i) {
+        let j = nb.other as usize;
+        f += spring_force::<f64>(&m.springs[nb.spring as usize], xi, x[j], vi, v[j]).0;
+    }
+    if let Some(g) = fx.gravity_m_per_s2 {
+        f += mass * g.as_dvec3();
+    }
+    if let Some(gamma) = fx.air_drag_per_s {
+        f -= mass * f64::from(gamma) * vi;
+    }
+    if let Some(g) = &fx.ground {
+        let depth = f64::from(g.height_m) - xi.y;
+        if depth > 0.0 {
+            f += contact_force(&g.contact, depth, DVec3::Y, vi, mass, dt, 1.0).0;
+        }
+    }
+    for (c, (center, u)) in fx.colliders.iter().zip(poses) {
+        if let Some((depth, n)) = c.shape.penetration_f64(*center, xi) {
+            f += contact_force(&c.contact, depth, n, vi - *u, mass, dt, 1.0).0;
+        }
+    }
+    f
+}
+
+/// The mass–mass contact force on mass `i`, over its candidates in `grid` (built from `x`).
+fn pair_contacts(
+    m: &Model,
+    c: &MassContact,
+    grid: &MassGrid,
+    x: &[DVec3],
+    v: &[DVec3],
+    i: usize,
+    dt: f64,
+) -> DVec3 {
+    let (xi, mass) = (x[i], f64::from(m.mass_kg[i]));
+    let diameter = 2.0 * f64::from(c.radius_m);
+    let cell = (xi * f64::from(grid.inv_cell_per_m())).floor().as_ivec3();
+    let mut f = DVec3::ZERO;
+    grid.for_each_candidate(cell, |j| {
+        if j == i || !(c.within_bodies || m.mass_body[i] != m.mass_body[j]) {
+            return;
+        }
+        let d = xi - x[j];
+        let dist = d.length();
+        if dist >= diameter || dist == 0.0 {
+            return;
+        }
+        // The pair's reduced mass (a pinned partner weighs infinitely much).
+        let mu = 1.0 / (1.0 / mass + f64::from(m.inv_mass[j]));
+        let stick = f64::from(PAIR_STICK_SHARE);
+        f += contact_force(
+            &c.contact,
+            diameter - dist,
+            d / dist,
+            v[i] - v[j],
+            mu,
+            dt,
+            stick,
+        )
+        .0;
+    });
+    f
 }

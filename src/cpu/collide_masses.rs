@@ -11,8 +11,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::forces::{CHUNK, PARALLEL_MIN_MASSES, contact_force};
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::grid::{MassGrid, grid_cell};
+use super::law::contact_force;
 use crate::model::{MassContact, Model};
 
 /// Share of a pair's tangential sliding that its friction may stop within one step. A contact

@@ -5,69 +5,12 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::collide_masses::collide_masses;
 use super::grid::MassGrid;
-use crate::model::{ContactModel, Model, Pose, Spring, poses_at};
+use super::law::{contact_force, spring_force};
+use crate::model::{Model, Pose, Spring, poses_at};
 use crate::state::Power;
-
-/// Masses per work item. Fixed, so that the per-chunk partial sums (and hence the energy ledger)
-/// are bit-identical whatever the thread count.
-pub const CHUNK: usize = 1024;
-
-/// Below this many masses the thread pool costs more than it saves.
-pub const PARALLEL_MIN_MASSES: usize = 4 * CHUNK;
-
-/// Force exerted on mass `i` by spring `s` whose other end is `j`: elastic plus damping along the
-/// spring, and the damping part's power at `i`. A zero-length spring has no direction and exerts
-/// nothing (no division by zero).
-#[inline(always)]
-pub fn spring_force(s: &Spring, xi: Vec3, xj: Vec3, vi: Vec3, vj: Vec3) -> (Vec3, f32) {
-    let d = xi - xj;
-    let len = d.length();
-    if len <= f32::MIN_POSITIVE * 1e6 {
-        return (Vec3::ZERO, 0.0);
-    }
-    // One division, not three: the same on the GPU (forces.wgsl), so the two stay identical.
-    let n = d * (1.0 / len);
-    let elastic = -s.stiffness_n_per_m * (len - s.rest_m);
-    let damping = -s.damping_n_s_per_m * (vi - vj).dot(n);
-    (n * (elastic + damping), damping * n.dot(vi))
-}
-
-/// Penalty contact along unit normal `n` at depth `depth` > 0, for a mass with velocity `v_rel`
-/// relative to the collider. Returns the force and the power dissipated by its damping and
-/// friction parts (≥ 0). Friction is Coulomb, `|F_t| ≤ μ F_n`, and stops at most `stick_share`
-/// of the sliding within one step (1 for a collider: it cannot reverse the motion; less for
-/// mass pairs, several of which may act on one mass, see `PAIR_STICK_SHARE`).
-#[inline(always)]
-pub fn contact_force(
-    c: &ContactModel,
-    depth: f32,
-    n: Vec3,
-    v_rel: Vec3,
-    mass: f32,
-    dt: f32,
-    stick_share: f32,
-) -> (Vec3, f32) {
-    let vn = v_rel.dot(n);
-    let spring = c.stiffness_n_per_m * depth;
-    let damper = -2.0 * c.damping_ratio * (c.stiffness_n_per_m * mass).sqrt() * vn;
-    // Contact pushes, never pulls: the damper may at most cancel the spring.
-    let fn_total = (spring + damper).max(0.0);
-    let damper_part = fn_total - spring;
-    let mut force = n * fn_total;
-    let mut dissipated = -damper_part * vn;
-    if c.friction > 0.0 {
-        let vt = v_rel - vn * n;
-        let speed = vt.length();
-        if speed > 0.0 {
-            let ft = (c.friction * fn_total).min(stick_share * mass * speed / dt);
-            force -= vt * (ft / speed);
-            dissipated += ft * speed;
-        }
-    }
-    (force, dissipated)
-}
 
 /// Force on mass `i` and its contributions to the ledger's rates.
 #[inline(always)]
@@ -92,7 +35,7 @@ fn force_on_mass(
             continue;
         }
         let j = e.other as usize;
-        let (fs, pw) = spring_force(&e.spring, xi, x[j], vi, v[j]);
+        let (fs, pw) = spring_force::<f32>(&e.spring, xi, x[j], vi, v[j]);
         f += fs;
         damping_w += pw;
     }

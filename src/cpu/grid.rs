@@ -90,14 +90,10 @@ impl MassGrid {
     /// GPU's `grid_scan_*` passes), then `grid_scatter`. Scattering in mass order leaves each
     /// bucket sorted, the order the GPU's `grid_sort_cells` restores after its atomic scatter.
     fn build_from(&mut self, n: usize, cell: impl Fn(usize) -> IVec3) {
-        self.fill.fill(0);
-        for i in 0..n {
-            let c = cell(i);
-            let b = grid_hash(c, self.mask);
-            self.cell[i] = c;
-            self.mass_cell[i] = b;
-            self.fill[b as usize] += 1;
+        for (i, c) in self.cell[..n].iter_mut().enumerate() {
+            *c = cell(i);
         }
+        self.grid_count(n);
         let mut sum = 0u32;
         for (start, count) in self.cell_start.iter_mut().zip(self.fill.iter_mut()) {
             *start = sum;
@@ -106,6 +102,21 @@ impl MassGrid {
             *count = *start;
         }
         self.cell_start[self.mask as usize + 1] = sum;
+        self.grid_scatter(n);
+    }
+
+    /// Each mass's bucket (its cell is in `cell`), and the masses in each bucket (into `fill`).
+    pub fn grid_count(&mut self, n: usize) {
+        self.fill.fill(0);
+        for i in 0..n {
+            let b = grid_hash(self.cell[i], self.mask);
+            self.mass_cell[i] = b;
+            self.fill[b as usize] += 1;
+        }
+    }
+
+    /// Each mass into the next free slot of its bucket, in mass order.
+    pub fn grid_scatter(&mut self, n: usize) {
         for i in 0..n {
             let slot = &mut self.fill[self.mass_cell[i] as usize];
             self.sorted[*slot as usize] = i as u32;

@@ -19,6 +19,7 @@
 use glam::Vec3;
 
 use super::forces::{Gather, compute_forces};
+use super::law::Real;
 use crate::model::{ContactModel, Model, Spring, poses_at};
 use crate::state::{Power, State};
 
@@ -64,7 +65,7 @@ struct ContactTerms {
 
 /// The system linearised at x₀.
 #[derive(Debug, Default)]
-struct Linearisation {
+pub struct Linearisation {
     springs: Vec<SpringTerms>,
     contacts: Vec<Vec<ContactTerms>>,
 }
@@ -147,7 +148,7 @@ fn spring_terms(
 }
 
 /// (M − h D − h² K) p, filtered (pinned rows are zero).
-fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out: &mut [Vec3]) {
+pub fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out: &mut [Vec3]) {
     let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
     for (i, o) in out.iter_mut().enumerate() {
         if model.inv_mass[i] == 0.0 {
@@ -174,7 +175,7 @@ fn linearise(
     for (terms, s) in lin.springs.iter_mut().zip(springs) {
         let d = x[s.a as usize] - x[s.b as usize];
         let len = d.length();
-        *terms = if len > f32::MIN_POSITIVE * 1e6 {
+        *terms = if len > <f32 as Real>::MIN_SPRING_LENGTH {
             let k = h * h * s.stiffness_n_per_m;
             SpringTerms {
                 n: d * (1.0 / len),
@@ -220,40 +221,16 @@ pub fn implicit_step(
     dt: f32,
 ) -> SolveStats {
     let h = dt;
-    let n = state.x.len();
     let t_end = state.time_secs + f64::from(h);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
     let mut scale = 0.0f64;
-    w.dv_total.fill(Vec3::ZERO);
+    implicit_begin(&mut w.dv_total);
     for _ in 0..NEWTON_MAX_ITERATIONS {
-        for i in 0..n {
-            w.vk[i] = state.v[i] + w.dv_total[i];
-            w.xk[i] = state.x[i] + h * w.vk[i];
-        }
+        implicit_iterate(&state.x, &state.v, &w.dv_total, h, (&mut w.xk, &mut w.vk));
         power = compute_forces(model, gather, &w.xk, &w.vk, t_end, dt, &mut w.acc);
         linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
-        // b = h f(x, v) − M Δv, and the system's diagonal for the preconditioner.
-        let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
-        for i in 0..n {
-            if model.inv_mass[i] == 0.0 {
-                w.b[i] = Vec3::ZERO;
-                w.diag[i] = Vec3::ONE;
-                continue;
-            }
-            let m = model.mass_kg[i];
-            w.b[i] = h * m * w.acc[i] - m * w.dv_total[i];
-            let mut d = Vec3::splat(m * (1.0 + h * drag));
-            for c in &w.lin.contacts[i] {
-                d += (c.stiff + c.damp) * c.n * c.n;
-            }
-            for nb in model.adjacency.of(i) {
-                let t = w.lin.springs[nb.spring as usize];
-                d += (t.stiff_along + t.damp_along) * t.n * t.n
-                    + t.stiff_across * (Vec3::ONE - t.n * t.n);
-            }
-            w.diag[i] = d;
-        }
+        implicit_rhs(model, w, h);
         if scale == 0.0 {
             scale = dot(&w.b, &w.b).sqrt();
         }
@@ -261,36 +238,87 @@ pub fn implicit_step(
         stats.newton += 1;
         stats.iterations += iterations;
         stats.residual = stats.residual.max(residual);
-        let step =
-            w.dv.iter()
-                .map(|d| f64::from(d.length()))
-                .fold(0.0, f64::max);
-        for i in 0..n {
-            w.dv_total[i] += w.dv[i];
-        }
-        let size = w
-            .dv_total
-            .iter()
-            .map(|d| f64::from(d.length()))
-            .fold(0.0, f64::max);
-        if step <= NEWTON_TOLERANCE * size || step < 1e-7 {
+        if newton_update(&w.dv, &mut w.dv_total) {
             break;
         }
     }
-    for i in 0..n {
-        state.v[i] += w.dv_total[i];
-        state.x[i] += h * state.v[i];
-    }
+    implicit_final(state, &w.dv_total, h);
     state.ledger.accumulate(&power, f64::from(h));
     state.time_secs = t_end;
     state.steps += 1;
     stats
 }
 
+/// Δv starts at zero.
+pub fn implicit_begin(dv_total: &mut [Vec3]) {
+    dv_total.fill(Vec3::ZERO);
+}
+
+/// The Newton iterate (x + h (v + Δv), v + Δv).
+pub fn implicit_iterate(
+    x: &[Vec3],
+    v: &[Vec3],
+    dv_total: &[Vec3],
+    h: f32,
+    (xk, vk): (&mut [Vec3], &mut [Vec3]),
+) {
+    let start = x.iter().zip(v).zip(dv_total);
+    for ((xk, vk), ((x, v), dv)) in xk.iter_mut().zip(vk.iter_mut()).zip(start) {
+        *vk = *v + *dv;
+        *xk = *x + h * *vk;
+    }
+}
+
+/// Newton's right-hand side b = h f(x, v) − M Δv, and the system's diagonal for the
+/// preconditioner.
+pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32) {
+    let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
+    for i in 0..w.b.len() {
+        if model.inv_mass[i] == 0.0 {
+            w.b[i] = Vec3::ZERO;
+            w.diag[i] = Vec3::ONE;
+            continue;
+        }
+        let m = model.mass_kg[i];
+        w.b[i] = h * m * w.acc[i] - m * w.dv_total[i];
+        let mut d = Vec3::splat(m * (1.0 + h * drag));
+        for c in &w.lin.contacts[i] {
+            d += (c.stiff + c.damp) * c.n * c.n;
+        }
+        for nb in model.adjacency.of(i) {
+            let t = w.lin.springs[nb.spring as usize];
+            d += (t.stiff_along + t.damp_along) * t.n * t.n
+                + t.stiff_across * (Vec3::ONE - t.n * t.n);
+        }
+        w.diag[i] = d;
+    }
+}
+
+/// Δv += δ; returns whether Newton has converged: the update is small against Δv (or Δv is
+/// below 1e-7 m/s).
+pub fn newton_update(dv: &[Vec3], dv_total: &mut [Vec3]) -> bool {
+    let step = dv.iter().map(|d| f64::from(d.length())).fold(0.0, f64::max);
+    for (total, d) in dv_total.iter_mut().zip(dv) {
+        *total += *d;
+    }
+    let size = dv_total
+        .iter()
+        .map(|d| f64::from(d.length()))
+        .fold(0.0, f64::max);
+    step <= NEWTON_TOLERANCE * size || step < 1e-7
+}
+
+/// The step ends at the last iterate.
+pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
+    for ((x, v), dv) in state.x.iter_mut().zip(state.v.iter_mut()).zip(dv_total) {
+        *v += *dv;
+        *x += h * *v;
+    }
+}
+
 /// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
 /// into `w.dv`, to |r| ≤ CG_TOLERANCE · `scale`. Returns the iterations and |r| / `scale`.
 fn solve(model: &Model, w: &mut ImplicitWork, h: f32, scale: f64) -> (u32, f64) {
-    let n = w.b.len();
     let ImplicitWork {
         lin,
         b,
@@ -308,7 +336,7 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, scale: f64) -> (u32, f64) 
     if b_norm == 0.0 || scale == 0.0 {
         return (0, 0.0);
     }
-    for i in 0..n {
+    for i in 0..r.len() {
         z[i] = r[i] / diag[i];
     }
     p.copy_from_slice(z);
@@ -326,16 +354,30 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, scale: f64) -> (u32, f64) 
             return (iterations, residual);
         }
         let alpha = (rz / pap) as f32;
-        for i in 0..n {
-            dv[i] += alpha * p[i];
-            r[i] -= alpha * ap[i];
-            z[i] = r[i] / diag[i];
-        }
+        cg_update(alpha, (p, ap, diag), (dv, r, z));
         let rz_next = dot(r, z);
         let beta = (rz_next / rz) as f32;
         rz = rz_next;
-        for i in 0..n {
-            p[i] = z[i] + beta * p[i];
-        }
+        cg_direction(beta, z, p);
+    }
+}
+
+/// δ += α p, r −= α Ap, z = r / diag.
+pub fn cg_update(
+    alpha: f32,
+    (p, ap, diag): (&[Vec3], &[Vec3], &[Vec3]),
+    (dv, r, z): (&mut [Vec3], &mut [Vec3], &mut [Vec3]),
+) {
+    for i in 0..p.len() {
+        dv[i] += alpha * p[i];
+        r[i] -= alpha * ap[i];
+        z[i] = r[i] / diag[i];
+    }
+}
+
+/// p = z + β p.
+pub fn cg_direction(beta: f32, z: &[Vec3], p: &mut [Vec3]) {
+    for i in 0..p.len() {
+        p[i] = z[i] + beta * p[i];
     }
 }

@@ -4,7 +4,10 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::forces::{CHUNK, Gather, PARALLEL_MIN_MASSES, compute_forces};
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use super::forces::{Gather, compute_forces};
+use super::implicit::{ImplicitWork, SolveStats, implicit_step};
+use super::springs::update_springs;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::state::{Power, State};
@@ -23,7 +26,7 @@ pub struct Scratch {
     /// Per spring with the relaxation of this dt, when springs change during the run.
     limits: Vec<crate::model::SpringLimits>,
     /// Only for the implicit integrator.
-    implicit: Option<super::implicit::ImplicitWork>,
+    implicit: Option<ImplicitWork>,
 }
 
 impl Scratch {
@@ -49,9 +52,9 @@ impl Scratch {
         self.gather.springs()
     }
 
-    /// Plastic flow and tearing after a step (see [`super::update_springs`]).
+    /// Plastic flow and tearing after a step (see [`update_springs`]).
     pub fn update_springs(&mut self, state: &mut State) {
-        state.ledger.plastic_j += super::update_springs(&self.limits, &mut self.gather, &state.x);
+        state.ledger.plastic_j += update_springs(&self.limits, &mut self.gather, &state.x);
     }
 }
 
@@ -85,155 +88,225 @@ pub fn step(
     state: &mut State,
     s: &mut Scratch,
     dt: f32,
-) -> Option<super::implicit::SolveStats> {
-    if integrator == Integrator::Implicit {
-        let work = s
-            .implicit
-            .get_or_insert_with(|| super::implicit::ImplicitWork::new(model));
-        return Some(super::implicit::implicit_step(
-            model,
-            &mut s.gather,
-            state,
-            work,
-            dt,
-        ));
-    }
-    let n = state.x.len();
-    let t = state.time_secs;
-    let h = f64::from(dt);
-    let State { x, v, ledger, .. } = state;
-    let (x, v) = (&mut x[..], &mut v[..]);
+) -> Option<SolveStats> {
     match integrator {
-        Integrator::Euler => {
-            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
-            let acc = &s.acc;
-            for_each_mass!(n, |i| (x, v) {
-                *x += dt * *v;
-                *v += dt * acc[i];
-            });
-            ledger.accumulate(&p, h);
+        Integrator::Euler | Integrator::SemiImplicit => {
+            first_order_step(model, integrator, state, s, dt)
         }
-        Integrator::SemiImplicit => {
-            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
-            let acc = &s.acc;
-            for_each_mass!(n, |i| (x, v) {
-                *v += dt * acc[i];
-                *x += dt * *v;
-            });
-            ledger.accumulate(&p, h);
+        Integrator::Rk2 => rk2_step(model, state, s, dt),
+        Integrator::Rk4 => rk4_step(model, state, s, dt),
+        Integrator::Verlet => verlet_step(model, state, s, dt),
+        // It keeps its own time.
+        Integrator::Implicit => {
+            let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
+            return Some(implicit_step(model, &mut s.gather, state, work, dt));
         }
-        Integrator::Rk2 => {
-            compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
-            let (acc, xt, vt) = (&s.acc, &mut s.xt[..], &mut s.vt[..]);
-            {
-                let (x, v) = (&*x, &*v);
-                for_each_mass!(n, |i| (xt, vt) {
-                    *xt = x[i] + 0.5 * dt * v[i];
-                    *vt = v[i] + 0.5 * dt * acc[i];
-                });
-            }
-            let p = compute_forces(
-                model,
-                &mut s.gather,
-                &s.xt,
-                &s.vt,
-                t + 0.5 * h,
-                dt,
-                &mut s.acc,
-            );
-            let (acc, vt) = (&s.acc, &s.vt);
-            for_each_mass!(n, |i| (x, v) {
-                *x += dt * vt[i];
-                *v += dt * acc[i];
-            });
-            ledger.accumulate(&p, h);
-        }
-        Integrator::Rk4 => {
-            let mut power = Power::default();
-            // Stage 1 at (x, v).
-            let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
-            power.add_scaled(&p, 1.0);
-            {
-                let (x, v, acc) = (&*x, &*v, &s.acc);
-                let (xt, vt, sv, sa) = (
-                    &mut s.xt[..],
-                    &mut s.vt[..],
-                    &mut s.sum_v[..],
-                    &mut s.sum_a[..],
-                );
-                for_each_mass!(n, |i| (xt, vt, sv, sa) {
-                    *sv = v[i];
-                    *sa = acc[i];
-                    *xt = x[i] + 0.5 * dt * v[i];
-                    *vt = v[i] + 0.5 * dt * acc[i];
-                });
-            }
-            // Stages 2 and 3 at the midpoint; stage 4 at the end.
-            for (stage_t, next_scale, weight) in [(0.5, 0.5f32, 2.0f32), (0.5, 1.0, 2.0)] {
-                let p = compute_forces(
-                    model,
-                    &mut s.gather,
-                    &s.xt,
-                    &s.vt,
-                    t + stage_t * h,
-                    dt,
-                    &mut s.acc,
-                );
-                power.add_scaled(&p, f64::from(weight));
-                let (x, v, acc) = (&*x, &*v, &s.acc);
-                let (xt, vt, sv, sa) = (
-                    &mut s.xt[..],
-                    &mut s.vt[..],
-                    &mut s.sum_v[..],
-                    &mut s.sum_a[..],
-                );
-                for_each_mass!(n, |i| (xt, vt, sv, sa) {
-                    *sv += weight * *vt;
-                    *sa += weight * acc[i];
-                    *xt = x[i] + next_scale * dt * *vt;
-                    *vt = v[i] + next_scale * dt * acc[i];
-                });
-            }
-            let p = compute_forces(model, &mut s.gather, &s.xt, &s.vt, t + h, dt, &mut s.acc);
-            power.add_scaled(&p, 1.0);
-            let (acc, vt, sv, sa) = (&s.acc, &s.vt, &s.sum_v, &s.sum_a);
-            for_each_mass!(n, |i| (x, v) {
-                *x += (dt / 6.0) * (sv[i] + vt[i]);
-                *v += (dt / 6.0) * (sa[i] + acc[i]);
-            });
-            ledger.accumulate(&power, h / 6.0);
-        }
-        Integrator::Verlet => {
-            // a(x_n) is kept in `acc` from the previous step.
-            let p0 = match s.verlet_cache {
-                Some(p) => p,
-                None => compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc),
-            };
-            {
-                let acc = &s.acc;
-                let (xt, vt) = (&mut s.xt[..], &mut s.vt[..]);
-                // Kick-drift-kick: every update has the shape p + s·q, which compilers do not
-                // fuse differently on CPU and GPU (dt·v + ½dt²·a would become an FMA on some).
-                for_each_mass!(n, |i| (x, xt, vt) {
-                    let half_kick = v[i] + (0.5 * dt) * acc[i];
-                    *x += dt * half_kick;
-                    // Predicted velocity for the velocity-dependent forces at the new position.
-                    *vt = v[i] + dt * acc[i];
-                    *xt = half_kick;
-                });
-            }
-            let p1 = compute_forces(model, &mut s.gather, x, &s.vt, t + h, dt, &mut s.acc);
-            let (acc, half_kick) = (&s.acc, &s.xt);
-            for_each_mass!(n, |i| (v) {
-                *v = half_kick[i] + (0.5 * dt) * acc[i];
-            });
-            ledger.accumulate(&p0, 0.5 * h);
-            ledger.accumulate(&p1, 0.5 * h);
-            s.verlet_cache = Some(p1);
-        }
-        Integrator::Implicit => unreachable!("handled above"),
     }
-    state.time_secs += h;
+    state.time_secs += f64::from(dt);
     state.steps += 1;
     None
+}
+
+fn first_order_step(
+    model: &Model,
+    integrator: Integrator,
+    state: &mut State,
+    s: &mut Scratch,
+    dt: f32,
+) {
+    let State {
+        x,
+        v,
+        ledger,
+        time_secs,
+        ..
+    } = state;
+    let p = compute_forces(model, &mut s.gather, x, v, *time_secs, dt, &mut s.acc);
+    if integrator == Integrator::Euler {
+        euler_update(x, v, &s.acc, dt);
+    } else {
+        semi_implicit_update(x, v, &s.acc, dt);
+    }
+    ledger.accumulate(&p, f64::from(dt));
+}
+
+fn rk2_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
+    let (t, h) = (state.time_secs, f64::from(dt));
+    let State { x, v, ledger, .. } = state;
+    compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
+    rk2_stage(x, v, &s.acc, dt, &mut s.xt, &mut s.vt);
+    let p = compute_forces(
+        model,
+        &mut s.gather,
+        &s.xt,
+        &s.vt,
+        t + 0.5 * h,
+        dt,
+        &mut s.acc,
+    );
+    rk2_final(x, v, &s.acc, &s.vt, dt);
+    ledger.accumulate(&p, h);
+}
+
+fn rk4_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
+    let (t, h) = (state.time_secs, f64::from(dt));
+    let State { x, v, ledger, .. } = state;
+    let mut power = Power::default();
+    // Stage 1 at (x, v).
+    let p = compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc);
+    power.add_scaled(&p, 1.0);
+    rk4_begin(
+        x,
+        v,
+        &s.acc,
+        dt,
+        (&mut s.xt, &mut s.vt, &mut s.sum_v, &mut s.sum_a),
+    );
+    // Stages 2 and 3 at the midpoint; stage 4 at the end.
+    for (stage_t, next_scale, weight) in [(0.5, 0.5f32, 2.0f32), (0.5, 1.0, 2.0)] {
+        let p = compute_forces(
+            model,
+            &mut s.gather,
+            &s.xt,
+            &s.vt,
+            t + stage_t * h,
+            dt,
+            &mut s.acc,
+        );
+        power.add_scaled(&p, f64::from(weight));
+        let sums = (
+            &mut s.xt[..],
+            &mut s.vt[..],
+            &mut s.sum_v[..],
+            &mut s.sum_a[..],
+        );
+        rk4_mid(x, v, &s.acc, dt, (weight, next_scale), sums);
+    }
+    let p = compute_forces(model, &mut s.gather, &s.xt, &s.vt, t + h, dt, &mut s.acc);
+    power.add_scaled(&p, 1.0);
+    rk4_final(x, v, &s.acc, dt, (&s.vt, &s.sum_v, &s.sum_a));
+    ledger.accumulate(&power, h / 6.0);
+}
+
+fn verlet_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
+    let (t, h) = (state.time_secs, f64::from(dt));
+    let State { x, v, ledger, .. } = state;
+    // a(x_n) is kept in `acc` from the previous step.
+    let p0 = match s.verlet_cache {
+        Some(p) => p,
+        None => compute_forces(model, &mut s.gather, x, v, t, dt, &mut s.acc),
+    };
+    verlet_drift(x, v, &s.acc, dt, &mut s.xt, &mut s.vt);
+    let p1 = compute_forces(model, &mut s.gather, x, &s.vt, t + h, dt, &mut s.acc);
+    verlet_kick(v, &s.acc, &s.xt, dt);
+    ledger.accumulate(&p0, 0.5 * h);
+    ledger.accumulate(&p1, 0.5 * h);
+    s.verlet_cache = Some(p1);
+}
+
+pub fn euler_update(x: &mut [Vec3], v: &mut [Vec3], acc: &[Vec3], dt: f32) {
+    for_each_mass!(x.len(), |i| (x, v) {
+        *x += dt * *v;
+        *v += dt * acc[i];
+    });
+}
+
+pub fn semi_implicit_update(x: &mut [Vec3], v: &mut [Vec3], acc: &[Vec3], dt: f32) {
+    for_each_mass!(x.len(), |i| (x, v) {
+        *v += dt * acc[i];
+        *x += dt * *v;
+    });
+}
+
+/// The midpoint (xt, vt) from the derivative at the start.
+pub fn rk2_stage(x: &[Vec3], v: &[Vec3], acc: &[Vec3], dt: f32, xt: &mut [Vec3], vt: &mut [Vec3]) {
+    for_each_mass!(x.len(), |i| (xt, vt) {
+        *xt = x[i] + 0.5 * dt * v[i];
+        *vt = v[i] + 0.5 * dt * acc[i];
+    });
+}
+
+/// The step with the midpoint's derivative (`vt`, `acc`).
+pub fn rk2_final(x: &mut [Vec3], v: &mut [Vec3], acc: &[Vec3], vt: &[Vec3], dt: f32) {
+    for_each_mass!(x.len(), |i| (x, v) {
+        *x += dt * vt[i];
+        *v += dt * acc[i];
+    });
+}
+
+/// RK4's stage point and weighted sums: (xt, vt, Σv, Σa).
+type Rk4Sums<'a> = (
+    &'a mut [Vec3],
+    &'a mut [Vec3],
+    &'a mut [Vec3],
+    &'a mut [Vec3],
+);
+
+/// Start the sums with stage 1 and form stage 2's point.
+pub fn rk4_begin(x: &[Vec3], v: &[Vec3], acc: &[Vec3], dt: f32, (xt, vt, sv, sa): Rk4Sums<'_>) {
+    for_each_mass!(x.len(), |i| (xt, vt, sv, sa) {
+        *sv = v[i];
+        *sa = acc[i];
+        *xt = x[i] + 0.5 * dt * v[i];
+        *vt = v[i] + 0.5 * dt * acc[i];
+    });
+}
+
+/// Stages 2 and 3: add this stage with `weight`, then form the next point at `next_scale` of
+/// the step.
+pub fn rk4_mid(
+    x: &[Vec3],
+    v: &[Vec3],
+    acc: &[Vec3],
+    dt: f32,
+    (weight, next_scale): (f32, f32),
+    (xt, vt, sv, sa): Rk4Sums<'_>,
+) {
+    for_each_mass!(x.len(), |i| (xt, vt, sv, sa) {
+        *sv += weight * *vt;
+        *sa += weight * acc[i];
+        *xt = x[i] + next_scale * dt * *vt;
+        *vt = v[i] + next_scale * dt * acc[i];
+    });
+}
+
+/// The step with stage 4 (`vt`, `acc`) and the sums of the others.
+pub fn rk4_final(
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    acc: &[Vec3],
+    dt: f32,
+    (vt, sv, sa): (&[Vec3], &[Vec3], &[Vec3]),
+) {
+    for_each_mass!(x.len(), |i| (x, v) {
+        *x += (dt / 6.0) * (sv[i] + vt[i]);
+        *v += (dt / 6.0) * (sa[i] + acc[i]);
+    });
+}
+
+/// Kick-drift-kick, first half: half a kick with a(x_n), the drift, and a predicted velocity
+/// (into `vt`) for the velocity-dependent forces at the new position; the half-kicked velocity
+/// is kept in `half_kick`. Every update has the shape p + s·q, which compilers do not fuse
+/// differently on CPU and GPU (dt·v + ½dt²·a would become an FMA on some).
+pub fn verlet_drift(
+    x: &mut [Vec3],
+    v: &[Vec3],
+    acc: &[Vec3],
+    dt: f32,
+    half_kick: &mut [Vec3],
+    vt: &mut [Vec3],
+) {
+    for_each_mass!(x.len(), |i| (x, half_kick, vt) {
+        let kicked = v[i] + (0.5 * dt) * acc[i];
+        *x += dt * kicked;
+        *vt = v[i] + dt * acc[i];
+        *half_kick = kicked;
+    });
+}
+
+/// Second half, after the forces at (x_{n+1}, predicted v).
+pub fn verlet_kick(v: &mut [Vec3], acc: &[Vec3], half_kick: &[Vec3], dt: f32) {
+    for_each_mass!(v.len(), |i| (v) {
+        *v = half_kick[i] + (0.5 * dt) * acc[i];
+    });
 }

@@ -1,22 +1,29 @@
 //! The CPU reference backend: f32 like the GPU, multi-threaded with rayon, deterministic (every
 //! mass is written by one task and every sum is taken over fixed chunks in a fixed order).
 
-mod collide;
-mod collide_masses;
-mod forces;
-mod grid;
-mod implicit;
-mod integrate;
-mod reduce;
-mod springs;
+// Each module is named for the WGSL file its kernels' twins are in (`src/cpu/grid.rs` and
+// `shaders/grid.wgsl`); `gpu::kernels` names the twin of every GPU kernel, and checks that it
+// exists, so the modules are visible to the crate.
+pub(crate) mod chunks;
+pub(crate) mod collide;
+pub(crate) mod collide_masses;
+pub(crate) mod forces;
+pub(crate) mod grid;
+pub(crate) mod implicit;
+pub(crate) mod integrate;
+pub(crate) mod law;
+pub(crate) mod reduce;
+pub(crate) mod springs;
 
+pub use chunks::PARALLEL_MIN_MASSES;
 pub use collide::project_contacts;
 pub use collide_masses::{PAIR_STICK_SHARE, collide_masses, mass_contact_energy, pair_contact};
-pub use forces::{Gather, PARALLEL_MIN_MASSES, compute_forces, contact_force, spring_force};
+pub use forces::{Gather, compute_forces};
 pub use grid::{MassGrid, SCAN_BLOCK, grid_cell, grid_hash, inv_cell_per_m, table_size};
 pub use implicit::{
     CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
 };
+pub use law::{Real, contact_force, spring_force};
 pub use reduce::{compute_energies, compute_strain};
 pub use springs::update_springs;
 

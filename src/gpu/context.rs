@@ -1,6 +1,90 @@
-//! Choosing an adapter and opening a device with the adapter's real limits.
+//! Choosing an adapter and opening a device with the adapter's real limits; waiting on it, and
+//! what its errors mean for the user.
 
 use std::sync::{Arc, Mutex};
+
+use crate::backend::BackendError;
+
+/// Why no device could be opened for a run, or the scene does not fit the one opened; each says
+/// what would fix it.
+#[derive(Debug, thiserror::Error)]
+pub enum AdapterError {
+    #[error(
+        "no GPU adapter found (wgpu sees no Vulkan, Metal, DX12 or GL device). \
+         Run with `--backend cpu`, or on Linux without a GPU install Mesa's software Vulkan: \
+         `apt-get install mesa-vulkan-drivers libvulkan1`"
+    )]
+    NoAdapter,
+    #[error("no adapter matches --adapter '{want}'; available: {}", available.join("; "))]
+    NoMatch {
+        want: String,
+        available: Vec<String>,
+    },
+    #[error("opening {adapter} failed: {source}")]
+    RequestDevice {
+        adapter: String,
+        source: wgpu::RequestDeviceError,
+    },
+    #[error(
+        "the scene is too large for {adapter}: its {what} buffer needs {bytes} bytes, the adapter allows {limit} bytes per storage buffer \
+         ({masses} masses, {springs} springs). Use a smaller grid or --backend cpu"
+    )]
+    BufferTooLarge {
+        adapter: String,
+        what: &'static str,
+        bytes: u64,
+        limit: u64,
+        masses: u64,
+        springs: u64,
+    },
+    #[error(
+        "the model has {colliders} colliders; the GPU backend passes at most {max} (their poses \
+         ride in each stage's uniform slot). Use fewer colliders or --backend cpu"
+    )]
+    TooManyColliders { colliders: usize, max: usize },
+    #[error(
+        "{adapter} allows {allowed} storage buffers per shader stage; Hooke's kernels need {needed}. Use --backend cpu"
+    )]
+    TooFewStorageBuffers {
+        adapter: String,
+        allowed: u32,
+        needed: u32,
+    },
+}
+
+/// What stops a run on an open device, or before the GPU backend takes a run at all.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(
+        "implicit Euler does not support mass–mass contact ([effects.self_collision]): \
+         use semi-implicit, verlet or rk4"
+    )]
+    ImplicitWithMassContact,
+    /// An asynchronous error, or the device lost (the first reported, as `describe_error` and
+    /// `describe_loss` put it).
+    #[error("the GPU reported an error on {adapter}: {cause}")]
+    Reported { adapter: String, cause: String },
+    #[error("waiting for {adapter} failed: {cause}")]
+    Wait { adapter: String, cause: String },
+    /// `what`: "back from <adapter>", "the solver status from <adapter>", "timestamps", ….
+    #[error("reading {what} failed: {cause}")]
+    ReadBack { what: String, cause: String },
+    /// A bug in Hooke rather than a problem with the device.
+    #[error("internal: {0}")]
+    Internal(String),
+}
+
+impl From<DeviceError> for BackendError {
+    fn from(e: DeviceError) -> Self {
+        BackendError::Device(e.to_string())
+    }
+}
+
+impl From<AdapterError> for BackendError {
+    fn from(e: AdapterError) -> Self {
+        BackendError::Device(e.to_string())
+    }
+}
 
 /// An open device, and where its asynchronous errors land (wgpu's default handler would panic).
 pub struct GpuContext {
@@ -64,33 +148,28 @@ pub fn describe_loss(reason: wgpu::DeviceLostReason, message: &str) -> String {
     )
 }
 
+/// The best of `all`, or the first whose name contains `name` (case-insensitive).
+fn choose(all: Vec<wgpu::Adapter>, name: Option<&str>) -> Result<wgpu::Adapter, AdapterError> {
+    let Some(want) = name else {
+        return all.into_iter().next().ok_or(AdapterError::NoAdapter);
+    };
+    if all.is_empty() {
+        return Err(AdapterError::NoAdapter);
+    }
+    let available: Vec<String> = all.iter().map(|a| describe(&a.get_info())).collect();
+    let want_l = want.to_lowercase();
+    all.into_iter()
+        .find(|a| a.get_info().name.to_lowercase().contains(&want_l))
+        .ok_or_else(|| AdapterError::NoMatch {
+            want: want.to_owned(),
+            available,
+        })
+}
+
 impl GpuContext {
     /// Open the best adapter, or the first whose name contains `name` (case-insensitive).
-    pub fn open(name: Option<&str>) -> Result<Self, String> {
-        let all = adapters();
-        if all.is_empty() {
-            return Err("no GPU adapter found (wgpu sees no Vulkan, Metal, DX12 or GL device). \
-                 Run with `--backend cpu`, or on Linux without a GPU install Mesa's software Vulkan: \
-                 `apt-get install mesa-vulkan-drivers libvulkan1`"
-                .to_owned());
-        }
-        let adapter = match name {
-            None => all.into_iter().next(),
-            Some(want) => {
-                let names: Vec<String> = all.iter().map(|a| describe(&a.get_info())).collect();
-                let want_l = want.to_lowercase();
-                all.into_iter()
-                    .find(|a| a.get_info().name.to_lowercase().contains(&want_l))
-                    .ok_or_else(|| {
-                        format!(
-                            "no adapter matches --adapter '{want}'; available: {}",
-                            names.join("; ")
-                        )
-                    })
-                    .map(Some)?
-            }
-        }
-        .ok_or_else(|| "no adapter".to_owned())?;
+    pub fn open(name: Option<&str>) -> Result<Self, AdapterError> {
+        let adapter = choose(adapters(), name)?;
         let info = adapter.get_info();
         let limits = adapter.limits();
         let wanted =
@@ -102,7 +181,10 @@ impl GpuContext {
             required_limits: limits.clone(),
             ..Default::default()
         }))
-        .map_err(|e| format!("opening {} failed: {e}", describe(&info)))?;
+        .map_err(|source| AdapterError::RequestDevice {
+            adapter: describe(&info),
+            source,
+        })?;
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -145,5 +227,75 @@ impl GpuContext {
                 Some(v.remove(0))
             }
         })
+    }
+}
+
+impl GpuContext {
+    /// The first error the device reported, as a run's error.
+    pub fn check(&self) -> Result<(), BackendError> {
+        match self.take_error() {
+            Some(e) => Err(self.reported(e)),
+            None => Ok(()),
+        }
+    }
+
+    fn reported(&self, cause: String) -> BackendError {
+        DeviceError::Reported {
+            adapter: self.describe(),
+            cause,
+        }
+        .into()
+    }
+
+    /// Wait until everything submitted has run.
+    pub fn wait_idle(&self) -> Result<(), BackendError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DeviceError::Wait {
+                adapter: self.describe(),
+                cause: e.to_string(),
+            })?;
+        self.check()
+    }
+
+    /// Map `slice` for reading once submission `index` has run, waiting for that submission
+    /// only: work submitted after it keeps the GPU busy meanwhile.
+    pub fn map_and_wait(
+        &self,
+        slice: &wgpu::BufferSlice<'_>,
+        index: wgpu::SubmissionIndex,
+    ) -> Result<(), BackendError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        // A lost device fails the mapping; its own message says more than the mapping's.
+        let lost = |e: String| match self.take_error() {
+            Some(cause) => self.reported(cause),
+            None => self.read_back_failed(e),
+        };
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| lost(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| lost(e.to_string()))?
+            .map_err(|e| lost(e.to_string()))?;
+        self.check()
+    }
+
+    pub fn read_back_failed(&self, e: impl std::fmt::Display) -> BackendError {
+        DeviceError::ReadBack {
+            what: format!("back from {}", self.describe()),
+            cause: e.to_string(),
+        }
+        .into()
+    }
+
+    pub fn encoder(&self, label: &'static str) -> wgpu::CommandEncoder {
+        self.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
     }
 }

@@ -1,404 +1,383 @@
-//! Shader modules, bind group layouts and compute pipelines. Each WGSL file is compiled after
-//! `common.wgsl`; the effects a scene lacks are specialised away through `override` constants.
+//! Every GPU kernel, declared once. A row names the entry point, the WGSL file it is in, what it
+//! binds, how many threads it runs, which runs compile it, its CPU namesake (the function in
+//! `src/cpu/` computing the same thing, of the same name) or why it has none, and, for the
+//! kernels a step plan holds, the compulsory memory traffic of one dispatch. The `Kernel` enum,
+//! the pipelines (`pipelines.rs`) and the dispatch plans (`plan.rs`) follow from it; the build
+//! fails if a namesake is missing, and `tests/shaders.rs` checks the table against the WGSL.
 
-use crate::integrator::Integrator;
-use crate::model::{Model, Shape};
+use super::shaders::Program;
 
-pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
-pub const FORCES: &str = include_str!("../../shaders/forces.wgsl");
-pub const INTEGRATE: &str = include_str!("../../shaders/integrate.wgsl");
-pub const COLLIDE: &str = include_str!("../../shaders/collide.wgsl");
-pub const REDUCE: &str = include_str!("../../shaders/reduce.wgsl");
-pub const IMPLICIT: &str = include_str!("../../shaders/implicit.wgsl");
-pub const SPRINGS: &str = include_str!("../../shaders/springs.wgsl");
-pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
-pub const COLLIDE_MASSES: &str = include_str!("../../shaders/collide_masses.wgsl");
-
-/// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 8] {
-    [
-        ("forces.wgsl", format!("{COMMON}\n{FORCES}")),
-        ("integrate.wgsl", format!("{COMMON}\n{INTEGRATE}")),
-        ("collide.wgsl", format!("{COMMON}\n{COLLIDE}")),
-        ("reduce.wgsl", format!("{COMMON}\n{REDUCE}")),
-        ("implicit.wgsl", format!("{COMMON}\n{IMPLICIT}")),
-        ("springs.wgsl", format!("{COMMON}\n{SPRINGS}")),
-        ("grid.wgsl", format!("{COMMON}\n{GRID}")),
-        ("collide_masses.wgsl", format!("{COMMON}\n{COLLIDE_MASSES}")),
-    ]
+/// Bind group 0 of a kernel; what each binds is in [`Group::slots`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group {
+    ForcesModel,
+    Integrate,
+    Collide,
+    Reduce,
+    Solve,
+    Springs,
+    Grid,
+    CollideMasses,
 }
 
-pub const WORKGROUP: u32 = 64;
-
-// The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
-// (`SCAN_BLOCK` in shaders/common.wgsl).
-const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
-
 /// Binding kinds, in binding order.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Slot {
     Uniform,
-    UniformDynamic,
     Read,
     ReadWrite,
 }
 
-pub fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = slots
-        .iter()
-        .enumerate()
-        .map(|(i, s)| wgpu::BindGroupLayoutEntry {
-            binding: i as u32,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: match s {
-                Slot::Uniform | Slot::UniformDynamic => wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: matches!(s, Slot::UniformDynamic),
-                    min_binding_size: None,
-                },
-                Slot::Read | Slot::ReadWrite => wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage {
-                        read_only: matches!(s, Slot::Read),
-                    },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-            },
-            count: None,
-        })
-        .collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &entries,
-    })
-}
+impl Group {
+    pub const ALL: [Group; 8] = [
+        Group::ForcesModel,
+        Group::Integrate,
+        Group::Collide,
+        Group::Reduce,
+        Group::Solve,
+        Group::Springs,
+        Group::Grid,
+        Group::CollideMasses,
+    ];
 
-/// Every override constant of a pipeline: the effects, and the implicit solver's switch and
-/// stopping rules (the CPU's, so both backends stop alike).
-pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
-    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_TOLERANCE};
-    let mut c = effect_constants(model);
-    c.extend([
-        (
-            "IMPLICIT",
-            if integrator == Integrator::Implicit {
-                1.0
-            } else {
-                0.0
-            },
-        ),
-        ("CG_TOLERANCE", CG_TOLERANCE),
-        ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
-        ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
-        ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
-    ]);
-    c
-}
-
-/// The override constants that switch effects on, from the model.
-pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
-    let e = &model.effects;
-    let flag = |b: bool| if b { 1.0 } else { 0.0 };
-    vec![
-        ("HAS_GRAVITY", flag(e.gravity_m_per_s2.is_some())),
-        ("HAS_DRAG", flag(e.air_drag_per_s.is_some())),
-        ("HAS_GROUND", flag(e.ground.is_some())),
-        (
-            "HAS_SPHERES",
-            flag(e.has_shape(|s| matches!(s, Shape::Sphere { .. }))),
-        ),
-        (
-            "HAS_BOXES",
-            flag(e.has_shape(|s| matches!(s, Shape::Box { .. }))),
-        ),
-        (
-            "HAS_PLANES",
-            flag(e.has_shape(|s| matches!(s, Shape::Plane { .. }))),
-        ),
-        ("HAS_COLLIDERS", flag(!e.colliders.is_empty())),
-        (
-            "HAS_DAMPING",
-            flag(model.springs.iter().any(|s| s.damping_n_s_per_m != 0.0)),
-        ),
-        ("HAS_PLASTICITY", flag(e.plasticity)),
-        ("HAS_TEARING", flag(e.tearing)),
-    ]
-}
-
-pub struct Layouts {
-    pub forces_model: wgpu::BindGroupLayout,
-    pub forces_state: wgpu::BindGroupLayout,
-    pub stage: wgpu::BindGroupLayout,
-    pub integrate: wgpu::BindGroupLayout,
-    pub collide: wgpu::BindGroupLayout,
-    pub reduce: wgpu::BindGroupLayout,
-    pub solve: wgpu::BindGroupLayout,
-    pub springs: wgpu::BindGroupLayout,
-    pub grid: wgpu::BindGroupLayout,
-    pub collide_masses: wgpu::BindGroupLayout,
-}
-
-impl Layouts {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// The group's bindings, as the WGSL declares them (the buffers are bound in this order in
+    /// `resources.rs`).
+    pub fn slots(self) -> &'static [Slot] {
         use Slot::*;
-        Self {
-            forces_model: layout(
-                device,
-                "forces model",
-                &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
-            ),
-            forces_state: layout(device, "forces state", &[Read, Read]),
-            stage: layout(device, "stage", &[UniformDynamic]),
-            integrate: layout(
-                device,
-                "integrate",
-                &[
-                    Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite,
-                    ReadWrite, ReadWrite,
-                ],
-            ),
-            collide: layout(
-                device,
-                "collide",
-                &[
-                    Uniform, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-                ],
-            ),
-            reduce: layout(
-                device,
-                "reduce",
-                &[
-                    Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
-                ],
-            ),
+        match self {
+            // params, springs, offsets, neighbours, colliders, mass, deriv.
+            Group::ForcesModel => &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
+            // params, x, v, xt, vt, deriv, sums, ledger, counters.
+            Group::Integrate => &[
+                Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite, ReadWrite,
+                ReadWrite,
+            ],
+            // params, colliders, mass, x, v, ledger, counters.
+            Group::Collide => &[
+                Uniform, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+            ],
+            // params, springs, colliders, mass, x, v, ledger, strain, partials.
+            Group::Reduce => &[
+                Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+            ],
             // params, springs, offsets, neighbours, mass, xt, deriv, work, scratch.
-            solve: layout(
-                device,
-                "solve",
-                &[
-                    Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
-                ],
-            ),
+            Group::Solve => &[
+                Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+            ],
             // params, springs, limits, x, released, partials.
-            springs: layout(
-                device,
-                "springs",
-                &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
-            ),
+            Group::Springs => &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
             // params, contact, cell counts, cell starts, block sums, mass buckets, sorted masses.
-            grid: layout(
-                device,
-                "grid",
-                &[
-                    Uniform, Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-                ],
-            ),
+            Group::Grid => &[
+                Uniform, Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+            ],
             // params, contact, mass, mass bodies, cell starts, sorted masses, deriv, partials:
             // with the state's x and v, the 8 storage buffers a stage may bind.
-            collide_masses: layout(
-                device,
-                "collide masses",
-                &[
-                    Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite,
-                ],
-            ),
+            Group::CollideMasses => &[
+                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite,
+            ],
         }
     }
 }
 
-pub struct Pipelines {
-    pub compute_forces: wgpu::ComputePipeline,
-    pub euler_update: wgpu::ComputePipeline,
-    pub semi_implicit_update: wgpu::ComputePipeline,
-    pub rk2_stage: wgpu::ComputePipeline,
-    pub rk2_final: wgpu::ComputePipeline,
-    pub rk4_begin: wgpu::ComputePipeline,
-    pub rk4_mid: wgpu::ComputePipeline,
-    pub rk4_final: wgpu::ComputePipeline,
-    pub verlet_drift: wgpu::ComputePipeline,
-    pub verlet_kick: wgpu::ComputePipeline,
-    pub project_contacts: wgpu::ComputePipeline,
-    pub compute_strain: wgpu::ComputePipeline,
-    pub compute_energies: wgpu::ComputePipeline,
-    /// Only for the implicit integrator.
-    pub implicit: Option<ImplicitPipelines>,
-    /// Only when springs change during the run (plasticity, tearing).
-    pub springs: Option<SpringPipelines>,
-    /// Only with mass–mass contact.
-    pub mass_contact: Option<MassContactPipelines>,
+/// How many threads a kernel runs: one per mass, per spring, per mass or spring (the energy
+/// sums), per bucket of the hash grid, per block of its prefix sum, or one workgroup.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Threads {
+    Masses,
+    Springs,
+    Energies,
+    Buckets,
+    ScanBlocks,
+    OneGroup,
 }
 
-pub struct SpringPipelines {
-    pub update_springs: wgpu::ComputePipeline,
-    pub sum_spring_work: wgpu::ComputePipeline,
+/// Which runs compile a kernel (absent effects cost nothing).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needs {
+    Always,
+    /// The implicit integrator.
+    Implicit,
+    /// Plasticity or tearing.
+    SpringsChange,
+    /// Mass–mass contact.
+    MassContact,
 }
 
-/// Mass–mass contact's kernels: the hash grid's build (grid.wgsl) and the pairs
-/// (collide_masses.wgsl).
-pub struct MassContactPipelines {
-    pub grid_count: wgpu::ComputePipeline,
-    pub grid_scan_blocks: wgpu::ComputePipeline,
-    pub grid_scan_sums: wgpu::ComputePipeline,
-    pub grid_scan_add: wgpu::ComputePipeline,
-    pub grid_scatter: wgpu::ComputePipeline,
-    pub grid_sort_cells: wgpu::ComputePipeline,
-    pub collide_masses: wgpu::ComputePipeline,
-    pub mass_contact_energy: wgpu::ComputePipeline,
+/// A kernel's CPU namesake, or why it has none.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Twin {
+    /// Its path under `crate::`, ending in the kernel's own name.
+    Cpu(&'static str),
+    None(&'static str),
 }
 
-/// Implicit Euler's kernels: the state-side ones in integrate.wgsl, the solve in implicit.wgsl.
-pub struct ImplicitPipelines {
-    pub implicit_begin: wgpu::ComputePipeline,
-    pub implicit_iterate: wgpu::ComputePipeline,
-    pub implicit_final: wgpu::ComputePipeline,
-    pub solver_begin: wgpu::ComputePipeline,
-    pub implicit_rhs: wgpu::ComputePipeline,
-    pub cg_begin: wgpu::ComputePipeline,
-    pub apply_system: wgpu::ComputePipeline,
-    pub cg_alpha: wgpu::ComputePipeline,
-    pub cg_update: wgpu::ComputePipeline,
-    pub cg_beta: wgpu::ComputePipeline,
-    pub cg_direction: wgpu::ComputePipeline,
-    pub newton_update: wgpu::ComputePipeline,
-    pub newton_end: wgpu::ComputePipeline,
+/// What the table says of one kernel.
+#[derive(Debug)]
+pub struct Spec {
+    pub entry: &'static str,
+    pub program: Program,
+    pub group: Group,
+    /// Whether it reads a state (x and v) through bind group 1.
+    pub reads_state: bool,
+    pub threads: Threads,
+    pub needs: Needs,
+    pub twin: Twin,
 }
 
-impl Pipelines {
-    pub fn new(
-        device: &wgpu::Device,
-        l: &Layouts,
-        constants: &[(&str, f64)],
-        implicit: bool,
-        springs_change: bool,
-        mass_contact: bool,
-    ) -> Self {
-        let module = |(name, src): (&str, String)| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(name),
-                source: wgpu::ShaderSource::Wgsl(src.into()),
-            })
-        };
-        let [
-            forces,
-            integrate,
-            collide,
-            reduce,
-            solve,
-            springs,
-            grid,
-            pairs,
-        ] = programs();
-        let (forces, integrate) = (module(forces), module(integrate));
-        let (collide, reduce) = (module(collide), module(reduce));
-        // Implicit Euler's solve compiles only for that integrator, mass–mass contact only for
-        // scenes that have it.
-        let solve = implicit.then(|| module(solve));
-        let springs = springs_change.then(|| module(springs));
-        let mass_contact_modules = mass_contact.then(|| (module(grid), module(pairs)));
-        let pipeline_layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: groups,
-                immediate_size: 0,
-            })
-        };
-        let forces_layout = pipeline_layout(
-            "forces",
-            &[Some(&l.forces_model), Some(&l.forces_state), Some(&l.stage)],
-        );
-        let integrate_layout =
-            pipeline_layout("integrate", &[Some(&l.integrate), None, Some(&l.stage)]);
-        let collide_layout = pipeline_layout("collide", &[Some(&l.collide), None, Some(&l.stage)]);
-        let reduce_layout = pipeline_layout("reduce", &[Some(&l.reduce), None, Some(&l.stage)]);
-        let make = |layout: &wgpu::PipelineLayout, module: &wgpu::ShaderModule, entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(layout),
-                module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            })
-        };
-        Self {
-            compute_forces: make(&forces_layout, &forces, "compute_forces"),
-            euler_update: make(&integrate_layout, &integrate, "euler_update"),
-            semi_implicit_update: make(&integrate_layout, &integrate, "semi_implicit_update"),
-            rk2_stage: make(&integrate_layout, &integrate, "rk2_stage"),
-            rk2_final: make(&integrate_layout, &integrate, "rk2_final"),
-            rk4_begin: make(&integrate_layout, &integrate, "rk4_begin"),
-            rk4_mid: make(&integrate_layout, &integrate, "rk4_mid"),
-            rk4_final: make(&integrate_layout, &integrate, "rk4_final"),
-            verlet_drift: make(&integrate_layout, &integrate, "verlet_drift"),
-            verlet_kick: make(&integrate_layout, &integrate, "verlet_kick"),
-            project_contacts: make(&collide_layout, &collide, "project_contacts"),
-            compute_strain: make(&reduce_layout, &reduce, "compute_strain"),
-            compute_energies: make(&reduce_layout, &reduce, "compute_energies"),
-            implicit: solve.map(|solve| {
-                let solve_layout =
-                    pipeline_layout("solve", &[Some(&l.solve), None, Some(&l.stage)]);
-                ImplicitPipelines {
-                    implicit_begin: make(&integrate_layout, &integrate, "implicit_begin"),
-                    implicit_iterate: make(&integrate_layout, &integrate, "implicit_iterate"),
-                    implicit_final: make(&integrate_layout, &integrate, "implicit_final"),
-                    solver_begin: make(&solve_layout, &solve, "solver_begin"),
-                    implicit_rhs: make(&solve_layout, &solve, "implicit_rhs"),
-                    cg_begin: make(&solve_layout, &solve, "cg_begin"),
-                    apply_system: make(&solve_layout, &solve, "apply_system"),
-                    cg_alpha: make(&solve_layout, &solve, "cg_alpha"),
-                    cg_update: make(&solve_layout, &solve, "cg_update"),
-                    cg_beta: make(&solve_layout, &solve, "cg_beta"),
-                    cg_direction: make(&solve_layout, &solve, "cg_direction"),
-                    newton_update: make(&solve_layout, &solve, "newton_update"),
-                    newton_end: make(&solve_layout, &solve, "newton_end"),
-                }
-            }),
-            springs: springs.map(|springs| {
-                let layout = pipeline_layout("springs", &[Some(&l.springs), None, Some(&l.stage)]);
-                SpringPipelines {
-                    update_springs: make(&layout, &springs, "update_springs"),
-                    sum_spring_work: make(&layout, &springs, "sum_spring_work"),
-                }
-            }),
-            mass_contact: mass_contact_modules.map(|(grid, pairs)| {
-                let with_x = pipeline_layout(
-                    "grid",
-                    &[Some(&l.grid), Some(&l.forces_state), Some(&l.stage)],
-                );
-                let table = pipeline_layout("grid table", &[Some(&l.grid), None, Some(&l.stage)]);
-                let pairs_layout = pipeline_layout(
-                    "collide masses",
-                    &[
-                        Some(&l.collide_masses),
-                        Some(&l.forces_state),
-                        Some(&l.stage),
-                    ],
-                );
-                MassContactPipelines {
-                    grid_count: make(&with_x, &grid, "grid_count"),
-                    grid_scan_blocks: make(&table, &grid, "grid_scan_blocks"),
-                    grid_scan_sums: make(&table, &grid, "grid_scan_sums"),
-                    grid_scan_add: make(&table, &grid, "grid_scan_add"),
-                    grid_scatter: make(&table, &grid, "grid_scatter"),
-                    grid_sort_cells: make(&table, &grid, "grid_sort_cells"),
-                    collide_masses: make(&pairs_layout, &pairs, "collide_masses"),
-                    mass_contact_energy: make(&pairs_layout, &pairs, "mass_contact_energy"),
-                }
-            }),
+/// The sizes a dispatch's memory traffic depends on.
+#[derive(Debug, Clone, Copy)]
+pub struct Sizes {
+    pub n: u64,
+    pub ns: u64,
+    /// Buckets of the hash grid and blocks of its prefix sum.
+    pub table: u64,
+    pub blocks: u64,
+    /// Bytes of the colliders.
+    pub colliders: u64,
+}
+
+macro_rules! kernels {
+    ($(
+        $(#[doc = $doc:literal])*
+        $variant:ident = $entry:ident in $program:ident {
+            group: $group:ident $(+ $state:ident)?,
+            threads: $threads:ident,
+            needs: $needs:ident,
+            cpu: $twin:tt
+            $(, bytes: |$z:ident| $bytes:expr)? $(,)?
         }
+    )*) => {
+        /// A GPU kernel, named as its entry point.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Kernel {
+            $($(#[doc = $doc])* $variant,)*
+        }
+
+        const SPECS: &[Spec] = &[$(Spec {
+            entry: stringify!($entry),
+            program: Program::$program,
+            group: Group::$group,
+            reads_state: kernels!(@state $($state)?),
+            threads: Threads::$threads,
+            needs: Needs::$needs,
+            twin: kernels!(@twin $entry $twin),
+        },)*];
+
+        impl Kernel {
+            pub const ALL: &[Kernel] = &[$(Kernel::$variant,)*];
+
+            /// Bytes one dispatch reads and writes, caches assumed to absorb the neighbours'
+            /// repeated reads; `None` for kernels outside the step plans (the implicit solve's,
+            /// whose count of dispatches varies).
+            pub fn bytes(self, sizes: &Sizes) -> Option<u64> {
+                match self {
+                    $(Kernel::$variant => kernels!(@bytes sizes $(|$z| $bytes)?),)*
+                }
+            }
+        }
+
+        $(kernels!(@check $entry $twin);)*
+    };
+    (@state) => { false };
+    (@state state) => { true };
+    (@bytes $sizes:ident) => { None };
+    (@bytes $sizes:ident |$z:ident| $bytes:expr) => {{
+        let $z: &Sizes = $sizes;
+        Some($bytes)
+    }};
+    (@twin $entry:ident ($($module:ident)::+)) => {
+        Twin::Cpu(concat!("cpu", $("::", stringify!($module),)+ "::", stringify!($entry)))
+    };
+    (@twin $entry:ident $reason:literal) => { Twin::None($reason) };
+    // The namesake must exist: naming it here fails the build otherwise.
+    (@check $entry:ident ($($module:ident)::+)) => {
+        const _: () = {
+            let _ = crate::cpu::$($module::)+$entry;
+        };
+    };
+    (@check $entry:ident $reason:literal) => {};
+}
+
+kernels! {
+    // ---- forces.wgsl ----
+    /// The full force on every mass (springs, gravity, drag, contact), as accelerations and the
+    /// ledger's rates.
+    ComputeForces = compute_forces in Forces {
+        group: ForcesModel + state, threads: Masses, needs: Always, cpu: (forces),
+        // x, v in; offsets; neighbours and springs; acceleration and rates out.
+        bytes: |z| z.n * (16 + 16 + 4 + 8 + 32) + z.ns * (2 * 8 + 20) + z.colliders,
+    }
+
+    // ---- integrate.wgsl: x, v read and written; derivatives read; ledger read and written ----
+    EulerUpdate = euler_update in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
+    }
+    SemiImplicitUpdate = semi_implicit_update in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
+    }
+    Rk2Stage = rk2_stage in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 8),
+    }
+    Rk2Final = rk2_final in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (5 * 16 + 32 + 2 * 16 + 8),
+    }
+    Rk4Begin = rk4_begin in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 3 * 16 + 8),
+    }
+    Rk4Mid = rk4_mid in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (3 * 16 + 32 + 2 * 16 + 2 * 3 * 16 + 8),
+    }
+    Rk4Final = rk4_final in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (5 * 16 + 32 + 3 * 16 + 2 * 16 + 8),
+    }
+    VerletDrift = verlet_drift in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
+    }
+    VerletKick = verlet_kick in Integrate {
+        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
+    }
+    ImplicitBegin = implicit_begin in Integrate {
+        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    ImplicitIterate = implicit_iterate in Integrate {
+        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    ImplicitFinal = implicit_final in Integrate {
+        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+
+    // ---- implicit.wgsl: implicit Euler's linear solves ----
+    SolverBegin = solver_begin in Implicit {
+        group: Solve, threads: OneGroup, needs: Implicit,
+        cpu: "resets the solver's status, which the CPU keeps in locals of its solve",
+    }
+    ImplicitRhs = implicit_rhs in Implicit {
+        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    CgBegin = cg_begin in Implicit {
+        group: Solve, threads: OneGroup, needs: Implicit,
+        cpu: "sums the per-workgroup partials of implicit_rhs; the CPU takes the dot products whole",
+    }
+    ApplySystem = apply_system in Implicit {
+        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    CgAlpha = cg_alpha in Implicit {
+        group: Solve, threads: OneGroup, needs: Implicit,
+        cpu: "sums the per-workgroup partials of apply_system; the CPU takes the dot product whole",
+    }
+    CgUpdate = cg_update in Implicit {
+        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    CgBeta = cg_beta in Implicit {
+        group: Solve, threads: OneGroup, needs: Implicit,
+        cpu: "sums the per-workgroup partials of cg_update; the CPU takes the dot products whole",
+    }
+    CgDirection = cg_direction in Implicit {
+        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    NewtonUpdate = newton_update in Implicit {
+        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+    NewtonEnd = newton_end in Implicit {
+        group: Solve, threads: OneGroup, needs: Implicit,
+        cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
+    }
+
+    // ---- collide.wgsl ----
+    /// The post-step safeguard against tunnelling.
+    ProjectContacts = project_contacts in Collide {
+        group: Collide, threads: Masses, needs: Always, cpu: (collide),
+        bytes: |z| z.n * (4 * 16 + 8) + z.colliders,
+    }
+
+    // ---- reduce.wgsl: what a snapshot logs ----
+    ComputeStrain = compute_strain in Reduce {
+        group: Reduce, threads: Springs, needs: Always, cpu: (reduce),
+    }
+    ComputeEnergies = compute_energies in Reduce {
+        group: Reduce, threads: Energies, needs: Always, cpu: (reduce),
+    }
+
+    // ---- springs.wgsl: plasticity and tearing ----
+    UpdateSprings = update_springs in Springs {
+        group: Springs, threads: Springs, needs: SpringsChange, cpu: (springs),
+        // Spring and limits read; two ends; rest length and released energy written.
+        bytes: |z| z.ns * (20 + 16 + 2 * 16 + 4 + 2 * 4),
+    }
+    SumSpringWork = sum_spring_work in Springs {
+        group: Springs, threads: Energies, needs: SpringsChange,
+        cpu: "per-workgroup sums of the energy update_springs let go, which the CPU's sums whole",
+    }
+
+    // ---- grid.wgsl: mass–mass contact's hash grid, a counting sort by bucket ----
+    GridCount = grid_count in Grid {
+        group: Grid + state, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
+        // x in; each mass's bucket out; one atomic count per mass.
+        bytes: |z| z.n * (16 + 4 + 4),
+    }
+    GridScanBlocks = grid_scan_blocks in Grid {
+        group: Grid, threads: ScanBlocks, needs: MassContact,
+        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+        // Counts in, starts out; block sums.
+        bytes: |z| z.table * 8 + z.blocks * 4,
+    }
+    GridScanSums = grid_scan_sums in Grid {
+        group: Grid, threads: OneGroup, needs: MassContact,
+        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+        bytes: |z| z.blocks * 8 + 4,
+    }
+    GridScanAdd = grid_scan_add in Grid {
+        group: Grid, threads: Buckets, needs: MassContact,
+        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+        bytes: |z| z.table * 8 + z.blocks * 4,
+    }
+    GridScatter = grid_scatter in Grid {
+        group: Grid, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
+        // Bucket, count and start per mass; the sorted index out.
+        bytes: |z| z.n * 16,
+    }
+    GridSortCells = grid_sort_cells in Grid {
+        group: Grid, threads: Buckets, needs: MassContact,
+        cpu: "restores the mass order the GPU's atomic scatter loses; the CPU scatters in order",
+        // Starts; each bucket's masses read and written.
+        bytes: |z| z.table * 8 + z.n * 8,
+    }
+
+    // ---- collide_masses.wgsl ----
+    CollideMasses = collide_masses in CollideMasses {
+        group: CollideMasses + state, threads: Masses, needs: MassContact, cpu: (collide_masses),
+        // x, v, mass, body per mass and per candidate (cached); starts; deriv in and out.
+        bytes: |z| z.n * (16 + 16 + 8 + 4 + 4 + 2 * 32) + z.table * 4,
+    }
+    /// At snapshot time only.
+    MassContactEnergy = mass_contact_energy in CollideMasses {
+        group: CollideMasses + state, threads: Masses, needs: MassContact,
+        cpu: (collide_masses),
+        bytes: |z| z.n * (16 + 8 + 4 + 4) + z.table * 4,
     }
 }
 
-/// Workgroup counts for `threads` threads: a 2D grid when x would exceed the adapter's limit.
-pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
-    let groups = threads.div_ceil(WORKGROUP).max(1);
-    if groups <= max_per_dim {
-        (groups, 1)
-    } else {
-        let y = groups.div_ceil(max_per_dim);
-        (groups.div_ceil(y), y)
+impl Kernel {
+    pub fn spec(self) -> &'static Spec {
+        &SPECS[self as usize]
     }
+
+    pub fn name(self) -> &'static str {
+        self.spec().entry
+    }
+}
+
+/// Every kernel's spec, in table order (for the checks in tests/shaders.rs).
+#[doc(hidden)]
+pub fn table() -> &'static [Spec] {
+    SPECS
 }

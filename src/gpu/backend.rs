@@ -1,0 +1,375 @@
+//! The GPU backend: a run's device, pipelines and buffers, and the `Backend` it implements.
+//! Substeps are encoded into one submission; the host waits on the GPU only when a snapshot is
+//! due, and the next frame steps while a snapshot is read back.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::context::{DeviceError, GpuContext};
+use super::encode::{Dispatcher, in_pass};
+use super::implicit::ImplicitStep;
+use super::limits::check_fits;
+use super::pipelines::{Layouts, Needed, Pipelines};
+use super::plan::{Dispatch, SLOTS_PER_STEP, step_plan};
+use super::readback::{self, Pending, ReadBack, StagingLayout};
+use super::resources::Resources;
+use super::shaders::constants;
+use super::stages::{Clock, StageSlots};
+use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
+
+pub struct GpuBackend {
+    pub(super) ctx: GpuContext,
+    pub(super) model: Arc<Model>,
+    pub(super) integrator: Integrator,
+    pub(super) clock: Clock,
+    /// Energy folded out of the per-mass ledger at each snapshot, summed in f64.
+    ledger: Ledger,
+    verlet_primed: bool,
+    pub(super) pipelines: Pipelines,
+    pub(super) layouts: Layouts,
+    pub(super) resources: Resources,
+    pub(super) stages: StageSlots,
+    /// Bytes of GPU memory held by the simulation's buffers.
+    pub memory_bytes: u64,
+    advance_started: Option<Instant>,
+    /// Snapshots asked for and not yet collected, oldest first.
+    pending: VecDeque<Pending>,
+    /// Snapshots returned by the recorder, their buffers reused.
+    spare: Vec<Snapshot>,
+    /// Implicit Euler: CG iterations to encode before a solve's first status read.
+    cg_chunk: u32,
+}
+
+impl GpuBackend {
+    pub fn new(
+        model: Arc<Model>,
+        integrator: Integrator,
+        dt_secs: f64,
+        adapter: Option<&str>,
+    ) -> Result<Self, BackendError> {
+        let implicit = integrator == Integrator::Implicit;
+        if implicit && model.effects.self_collision.is_some() {
+            return Err(DeviceError::ImplicitWithMassContact.into());
+        }
+        let ctx = GpuContext::open(adapter)?;
+        check_fits(&ctx, &model, integrator)?;
+        let device = &ctx.device;
+        let layouts = Layouts::new(device);
+        let resources =
+            Resources::new(device, &ctx.limits, &layouts, &model, (integrator, dt_secs));
+        let needed = Needed {
+            implicit,
+            springs_change: model.effects.springs_change(),
+            mass_contact: model.effects.self_collision.is_some(),
+        };
+        let pipelines = Pipelines::new(device, &layouts, &constants(&model, integrator), needed);
+        let stages = StageSlots::new(
+            device,
+            &layouts.stage,
+            ctx.limits.min_uniform_buffer_offset_alignment,
+        );
+        let backend = Self {
+            memory_bytes: resources.memory_bytes,
+            ctx,
+            model,
+            integrator,
+            clock: Clock::new(dt_secs),
+            ledger: Ledger::default(),
+            verlet_primed: false,
+            pipelines,
+            layouts,
+            resources,
+            stages,
+            advance_started: None,
+            pending: VecDeque::new(),
+            spare: Vec::new(),
+            cg_chunk: 16,
+        };
+        backend.ctx.check()?;
+        Ok(backend)
+    }
+
+    pub(super) fn kernels(&self) -> Dispatcher<'_> {
+        Dispatcher {
+            pipelines: &self.pipelines,
+            resources: &self.resources,
+            stages: &self.stages,
+        }
+    }
+
+    /// Make room for `slots` stage slots.
+    pub(super) fn reserve_stage_slots(&mut self, slots: u32) {
+        self.stages
+            .reserve(&self.ctx.device, &self.layouts.stage, slots);
+    }
+
+    /// Write the stage slots of the next `steps` steps, and room for the snapshot's after them.
+    pub(super) fn prepare_stages(&mut self, steps: u32) {
+        self.reserve_stage_slots(SLOTS_PER_STEP * steps + 1);
+        let stages = self.clock.stages(&self.model, steps);
+        self.stages.write(&self.ctx.queue, 0, &stages);
+    }
+
+    /// The dispatches of the next `steps` steps, each slot counted from slot 0; Verlet's first
+    /// step also evaluates a(x_0).
+    pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
+        let warm = step_plan(self.integrator, &self.model.effects, false);
+        let mut all = Vec::with_capacity(warm.len() * steps as usize);
+        for k in 0..steps {
+            let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
+            let plan = if prime {
+                step_plan(self.integrator, &self.model.effects, true)
+            } else {
+                warm.clone()
+            };
+            all.extend(plan.into_iter().map(|d| Dispatch {
+                slot: SLOTS_PER_STEP * k + d.slot,
+                ..d
+            }));
+            self.verlet_primed = true;
+        }
+        all
+    }
+
+    fn advance_implicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        self.prepare_stages(substeps);
+        let post = step_plan(self.integrator, &self.model.effects, false);
+        let Some(solver) = self.resources.solver.as_ref() else {
+            return Err(DeviceError::Internal("no implicit solver".to_owned()).into());
+        };
+        let step = ImplicitStep {
+            ctx: &self.ctx,
+            kernels: self.kernels(),
+            solver,
+            post: &post,
+        };
+        let (mut iterations, mut residual) = (0u32, 0.0f64);
+        let mut chunk = self.cg_chunk;
+        for k in 0..substeps {
+            // Every dispatch of step k reads slot 4k + 3, the step's end.
+            let status = step.run(SLOTS_PER_STEP * k + 3, &mut chunk)?;
+            iterations = iterations.max(status.total_iterations);
+            residual = residual.max(f64::from(status.max_residual));
+        }
+        self.cg_chunk = chunk;
+        self.clock.advance(substeps);
+        self.ctx.check()?;
+        Ok(StepStats {
+            substeps,
+            dt_secs: f64::from(self.clock.dt),
+            solver_iterations: iterations,
+            solver_residual: residual,
+            ..StepStats::default()
+        })
+    }
+
+    fn staging_layout(&self) -> StagingLayout {
+        StagingLayout::new(
+            self.model.mass_count(),
+            self.model.spring_count(),
+            self.resources.workgroups.partial_count(),
+        )
+    }
+
+    /// Run the reductions and copy what a snapshot needs (and `with_velocity`, the velocities) to a
+    /// free staging buffer, without waiting: returns which buffer and the submission to wait for.
+    fn submit_read_back(
+        &mut self,
+        with_velocity: bool,
+    ) -> Result<(usize, wgpu::SubmissionIndex), BackendError> {
+        let k = (0..2)
+            .find(|k| self.pending.iter().all(|p| p.staging != *k))
+            .ok_or_else(|| DeviceError::Internal("both snapshot buffers are in use".to_owned()))?;
+        // The reductions' stage slot: the current time, after the stepping slots.
+        let slot = self.stages.last();
+        let stage = self.clock.stage_at(&self.model, self.clock.time_secs);
+        self.stages.write(&self.ctx.queue, slot, &[stage]);
+        let e = &self.model.effects;
+        let which = (
+            self.model.spring_count() > 0,
+            e.springs_change(),
+            e.self_collision.is_some(),
+        );
+        let mut enc = self.ctx.encoder("snapshot");
+        in_pass(&mut enc, "reduce", |pass| {
+            readback::encode_reductions(&self.kernels(), pass, slot, which)
+        })?;
+        let at = self.staging_layout();
+        readback::copy_to_staging(&mut enc, &self.resources, at, k, with_velocity);
+        let index = self.ctx.queue.submit([enc.finish()]);
+        Ok((k, index))
+    }
+
+    /// Wait for staging buffer `k` (submission `index`) and decode it; folds the ledger.
+    fn finish_read_back(
+        &mut self,
+        k: usize,
+        index: wgpu::SubmissionIndex,
+        with_velocity: bool,
+        buffers: (Vec<glam::Vec3>, Vec<f32>),
+    ) -> Result<ReadBack, BackendError> {
+        let staging = &self.resources.staging[k];
+        let slice = staging.slice(..);
+        self.ctx.map_and_wait(&slice, index)?;
+        let out = {
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| self.ctx.read_back_failed(e))?;
+            let flags = (with_velocity, self.model.effects.tearing);
+            readback::decode(&data, self.staging_layout(), flags, buffers)
+        };
+        staging.unmap();
+        self.ledger.damping_j += out.ledger[0];
+        self.ledger.drag_j += out.ledger[1];
+        self.ledger.contact_j += out.ledger[2];
+        self.ledger.collider_work_j += out.ledger[3];
+        self.ledger.plastic_j += out.released;
+        Ok(out)
+    }
+
+    /// The divergence of a collected frame, if its state went bad. The step is the first bad
+    /// one, as the update kernels flagged it; the mass and spring are read off the state now.
+    fn divergence(&mut self, rb: &ReadBack, frame: &Pending) -> Option<Box<Divergence>> {
+        if rb.first_bad_step.is_none() && !rb.non_finite && rb.max_speed <= RUNAWAY_SPEED_M_PER_S {
+            return None;
+        }
+        let state = self.state_now().ok()?;
+        let dt = f64::from(self.clock.dt);
+        let mut d = find_divergence(&self.model, &state, self.integrator, dt)?;
+        if let Some(k) = rb.first_bad_step {
+            let later = u64::from(frame.stats.substeps.saturating_sub(k + 1));
+            d.step = frame.steps - later;
+            d.time_secs = frame.time_secs - later as f64 * dt;
+        }
+        Some(d)
+    }
+
+    /// Reductions, copy and wait in one: for tests, divergence reports and `state()`.
+    fn state_now(&mut self) -> Result<State, BackendError> {
+        let (k, index) = self.submit_read_back(true)?;
+        let rb = self.finish_read_back(k, index, true, (Vec::new(), Vec::new()))?;
+        Ok(State {
+            x: rb.positions,
+            v: rb.velocities,
+            time_secs: self.clock.time_secs,
+            steps: self.clock.steps,
+            ledger: self.ledger,
+        })
+    }
+
+    fn snapshot_of(&self, p: &Pending, rb: ReadBack, spare: Option<Snapshot>) -> Snapshot {
+        let mut collider_positions = spare.map(|s| s.collider_positions).unwrap_or_default();
+        collider_positions.clear();
+        collider_positions.extend(
+            self.model
+                .effects
+                .colliders
+                .iter()
+                .map(|col| col.path.pose_at(p.time_secs).position_m),
+        );
+        Snapshot {
+            frame: p.frame,
+            time_secs: p.time_secs,
+            steps: p.steps,
+            energies: Energies {
+                kinetic_j: rb.energy[0],
+                elastic_j: rb.energy[1],
+                gravity_j: rb.energy[2],
+                contact_j: rb.energy[3],
+                ledger: self.ledger,
+            },
+            positions: rb.positions,
+            strain: rb.strain,
+            stats: StepStats {
+                step_ms: p.started.map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3),
+                projections: rb.projections,
+                ..p.stats
+            },
+            collider_positions,
+        }
+    }
+}
+
+impl Backend for GpuBackend {
+    fn describe(&self) -> String {
+        format!("gpu: {}", self.ctx.describe())
+    }
+
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        self.advance_started.get_or_insert_with(Instant::now);
+        if self.resources.solver.is_some() {
+            return self.advance_implicit(substeps);
+        }
+        self.prepare_stages(substeps);
+        let plan = self.plan_steps(substeps);
+        let mut enc = self.ctx.encoder("steps");
+        in_pass(&mut enc, "steps", |pass| {
+            self.kernels().dispatch_all(pass, &plan, 0)
+        })?;
+        self.ctx.queue.submit([enc.finish()]);
+        self.clock.advance(substeps);
+        self.ctx.check()?;
+        Ok(StepStats {
+            substeps,
+            dt_secs: f64::from(self.clock.dt),
+            step_ms: 0.0,
+            projections: 0,
+            ..StepStats::default()
+        })
+    }
+
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        let (staging, index) = self.submit_read_back(false)?;
+        self.clock.frame_steps = 0;
+        self.pending.push_back(Pending {
+            staging,
+            index,
+            frame,
+            stats,
+            time_secs: self.clock.time_secs,
+            steps: self.clock.steps,
+            started: self.advance_started.take(),
+        });
+        Ok(())
+    }
+
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        let Some(p) = self.pending.pop_front() else {
+            return Ok(None);
+        };
+        let mut spare = self.spare.pop();
+        let buffers = spare.as_mut().map_or_else(Default::default, |s| {
+            (
+                std::mem::take(&mut s.positions),
+                std::mem::take(&mut s.strain),
+            )
+        });
+        let rb = self.finish_read_back(p.staging, p.index.clone(), false, buffers)?;
+        if let Some(d) = self.divergence(&rb, &p) {
+            return Err(BackendError::Diverged(d));
+        }
+        Ok(Some(self.snapshot_of(&p, rb, spare)))
+    }
+
+    fn recycle(&mut self, snapshot: Snapshot) {
+        if self.spare.len() < 8 {
+            self.spare.push(snapshot);
+        }
+    }
+
+    fn state(&mut self) -> Result<State, BackendError> {
+        self.state_now()
+    }
+
+    fn finish(&mut self) -> Result<(), BackendError> {
+        self.ctx.wait_idle()
+    }
+
+    fn memory_bytes(&self) -> Option<u64> {
+        Some(self.memory_bytes)
+    }
+}

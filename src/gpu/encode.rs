@@ -1,0 +1,74 @@
+//! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
+//! count, all as the kernel table says.
+
+use super::context::DeviceError;
+use super::pipelines::Pipelines;
+use super::plan::Dispatch;
+use super::resources::Resources;
+use super::stages::StageSlots;
+use crate::backend::BackendError;
+
+/// What recording a dispatch needs of the backend.
+#[derive(Clone, Copy)]
+pub struct Dispatcher<'a> {
+    pub pipelines: &'a Pipelines,
+    pub resources: &'a Resources,
+    pub stages: &'a StageSlots,
+}
+
+impl Dispatcher<'_> {
+    /// Record `d` with its slot counted from `base`. A kernel this run lacks (its effect is
+    /// absent) or a state the kernel does not read is an internal error.
+    pub fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        d: Dispatch,
+        base: u32,
+    ) -> Result<(), BackendError> {
+        let spec = d.kernel.spec();
+        let internal = |why: &str| {
+            BackendError::from(DeviceError::Internal(format!(
+                "kernel {} {why}",
+                spec.entry
+            )))
+        };
+        let pipeline = self.pipelines.get(d.kernel);
+        let group0 = self.resources.group(spec.group);
+        let (Some(pipeline), Some(group0)) = (pipeline, group0) else {
+            return Err(internal("asked for without its effect"));
+        };
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group0, &[]);
+        match (spec.reads_state, d.state) {
+            (true, Some(s)) => pass.set_bind_group(1, self.resources.state(s), &[]),
+            (false, None) => {}
+            _ => return Err(internal("planned with the wrong state")),
+        }
+        self.stages.bind(pass, base + d.slot);
+        let groups = self.resources.workgroups.of(spec.threads);
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+        Ok(())
+    }
+
+    pub fn dispatch_all(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        ds: &[Dispatch],
+        base: u32,
+    ) -> Result<(), BackendError> {
+        ds.iter().try_for_each(|&d| self.dispatch(pass, d, base))
+    }
+}
+
+/// Record `body` in one compute pass of `enc`.
+pub fn in_pass<T>(
+    enc: &mut wgpu::CommandEncoder,
+    label: &'static str,
+    body: impl FnOnce(&mut wgpu::ComputePass<'_>) -> Result<T, BackendError>,
+) -> Result<T, BackendError> {
+    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    body(&mut pass)
+}

@@ -1,0 +1,115 @@
+//! Whether a scene fits the adapter: its largest buffers against the adapter's limits, checked
+//! before anything is allocated, so that a scene too large is refused with the numbers instead
+//! of failing inside wgpu.
+
+use super::context::{AdapterError, GpuContext};
+use super::layout::MAX_COLLIDERS;
+use crate::integrator::Integrator;
+use crate::model::Model;
+
+/// Implicit Euler's per-mass vectors (SOLVER_VECTORS in shaders/common.wgsl).
+const IMPLICIT_VECTORS: u64 = 7;
+
+/// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
+const STORAGE_BUFFERS_NEEDED: u32 = 8;
+
+/// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
+pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
+    let per_mass = if integrator == Integrator::Implicit {
+        16 * IMPLICIT_VECTORS
+    } else {
+        48
+    };
+    per_mass * model.mass_count() as u64
+}
+
+/// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler with contacts
+/// their linearisation.
+pub fn deriv_bytes(model: &Model, integrator: Integrator) -> u64 {
+    let per_mass = if integrator == Integrator::Implicit && model.effects.has_contact() {
+        64
+    } else {
+        32
+    };
+    per_mass * model.mass_count() as u64
+}
+
+/// Refuse a scene beyond the adapter's limits.
+pub fn check_fits(
+    ctx: &GpuContext,
+    model: &Model,
+    integrator: Integrator,
+) -> Result<(), AdapterError> {
+    let n = model.mass_count() as u64;
+    let ns = model.spring_count() as u64;
+    let limit = ctx
+        .limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size);
+    let largest = [
+        ("per-mass scratch", scratch_bytes(model, integrator)),
+        ("per-mass derivatives", deriv_bytes(model, integrator)),
+        ("springs", 20 * ns),
+        ("adjacency", 16 * ns),
+        (
+            "mass-contact hash grid",
+            model.effects.self_collision.map_or(0, |_| {
+                4 * (u64::from(crate::cpu::table_size(n as usize)) + 1)
+            }),
+        ),
+    ];
+    if let Some((what, bytes)) = largest.into_iter().find(|(_, bytes)| *bytes > limit) {
+        return Err(AdapterError::BufferTooLarge {
+            adapter: ctx.describe(),
+            what,
+            bytes,
+            limit,
+            masses: n,
+            springs: ns,
+        });
+    }
+    // Scene files are held to this by validation; a model built by hand is checked here, since
+    // each stage slot has room for only this many collider poses.
+    let colliders = model.effects.colliders.len();
+    if colliders > MAX_COLLIDERS {
+        return Err(AdapterError::TooManyColliders {
+            colliders,
+            max: MAX_COLLIDERS,
+        });
+    }
+    let allowed = ctx.limits.max_storage_buffers_per_shader_stage;
+    if allowed < STORAGE_BUFFERS_NEEDED {
+        return Err(AdapterError::TooFewStorageBuffers {
+            adapter: ctx.describe(),
+            allowed,
+            needed: STORAGE_BUFFERS_NEEDED,
+        });
+    }
+    Ok(())
+}
+
+/// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
+pub fn adapter_report(
+    name: Option<&str>,
+    model: &Model,
+    integrator: Integrator,
+) -> Result<String, AdapterError> {
+    let ctx = GpuContext::open(name)?;
+    let l = &ctx.limits;
+    let fits = match check_fits(&ctx, model, integrator) {
+        Ok(()) => "the scene fits".to_owned(),
+        Err(e) => e.to_string(),
+    };
+    Ok(format!(
+        "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, timestamps {}); {fits}",
+        ctx.describe(),
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size) >> 20,
+        l.max_storage_buffers_per_shader_stage,
+        l.max_compute_workgroups_per_dimension,
+        if ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY) {
+            "yes"
+        } else {
+            "no"
+        },
+    ))
+}

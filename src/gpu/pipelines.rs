@@ -1,0 +1,162 @@
+//! Bind group layouts and compute pipelines, made from the kernel table: a pipeline for every
+//! kernel the run needs, each WGSL file compiled once, only if one of its kernels is needed.
+
+use super::kernels::{Group, Kernel, Needs, Slot};
+use super::shaders::Program;
+
+/// Bind group 0 of every kernel group; 1, the state a force evaluation reads (x and v); 2, the
+/// stage slot (a dynamic uniform offset).
+pub struct Layouts {
+    groups: Vec<wgpu::BindGroupLayout>,
+    pub state: wgpu::BindGroupLayout,
+    pub stage: wgpu::BindGroupLayout,
+}
+
+fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    }
+}
+
+fn buffer(ty: wgpu::BufferBindingType, has_dynamic_offset: bool) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty,
+        has_dynamic_offset,
+        min_binding_size: None,
+    }
+}
+
+fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = slots
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let ty = match s {
+                Slot::Uniform => wgpu::BufferBindingType::Uniform,
+                Slot::Read | Slot::ReadWrite => wgpu::BufferBindingType::Storage {
+                    read_only: *s == Slot::Read,
+                },
+            };
+            entry(i as u32, buffer(ty, false))
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+impl Layouts {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let stage = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stage"),
+            entries: &[entry(0, buffer(wgpu::BufferBindingType::Uniform, true))],
+        });
+        Self {
+            groups: Group::ALL
+                .iter()
+                .map(|g| layout(device, &format!("{g:?}"), g.slots()))
+                .collect(),
+            state: layout(device, "forces state", &[Slot::Read, Slot::Read]),
+            stage,
+        }
+    }
+
+    pub fn group(&self, g: Group) -> &wgpu::BindGroupLayout {
+        &self.groups[g as usize]
+    }
+}
+
+/// What a run needs compiled.
+#[derive(Debug, Clone, Copy)]
+pub struct Needed {
+    pub implicit: bool,
+    pub springs_change: bool,
+    pub mass_contact: bool,
+}
+
+impl Needed {
+    fn has(self, needs: Needs) -> bool {
+        match needs {
+            Needs::Always => true,
+            Needs::Implicit => self.implicit,
+            Needs::SpringsChange => self.springs_change,
+            Needs::MassContact => self.mass_contact,
+        }
+    }
+}
+
+/// A pipeline per kernel the run needs.
+pub struct Pipelines {
+    by_kernel: Vec<Option<wgpu::ComputePipeline>>,
+}
+
+impl Pipelines {
+    pub fn new(
+        device: &wgpu::Device,
+        layouts: &Layouts,
+        constants: &[(&str, f64)],
+        needed: Needed,
+    ) -> Self {
+        let wanted = |k: &Kernel| needed.has(k.spec().needs);
+        let modules: Vec<Option<wgpu::ShaderModule>> = Program::ALL
+            .iter()
+            .map(|&p| {
+                let used = Kernel::ALL
+                    .iter()
+                    .any(|k| k.spec().program == p && wanted(k));
+                used.then(|| {
+                    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(p.file()),
+                        source: wgpu::ShaderSource::Wgsl(p.source().into()),
+                    })
+                })
+            })
+            .collect();
+        let by_kernel = Kernel::ALL
+            .iter()
+            .map(|k| {
+                let module = modules[k.spec().program as usize].as_ref();
+                module
+                    .filter(|_| wanted(k))
+                    .map(|m| pipeline(device, layouts, constants, *k, m))
+            })
+            .collect();
+        Self { by_kernel }
+    }
+
+    /// `None` for a kernel this run does not need.
+    pub fn get(&self, k: Kernel) -> Option<&wgpu::ComputePipeline> {
+        self.by_kernel[k as usize].as_ref()
+    }
+}
+
+fn pipeline(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    constants: &[(&str, f64)],
+    k: Kernel,
+    module: &wgpu::ShaderModule,
+) -> wgpu::ComputePipeline {
+    let spec = k.spec();
+    let state = spec.reads_state.then_some(&layouts.state);
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(spec.entry),
+        bind_group_layouts: &[Some(layouts.group(spec.group)), state, Some(&layouts.stage)],
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(spec.entry),
+        layout: Some(&layout),
+        module,
+        entry_point: Some(spec.entry),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    })
+}

@@ -1,0 +1,230 @@
+//! The step plans: which kernels a step dispatches, in order, on which state and at which stage
+//! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
+
+use super::kernels::Kernel;
+use super::shaders::effect_constants;
+use crate::integrator::Integrator;
+use crate::model::{Effects, Model};
+
+/// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
+pub const SLOTS_PER_STEP: u32 = 4;
+
+/// Which state a kernel reads through bind group 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StateIn {
+    XV,
+    XtVt,
+    XVt,
+}
+
+/// One dispatch: a kernel, the state it reads (for the kernels that read one), and its stage
+/// slot relative to its step's first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dispatch {
+    pub kernel: Kernel,
+    pub state: Option<StateIn>,
+    pub slot: u32,
+}
+
+impl Dispatch {
+    /// A kernel that reads no state.
+    pub const fn at(kernel: Kernel, slot: u32) -> Self {
+        Self {
+            kernel,
+            state: None,
+            slot,
+        }
+    }
+
+    /// A kernel that reads `state`.
+    pub const fn reading(kernel: Kernel, state: StateIn, slot: u32) -> Self {
+        Self {
+            kernel,
+            state: Some(state),
+            slot,
+        }
+    }
+}
+
+/// Mass–mass contact's grid build from the positions of `state`, in order.
+pub fn grid_build(state: StateIn, slot: u32) -> [Dispatch; 6] {
+    use Kernel::*;
+    [
+        Dispatch::reading(GridCount, state, slot),
+        Dispatch::at(GridScanBlocks, slot),
+        Dispatch::at(GridScanSums, slot),
+        Dispatch::at(GridScanAdd, slot),
+        Dispatch::at(GridScatter, slot),
+        Dispatch::at(GridSortCells, slot),
+    ]
+}
+
+/// The dispatches of one step. `prime`: Verlet's first step also evaluates a(x_0). Implicit
+/// Euler's solve is planned below; only the post-step passes are here for it.
+pub fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<Dispatch> {
+    use Kernel::*;
+    use StateIn::*;
+    let forces = |state, slot| Dispatch::reading(ComputeForces, state, slot);
+    let at = Dispatch::at;
+    let mut plan = match integrator {
+        Integrator::Euler => vec![forces(XV, 0), at(EulerUpdate, 0)],
+        Integrator::SemiImplicit => vec![forces(XV, 0), at(SemiImplicitUpdate, 0)],
+        Integrator::Rk2 => vec![
+            forces(XV, 0),
+            at(Rk2Stage, 0),
+            forces(XtVt, 1),
+            at(Rk2Final, 0),
+        ],
+        Integrator::Rk4 => vec![
+            forces(XV, 0),
+            at(Rk4Begin, 0),
+            forces(XtVt, 1),
+            at(Rk4Mid, 1),
+            forces(XtVt, 2),
+            at(Rk4Mid, 2),
+            forces(XtVt, 3),
+            at(Rk4Final, 0),
+        ],
+        Integrator::Verlet => {
+            let mut p = vec![at(VerletDrift, 0), forces(XVt, 3), at(VerletKick, 0)];
+            if prime {
+                p.insert(0, forces(XV, 0));
+            }
+            p
+        }
+        Integrator::Implicit => Vec::new(),
+    };
+    if effects.has_contact() && integrator != Integrator::Implicit {
+        plan.push(at(ProjectContacts, 3));
+    }
+    if effects.self_collision.is_some() {
+        plan = plan.into_iter().flat_map(with_mass_contact).collect();
+    }
+    if effects.springs_change() {
+        plan.push(at(UpdateSprings, 3));
+    }
+    plan
+}
+
+/// A force evaluation with mass–mass contact: the grid of its positions, the forces, then the
+/// pairs' added to them.
+fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
+    match (d.kernel, d.state) {
+        (Kernel::ComputeForces, Some(state)) => grid_build(state, d.slot)
+            .into_iter()
+            .chain([d, Dispatch::reading(Kernel::CollideMasses, state, d.slot)])
+            .collect(),
+        _ => vec![d],
+    }
+}
+
+/// An implicit step's passes, in order: BEGIN, then per Newton iteration NEWTON_BEGIN,
+/// CG_ITERATION repeated, NEWTON_END; then END. Every dispatch of a step reads the same slot.
+pub mod implicit {
+    use super::{Dispatch, Kernel::*, StateIn};
+
+    const fn at(k: super::Kernel) -> Dispatch {
+        Dispatch::at(k, 0)
+    }
+
+    pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
+    pub const NEWTON_BEGIN: [Dispatch; 4] = [
+        at(ImplicitIterate),
+        Dispatch::reading(ComputeForces, StateIn::XtVt, 0),
+        at(ImplicitRhs),
+        at(CgBegin),
+    ];
+    pub const CG_ITERATION: [Dispatch; 5] = [
+        at(ApplySystem),
+        at(CgAlpha),
+        at(CgUpdate),
+        at(CgBeta),
+        at(CgDirection),
+    ];
+    pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
+    pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
+
+    /// For `hooke check`: the passes of one implicit step, the repeated parts in brackets.
+    pub fn passes() -> String {
+        let names = |ds: &[Dispatch]| {
+            ds.iter()
+                .map(|d| d.kernel.name())
+                .collect::<Vec<_>>()
+                .join(" → ")
+        };
+        format!(
+            "{} → [Newton: {} → [CG: {}] → {}] → {}",
+            names(&BEGIN),
+            names(&NEWTON_BEGIN),
+            names(&CG_ITERATION),
+            names(&NEWTON_END),
+            names(&END)
+        )
+    }
+}
+
+/// For `hooke check`: the kernels one GPU step dispatches, in order, and the effects compiled into
+/// them (absent effects are specialised away and cost nothing).
+pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&'static str>) {
+    let mut passes = if integrator == Integrator::Implicit {
+        vec![implicit::passes()]
+    } else {
+        Vec::new()
+    };
+    passes.extend(
+        step_plan(integrator, &model.effects, false)
+            .into_iter()
+            .map(|d| d.kernel.name().to_owned()),
+    );
+    let effects = effect_constants(model)
+        .into_iter()
+        .filter(|(_, on)| *on != 0.0)
+        .map(|(name, _)| name)
+        .collect();
+    (passes, effects)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{ContactModel, MassContact};
+
+    /// Every plan binds a state exactly for the kernels that read one (the dispatcher would
+    /// refuse it at run time otherwise), and stays within its step's stage slots.
+    #[test]
+    fn every_plan_reads_a_state_exactly_where_its_kernels_do() {
+        let pairs = MassContact {
+            radius_m: 0.01,
+            contact: ContactModel {
+                stiffness_n_per_m: 1.0,
+                friction: 0.0,
+                damping_ratio: 0.0,
+            },
+            within_bodies: true,
+        };
+        let mut plans = vec![
+            implicit::BEGIN.to_vec(),
+            implicit::NEWTON_BEGIN.to_vec(),
+            implicit::CG_ITERATION.to_vec(),
+            implicit::NEWTON_END.to_vec(),
+            implicit::END.to_vec(),
+        ];
+        for integrator in Integrator::ALL {
+            for (self_collision, tearing) in [(None, false), (Some(pairs), true)] {
+                let effects = Effects {
+                    self_collision,
+                    tearing,
+                    ..Effects::default()
+                };
+                plans.push(step_plan(integrator, &effects, true));
+                plans.push(step_plan(integrator, &effects, false));
+            }
+        }
+        plans.push(grid_build(StateIn::XV, 0).to_vec());
+        for d in plans.iter().flatten() {
+            let spec = d.kernel.spec();
+            assert_eq!(spec.reads_state, d.state.is_some(), "{}", spec.entry);
+            assert!(d.slot < SLOTS_PER_STEP, "{}", spec.entry);
+        }
+    }
+}

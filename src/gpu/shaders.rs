@@ -1,0 +1,124 @@
+//! The WGSL programs and the override constants they are compiled with. Each file is compiled
+//! after `common.wgsl`; the effects a scene lacks are specialised away through `override`
+//! constants.
+
+use crate::integrator::Integrator;
+use crate::model::{Model, Shape};
+
+const COMMON: &str = include_str!("../../shaders/common.wgsl");
+
+/// A WGSL file of kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Program {
+    Forces,
+    Integrate,
+    Collide,
+    Reduce,
+    Implicit,
+    Springs,
+    Grid,
+    CollideMasses,
+}
+
+impl Program {
+    pub const ALL: [Program; 8] = [
+        Program::Forces,
+        Program::Integrate,
+        Program::Collide,
+        Program::Reduce,
+        Program::Implicit,
+        Program::Springs,
+        Program::Grid,
+        Program::CollideMasses,
+    ];
+
+    pub fn file(self) -> &'static str {
+        self.file_and_source().0
+    }
+
+    /// `common.wgsl`, then the file.
+    pub fn source(self) -> String {
+        format!("{COMMON}\n{}", self.file_and_source().1)
+    }
+
+    fn file_and_source(self) -> (&'static str, &'static str) {
+        macro_rules! file {
+            ($name:literal) => {
+                ($name, include_str!(concat!("../../shaders/", $name)))
+            };
+        }
+        match self {
+            Program::Forces => file!("forces.wgsl"),
+            Program::Integrate => file!("integrate.wgsl"),
+            Program::Collide => file!("collide.wgsl"),
+            Program::Reduce => file!("reduce.wgsl"),
+            Program::Implicit => file!("implicit.wgsl"),
+            Program::Springs => file!("springs.wgsl"),
+            Program::Grid => file!("grid.wgsl"),
+            Program::CollideMasses => file!("collide_masses.wgsl"),
+        }
+    }
+}
+
+/// Every shader program as compiled: (file name, common + file).
+pub fn programs() -> [(&'static str, String); 8] {
+    Program::ALL.map(|p| (p.file(), p.source()))
+}
+
+pub const WORKGROUP: u32 = 64;
+
+// The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
+// (`SCAN_BLOCK` in shaders/common.wgsl).
+const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
+
+/// Every override constant of a pipeline: the effects, and the implicit solver's switch and
+/// stopping rules (the CPU's, so both backends stop alike).
+pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
+    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_TOLERANCE};
+    let mut c = effect_constants(model);
+    c.extend([
+        (
+            "IMPLICIT",
+            if integrator == Integrator::Implicit {
+                1.0
+            } else {
+                0.0
+            },
+        ),
+        ("CG_TOLERANCE", CG_TOLERANCE),
+        ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
+        ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
+        ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
+    ]);
+    c
+}
+
+/// The override constants that switch effects on, from the model.
+pub fn effect_constants(model: &Model) -> Vec<(&'static str, f64)> {
+    let e = &model.effects;
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    vec![
+        ("HAS_GRAVITY", flag(e.gravity_m_per_s2.is_some())),
+        ("HAS_DRAG", flag(e.air_drag_per_s.is_some())),
+        ("HAS_GROUND", flag(e.ground.is_some())),
+        (
+            "HAS_SPHERES",
+            flag(e.has_shape(|s| matches!(s, Shape::Sphere { .. }))),
+        ),
+        (
+            "HAS_BOXES",
+            flag(e.has_shape(|s| matches!(s, Shape::Box { .. }))),
+        ),
+        (
+            "HAS_PLANES",
+            flag(e.has_shape(|s| matches!(s, Shape::Plane { .. }))),
+        ),
+        ("HAS_COLLIDERS", flag(!e.colliders.is_empty())),
+        (
+            "HAS_DAMPING",
+            flag(model.springs.iter().any(|s| s.damping_n_s_per_m != 0.0)),
+        ),
+        ("HAS_PLASTICITY", flag(e.plasticity)),
+        ("HAS_TEARING", flag(e.tearing)),
+    ]
+}

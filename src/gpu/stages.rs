@@ -1,0 +1,171 @@
+//! Stage slots: the per-dispatch uniform (`Stage` in WGSL) holding a stage's time, dt and every
+//! collider's pose then, computed on the host as the CPU backend computes them. A submission of
+//! k steps uses slots 4k..4k+3 for step k, and the last slot for the snapshot's reductions.
+
+use super::layout::{MAX_COLLIDERS, Pose, Stage};
+use super::plan::SLOTS_PER_STEP;
+use crate::model::Model;
+
+/// The run's time: its dt, where it is, and the steps since the last snapshot was asked for.
+#[derive(Debug, Clone, Copy)]
+pub struct Clock {
+    pub dt: f32,
+    pub time_secs: f64,
+    pub steps: u64,
+    /// Substeps advanced since the last snapshot was requested: a frame stepped in chunks
+    /// numbers its steps on from here, so the first bad step is found within the whole frame.
+    pub frame_steps: u32,
+}
+
+impl Clock {
+    pub fn new(dt_secs: f64) -> Self {
+        Self {
+            dt: dt_secs as f32,
+            time_secs: 0.0,
+            steps: 0,
+            frame_steps: 0,
+        }
+    }
+
+    /// The time after `steps` more steps, accumulated by repeated addition exactly as the CPU
+    /// backend accumulates it.
+    pub fn time_after(&self, steps: u32) -> f64 {
+        let h = f64::from(self.dt);
+        (0..steps).fold(self.time_secs, |t, _| t + h)
+    }
+
+    pub fn advance(&mut self, steps: u32) {
+        self.time_secs = self.time_after(steps);
+        self.steps += u64::from(steps);
+        self.frame_steps += steps;
+    }
+
+    /// Stage slots for `steps` steps from now: t, t + h/2 (RK4 stage 2), t + h/2 (stage 3),
+    /// t + h.
+    pub fn stages(&self, model: &Model, steps: u32) -> Vec<Stage> {
+        let h = f64::from(self.dt);
+        let mut stages = Vec::with_capacity((SLOTS_PER_STEP * steps) as usize);
+        let mut t = self.time_secs;
+        for k in 0..steps {
+            let at = |time: f64, weight: f32, next_scale: f32| Stage {
+                weight,
+                next_scale,
+                step: self.frame_steps + k,
+                ..self.stage_at(model, time)
+            };
+            stages.extend([
+                at(t, 1.0, 0.5),
+                at(t + 0.5 * h, 2.0, 0.5),
+                at(t + 0.5 * h, 2.0, 1.0),
+                at(t + h, 1.0, 1.0),
+            ]);
+            t += h;
+        }
+        stages
+    }
+
+    /// A stage slot at `time`: its dt and every collider's pose then.
+    pub fn stage_at(&self, model: &Model, time: f64) -> Stage {
+        let mut poses = [Pose::default(); MAX_COLLIDERS];
+        for (slot, c) in poses.iter_mut().zip(&model.effects.colliders) {
+            let p = c.path.pose_at(time);
+            *slot = Pose {
+                position: p.position_m.extend(0.0).to_array(),
+                velocity: p.velocity_m_per_s.extend(0.0).to_array(),
+            };
+        }
+        Stage {
+            time: time as f32,
+            dt: self.dt,
+            weight: 1.0,
+            next_scale: 1.0,
+            step: 0,
+            _pad: [0; 3],
+            poses,
+        }
+    }
+}
+
+/// The stage uniform buffer and its bind group (group 2 of every kernel).
+pub struct StageSlots {
+    buffer: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    /// Each slot holds one Stage, at an offset the adapter accepts for a dynamic uniform.
+    stride: u64,
+    slots: u32,
+}
+
+impl StageSlots {
+    pub fn new(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, align: u32) -> Self {
+        let align = u64::from(align).max(1);
+        let stride = (std::mem::size_of::<Stage>() as u64).div_ceil(align) * align;
+        let (buffer, bind_group) = Self::make(device, layout, stride, 1);
+        Self {
+            buffer,
+            bind_group,
+            stride,
+            slots: 1,
+        }
+    }
+
+    fn make(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        stride: u64,
+        slots: u32,
+    ) -> (wgpu::Buffer, wgpu::BindGroup) {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stage"),
+            size: stride * u64::from(slots),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("stage"),
+            layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<Stage>() as u64),
+                }),
+            }],
+        });
+        (buffer, bind_group)
+    }
+
+    /// Make room for `slots` slots (grows, never shrinks).
+    pub fn reserve(&mut self, device: &wgpu::Device, layout: &wgpu::BindGroupLayout, slots: u32) {
+        if slots <= self.slots {
+            return;
+        }
+        let slots = slots.next_power_of_two();
+        (self.buffer, self.bind_group) = Self::make(device, layout, self.stride, slots);
+        self.slots = slots;
+    }
+
+    /// The last slot: the snapshot's reductions', after the stepping slots.
+    pub fn last(&self) -> u32 {
+        self.slots - 1
+    }
+
+    pub fn write(&self, queue: &wgpu::Queue, first: u32, stages: &[Stage]) {
+        let stride = self.stride as usize;
+        let mut bytes = vec![0u8; stride * stages.len()];
+        for (k, s) in stages.iter().enumerate() {
+            let b = bytemuck::bytes_of(s);
+            bytes[k * stride..k * stride + b.len()].copy_from_slice(b);
+        }
+        queue.write_buffer(&self.buffer, u64::from(first) * self.stride, &bytes);
+    }
+
+    /// Bind slot `slot` as group 2.
+    pub fn bind(&self, pass: &mut wgpu::ComputePass<'_>, slot: u32) {
+        pass.set_bind_group(
+            2,
+            &self.bind_group,
+            &[(u64::from(slot) * self.stride) as u32],
+        );
+    }
+}

@@ -84,10 +84,10 @@ pub fn effect_costs(scene_arg: &str, opts: &ThroughputOptions) -> Result<EffectC
     // Differences of a few percent drown in run-to-run noise: each configuration runs
     // `EFFECT_REPEATS` times, interleaved, and keeps its fastest run.
     let variants = effect_variants(&scene);
-    let mut all = throughput_of(SceneSource::Variant(scene.clone()), opts)?;
+    let mut all = throughput_of(SceneSource::Variant(Box::new(scene.clone())), opts)?;
     let mut without = variants
         .iter()
-        .map(|(name, v)| Ok((*name, throughput_of(SceneSource::Variant(v.clone()), opts)?)))
+        .map(|(name, v)| Ok((*name, throughput_of(SceneSource::Variant(Box::new(v.clone())), opts)?)))
         .collect::<Result<Vec<_>>>()?;
     let faster = |best: &mut Throughput, t: Throughput| {
         if t.wall_secs < best.wall_secs {
@@ -97,10 +97,10 @@ pub fn effect_costs(scene_arg: &str, opts: &ThroughputOptions) -> Result<EffectC
     for _ in 1..EFFECT_REPEATS {
         faster(
             &mut all,
-            throughput_of(SceneSource::Variant(scene.clone()), opts)?,
+            throughput_of(SceneSource::Variant(Box::new(scene.clone())), opts)?,
         );
         for ((_, best), (_, v)) in without.iter_mut().zip(&variants) {
-            faster(best, throughput_of(SceneSource::Variant(v.clone()), opts)?);
+            faster(best, throughput_of(SceneSource::Variant(Box::new(v.clone())), opts)?);
         }
     }
     Ok(EffectCosts { all, without })

@@ -73,15 +73,22 @@ impl Sink {
     }
 }
 
+/// Every run's recording: Hooke's application id and its blueprint (the viewer's layout).
+fn builder() -> rerun::RecordingStreamBuilder {
+    rerun::RecordingStreamBuilder::new("hooke").with_blueprint(hooke::record::blueprint())
+}
+
+/// A recording stream whose sinks are set afterwards.
+fn buffered() -> anyhow::Result<rerun::RecordingStream> {
+    builder().buffered().context("starting the Rerun recording")
+}
+
 /// A recording stream whose only sink is our `.rrd` writer at `path`.
 fn file_recording(
     path: &std::path::Path,
     footer: bool,
 ) -> anyhow::Result<(rerun::RecordingStream, hooke::rrd_file::RrdFile)> {
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(hooke::record::blueprint())
-        .buffered()
-        .context("starting the Rerun recording")?;
+    let rec = buffered()?;
     let (sink, file) = hooke::rrd_file::create(path, footer)?;
     rec.set_sink(Box::new(sink));
     Ok((rec, file))
@@ -97,14 +104,13 @@ pub fn open_sink(
     m: &clap::ArgMatches,
     scene_name: &str,
 ) -> anyhow::Result<Sink> {
-    let blueprint = hooke::record::blueprint;
     let save = explicit(m, "save")
         .then(|| m.get_one::<PathBuf>("save").cloned())
         .flatten();
     let connect = explicit(m, "connect");
     if explicit(m, "stdout") {
         let (rec, _no_serving) = rerun_args
-            .init_with_blueprint("hooke", blueprint())
+            .init_with_blueprint("hooke", hooke::record::blueprint())
             .context("starting the Rerun recording")?;
         return Ok(Sink::stream(rec, None, None));
     }
@@ -146,10 +152,7 @@ pub fn open_sink(
         sinks.push(Box::new(sink));
         file = Some(handle);
     }
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(blueprint())
-        .buffered()
-        .context("starting the Rerun recording")?;
+    let rec = buffered()?;
     rec.set_sinks(sinks);
     Ok(Sink {
         rec,
@@ -187,8 +190,7 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &OutputArgs) -> anyhow::Result
         })?,
         cors_allowed_origins: Vec::new(),
     };
-    let rec = rerun::RecordingStreamBuilder::new("hooke")
-        .with_blueprint(hooke::record::blueprint())
+    let rec = builder()
         .serve_grpc_opts(&bind, output.grpc_port, options)
         .with_context(|| {
             format!(

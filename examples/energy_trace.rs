@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use hooke::backend::{self, BackendKind};
+use hooke::select::{self, BackendKind};
 use hooke::settings::{Overrides, Settings};
 
 fn main() -> anyhow::Result<()> {
@@ -15,7 +15,7 @@ fn main() -> anyhow::Result<()> {
     let loaded = hooke::scene::load(&name)?;
     let settings = Settings::resolve(&loaded.scene, &Overrides::default())?;
     let model = Arc::new(hooke::model::build(&loaded.scene));
-    let mut be = backend::create(
+    let mut be = select::create(
         BackendKind::Cpu,
         model.clone(),
         settings.integrator,

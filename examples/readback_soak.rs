@@ -13,9 +13,10 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use hooke::backend::{Backend, BackendError, BackendKind};
+use hooke::backend::{Backend, BackendError};
 use hooke::gpu::{GpuBackend, GpuContext};
 use hooke::model::Model;
+use hooke::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
 
 const VARIANTS: &[(&str, &str)] = &[
@@ -471,7 +472,7 @@ fn run_pipeline(variant: &str, iterations: u64) {
     } else {
         BackendKind::Gpu
     };
-    let inner = hooke::backend::create(
+    let inner = hooke::select::create(
         kind,
         model.clone(),
         settings.integrator,

@@ -5,10 +5,11 @@
 
 use std::sync::Arc;
 
-use crate::backend::{self, BackendKind};
+use crate::backend;
 use crate::error::Result;
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::select::Device;
 use crate::settings::Settings;
 use crate::stability::stable_dts;
 
@@ -54,13 +55,12 @@ impl std::fmt::Display for AutoDt {
 
 fn positions_after(
     model: &Arc<Model>,
-    kind: BackendKind,
-    adapter: Option<&str>,
+    device: &Device,
     integrator: Integrator,
     dt: f64,
     steps: u64,
 ) -> Result<Vec<glam::Vec3>> {
-    let mut be = backend::create(kind, model.clone(), integrator, dt, adapter)?;
+    let mut be = device.create(model.clone(), integrator, dt)?;
     backend::advance_steps(be.as_mut(), steps, 1000)?;
     Ok(be.state()?.x)
 }
@@ -70,8 +70,7 @@ fn positions_after(
 pub fn choose(
     model: &Arc<Model>,
     settings: &Settings,
-    kind: BackendKind,
-    adapter: Option<&str>,
+    device: &Device,
     tolerance_m: f64,
 ) -> Result<AutoDt> {
     let integrator = settings.integrator;
@@ -97,8 +96,8 @@ pub fn choose(
     for _ in 0..6 {
         let dt = frame / f64::from(substeps);
         let steps = (probe / dt).round().max(1.0) as u64;
-        let coarse = positions_after(model, kind, adapter, integrator, dt, steps)?;
-        let fine = positions_after(model, kind, adapter, integrator, dt / 2.0, 2 * steps)?;
+        let coarse = positions_after(model, device, integrator, dt, steps)?;
+        let fine = positions_after(model, device, integrator, dt / 2.0, 2 * steps)?;
         let sq: f64 = coarse
             .iter()
             .zip(&fine)

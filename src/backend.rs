@@ -1,21 +1,11 @@
-//! The seam between the simulation thread and whatever steps the model: the CPU reference backend
-//! now, the wgpu compute backend next. Everything above this trait is backend-agnostic.
-
-use std::sync::Arc;
+//! The seam between the simulation thread and whatever steps the model: the [`Backend`] trait
+//! that the CPU reference (`cpu/`) and the wgpu compute backend (`gpu/`) implement, the error
+//! they stop with, and what every backend shares (the divergence check). Which backend a run
+//! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
 
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::state::{Divergence, Snapshot, State, StepStats};
-
-/// Which backend steps the simulation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum BackendKind {
-    /// wgpu compute shaders on the best (or the named) adapter.
-    #[default]
-    Gpu,
-    /// The multi-threaded CPU reference.
-    Cpu,
-}
 
 /// Why a backend stopped.
 #[derive(Debug, thiserror::Error)]
@@ -61,21 +51,6 @@ pub trait Backend: Send {
     fn memory_bytes(&self) -> Option<u64> {
         None
     }
-}
-
-pub fn create(
-    kind: BackendKind,
-    model: Arc<Model>,
-    integrator: Integrator,
-    dt_secs: f64,
-    adapter: Option<&str>,
-) -> Result<Box<dyn Backend>, BackendError> {
-    Ok(match kind {
-        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
-        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(
-            model, integrator, dt_secs, adapter,
-        )?),
-    })
 }
 
 /// Advance `steps` steps in submissions of at most `batch` substeps (a GPU encodes each batch

@@ -2,42 +2,25 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{Model, Path, Shape, SpringKindTag};
+use crate::model::{Collider, Model, Path, Shape, SpringKindTag};
 use crate::settings::Settings;
-use crate::stability::{stable_dts, stiffest_mode};
-
-/// Is the chosen dt above the estimated limit of the chosen integrator?
-pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
-    let limit = stable_dts(model)
-        .into_iter()
-        .find(|(i, _)| *i == settings.integrator)?
-        .1;
-    match limit {
-        Some(l) if settings.dt_secs <= l => None,
-        Some(l) => Some(format!(
-            "dt = {:.3e} s is above the estimated stable limit {:.3e} s of `{}` for this scene's stiffest spring; \
-             use at least {} substeps per frame (or --dt {:.1e})",
-            settings.dt_secs,
-            l,
-            settings.integrator,
-            (1.0 / (settings.frame_rate_hz * l)).ceil(),
-            l
-        )),
-        None if has_no_damping(model) => Some(format!(
-            "`{}` gains energy at every dt on this undamped scene; prefer semi-implicit, verlet or rk4",
-            settings.integrator
-        )),
-        None => None,
-    }
-}
-
-fn has_no_damping(model: &Model) -> bool {
-    stiffest_mode(model).damping_ratio == 0.0
-}
+use crate::stability::{dt_warning, stable_dts, stiffest_mode};
 
 pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "scene '{name}'");
+    masses_and_springs(&mut s, model);
+    effects(&mut s, model);
+    solver(&mut s, model, settings);
+    gpu_passes(&mut s, model, settings);
+    if let Some(w) = dt_warning(model, settings) {
+        let _ = writeln!(s, "warning: {w}");
+    }
+    s
+}
+
+/// Masses, springs of each kind, and each body's grid.
+fn masses_and_springs(s: &mut String, model: &Model) {
     let _ = writeln!(
         s,
         "  masses: {} ({} pinned), springs: {}",
@@ -68,6 +51,10 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             b.springs.len()
         );
     }
+}
+
+/// Every effect the scene has, with its parameters; "none" when it has none.
+fn effects(s: &mut String, model: &Model) {
     let e = &model.effects;
     let _ = writeln!(s, "  effects:");
     let mut any = false;
@@ -91,41 +78,7 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     for c in &e.colliders {
         let i = counts.entry(c.kind()).or_insert(0usize);
         *i += 1;
-        let i = *i - 1;
-        let shape = match c.shape {
-            Shape::Sphere { radius_m } => format!("radius {radius_m} m"),
-            Shape::Box { half_extents_m } => {
-                format!("half extents {:?} m", half_extents_m.to_array())
-            }
-            Shape::Plane { normal } => format!("normal {:?}", normal.to_array()),
-        };
-        let path = match &c.path {
-            Path::Linear { start_m, .. } if c.path.is_fixed() => {
-                format!("fixed at {:?} m", start_m.to_array())
-            }
-            Path::Linear {
-                start_m,
-                velocity_m_per_s,
-            } => format!(
-                "from {:?} m at {:?} m/s",
-                start_m.to_array(),
-                velocity_m_per_s.to_array()
-            ),
-            Path::Keyframes(keys) => format!(
-                "on {} keyframes from {:.3} s to {:.3} s",
-                keys.len(),
-                keys.first().map_or(0.0, |k| k.0),
-                keys.last().map_or(0.0, |k| k.0)
-            ),
-        };
-        let _ = writeln!(
-            s,
-            "    {} {i}: {shape}, {path}, stiffness {} N/m, friction {}, damping ratio {:.3}",
-            c.kind(),
-            c.contact.stiffness_n_per_m,
-            c.contact.friction,
-            c.contact.damping_ratio
-        );
+        let _ = writeln!(s, "{}", collider(c, *i - 1));
         any = true;
     }
     for b in &model.bodies {
@@ -169,6 +122,47 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     if !any {
         let _ = writeln!(s, "    none");
     }
+}
+
+/// One collider: its shape, its path and its contact.
+fn collider(c: &Collider, i: usize) -> String {
+    let shape = match c.shape {
+        Shape::Sphere { radius_m } => format!("radius {radius_m} m"),
+        Shape::Box { half_extents_m } => {
+            format!("half extents {:?} m", half_extents_m.to_array())
+        }
+        Shape::Plane { normal } => format!("normal {:?}", normal.to_array()),
+    };
+    let path = match &c.path {
+        Path::Linear { start_m, .. } if c.path.is_fixed() => {
+            format!("fixed at {:?} m", start_m.to_array())
+        }
+        Path::Linear {
+            start_m,
+            velocity_m_per_s,
+        } => format!(
+            "from {:?} m at {:?} m/s",
+            start_m.to_array(),
+            velocity_m_per_s.to_array()
+        ),
+        Path::Keyframes(keys) => format!(
+            "on {} keyframes from {:.3} s to {:.3} s",
+            keys.len(),
+            keys.first().map_or(0.0, |k| k.0),
+            keys.last().map_or(0.0, |k| k.0)
+        ),
+    };
+    format!(
+        "    {} {i}: {shape}, {path}, stiffness {} N/m, friction {}, damping ratio {:.3}",
+        c.kind(),
+        c.contact.stiffness_n_per_m,
+        c.contact.friction,
+        c.contact.damping_ratio
+    )
+}
+
+/// The step, the stiffest mode, and each integrator's estimated stable dt.
+fn solver(s: &mut String, model: &Model, settings: &Settings) {
     let _ = writeln!(
         s,
         "  solver: {}, dt = {:.4e} s ({} substeps per frame at {} Hz), {} frames ({:.3} s)",
@@ -228,6 +222,10 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             }
         }
     }
+}
+
+/// The passes one GPU step runs, and the effects compiled into its kernels.
+fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
     let (passes, effects) = crate::gpu::step_passes(model, settings.integrator);
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
     let _ = writeln!(
@@ -239,8 +237,4 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
             effects.join(", ")
         }
     );
-    if let Some(w) = dt_warning(model, settings) {
-        let _ = writeln!(s, "warning: {w}");
-    }
-    s
 }

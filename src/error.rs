@@ -1,96 +1,83 @@
-//! Library errors. Each one is a single message that names the file, field or entity and says what
-//! would fix it; the binary prints it as is.
+//! The library's errors. Each one is a single message that names the file, field or entity and
+//! says what would fix it; the binary prints it as is. Each layer below has an error of its own
+//! (a scene's, a backend's, the recording file's, the viewer link's); this one gathers them for
+//! the commands at the top.
 
-use std::fmt;
+use rerun::sink::SinkFlushError;
 
-/// Where a scene came from, so that errors can point at it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum SceneOrigin {
-    /// A TOML file on disk.
-    File(std::path::PathBuf),
-    /// One of the scenes compiled into the binary.
-    BuiltIn(String),
-    /// Text handed to the library directly (tests, examples).
-    Text,
-}
-
-impl fmt::Display for SceneOrigin {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SceneOrigin::File(p) => write!(f, "{}", p.display()),
-            SceneOrigin::BuiltIn(name) => write!(f, "built-in scene '{name}'"),
-            SceneOrigin::Text => write!(f, "<scene text>"),
-        }
-    }
-}
-
-/// A problem with a scene: where it is (origin, line, column, field path) and what is wrong.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SceneError {
-    pub origin: SceneOrigin,
-    /// 1-based line and column of the offending value, where known.
-    pub position: Option<(usize, usize)>,
-    /// Dotted field path such as `bodies[0].mass_kg`; empty when the problem is the whole file.
-    pub field: String,
-    pub message: String,
-}
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.origin)?;
-        if let Some((line, col)) = self.position {
-            write!(f, ":{line}:{col}")?;
-        }
-        if !self.field.is_empty() {
-            write!(f, ": `{}`", self.field)?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
-
-impl std::error::Error for SceneError {}
+use crate::backend::BackendError;
+use crate::record::RecordError;
+use crate::rrd_file::{CreateError, WriteFailure};
+use crate::scene::LoadError;
+use crate::settings::SettingsError;
+use crate::viewer::ConnectError;
+// Where they have always been found, beside the library's other errors.
+pub use crate::scene::{SceneError, SceneOrigin};
 
 /// Everything the library can report.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// A scene that is unknown, unreadable or invalid.
     #[error(transparent)]
-    Scene(#[from] SceneError),
+    Scene(#[from] LoadError),
 
-    #[error("cannot read scene file {path}: {source}")]
-    ReadScene {
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+
+    /// `--dt auto` needs an error to aim at.
+    #[error("--tolerance must be a positive number of metres, got {0}")]
+    Tolerance(f64),
+
+    #[error(transparent)]
+    Backend(#[from] BackendError),
+
+    #[error("the recorder stopped before the simulation finished: {0}")]
+    RecorderGone(#[source] RecordError),
+
+    /// Rerun refused to start, log to or flush a recording.
+    #[error("rerun: {0}")]
+    Rerun(#[from] RerunError),
+
+    /// The same, while doing something the message names.
+    #[error("rerun: {doing}: {source}")]
+    RerunWhile { doing: String, source: RerunError },
+
+    /// The end of a run could not reach its sink (a viewer that is not listening, typically).
+    #[error(
+        "rerun: flushing the recording failed: {0}. If streaming, is a Rerun viewer listening there? \
+         Start one with `rerun`, or record to a file with --save FILE"
+    )]
+    FlushRun(#[source] SinkFlushError),
+
+    /// A recording just written could not be read back (its size, for a benchmark).
+    #[error("rerun: {}: {source}", path.display())]
+    ReadRecording {
         path: std::path::PathBuf,
         source: std::io::Error,
     },
 
-    #[error(
-        "unknown scene '{name}': it is neither a built-in scene nor an existing file. \
-         Run `hooke scenes` for the built-in names, or give a path to a .toml file"
-    )]
-    UnknownScene { name: String },
+    /// The simulation thread panicked: a bug, reported with the panic's own message.
+    #[error("the simulation thread panicked{}", panic_message(.0))]
+    SimulationPanicked(Option<String>),
 
-    #[error("invalid setting: {0}")]
-    Settings(String),
+    /// The recorder thread panicked: a bug, reported with the panic's own message.
+    #[error("the recorder thread panicked{}", panic_message(.0))]
+    RecorderPanicked(Option<String>),
 
+    #[error("cannot start a thread: {0}")]
+    SpawnThread(#[source] std::io::Error),
+
+    /// The recording file could not be created.
     #[error(transparent)]
-    Backend(#[from] crate::backend::BackendError),
-
-    #[error("the recorder stopped before the simulation finished: {0}")]
-    RecorderGone(String),
-
-    #[error("rerun: {0}")]
-    Rerun(String),
-
-    /// The recording file could not be created (its cause is part of the message, not a
-    /// separate source, so that a chain of causes prints it once).
-    #[error("cannot create the recording {}: {cause}", path.display())]
-    CreateRecording {
-        path: std::path::PathBuf,
-        cause: std::io::Error,
-    },
+    CreateRecording(#[from] CreateError),
 
     /// Writing the recording failed mid-run (a full disk): what the file still holds.
     #[error("{0}")]
-    WriteRecording(crate::rrd_file::WriteFailure),
+    WriteRecording(WriteFailure),
+
+    /// The viewer address cannot be used.
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
 
     /// The live viewer went away and no file was being recorded beside it.
     #[error(
@@ -102,6 +89,48 @@ pub enum Error {
         frame: u64,
         why: String,
     },
+}
+
+/// What Rerun said when it refused.
+#[derive(Debug, thiserror::Error)]
+pub enum RerunError {
+    #[error(transparent)]
+    Stream(#[from] rerun::RecordingStreamError),
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    #[error(transparent)]
+    Flush(#[from] SinkFlushError),
+    #[error(transparent)]
+    Encode(#[from] rerun::external::re_log_encoding::EncodeError),
+}
+
+impl Error {
+    /// Rerun's refusal, while doing what `doing` says.
+    pub fn rerun_while(doing: impl Into<String>, source: impl Into<RerunError>) -> Self {
+        Error::RerunWhile {
+            doing: doing.into(),
+            source: source.into(),
+        }
+    }
+
+    /// A panicked thread's error, from what `join` returned: the panic message where it is text.
+    pub fn panicked(
+        payload: &(dyn std::any::Any + Send),
+        error: fn(Option<String>) -> Error,
+    ) -> Self {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| payload.downcast_ref::<String>().cloned());
+        error(message)
+    }
+}
+
+fn panic_message(message: &Option<String>) -> String {
+    message
+        .as_ref()
+        .map(|m| format!(": {m}"))
+        .unwrap_or_default()
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, RerunError, Result};
 use crate::model::Model;
 use crate::record::{RecordOptions, Recorder};
 use crate::settings::Settings;
@@ -86,19 +86,21 @@ pub fn estimate(
     strain_range: f32,
     opts: RecordOptions,
 ) -> Result<RecordingSize> {
-    let rerun_error =
-        |e: &dyn std::fmt::Display| Error::Rerun(format!("estimating the recording's size: {e}"));
+    let rerun_error = |e: RerunError| Error::rerun_while("estimating the recording's size", e);
     let (rec, storage) = rerun::RecordingStreamBuilder::new("hooke-size")
         .memory()
-        .map_err(|e| rerun_error(&e))?;
+        .map_err(|e| rerun_error(e.into()))?;
     let encoded = || -> Result<u64> {
-        rec.flush_blocking().map_err(|e| rerun_error(&e))?;
-        Ok(storage.drain_as_bytes().map_err(|e| rerun_error(&e))?.len() as u64)
+        rec.flush_blocking().map_err(|e| rerun_error(e.into()))?;
+        Ok(storage
+            .drain_as_bytes()
+            .map_err(|e| rerun_error(e.into()))?
+            .len() as u64)
     };
     let mut recorder = Recorder::new(rec.clone(), model.clone(), strain_range, opts);
     recorder
         .log_static("estimate", "", settings, "estimate")
-        .map_err(|e| rerun_error(&e))?;
+        .map_err(|e| rerun_error(e.into()))?;
     let static_bytes = encoded()?;
     let spacing = model
         .springs
@@ -109,7 +111,7 @@ pub fn estimate(
     let mut log = |frame| {
         recorder
             .log_snapshot(&sample_frame(model, frame, strain_range, spacing))
-            .map_err(|e| rerun_error(&e))
+            .map_err(|e| rerun_error(e.into()))
     };
     log(0)?;
     let first = encoded()?;

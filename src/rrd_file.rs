@@ -18,10 +18,17 @@ use rerun::external::re_log_encoding::{EncodeError, Encoder, EncodingOptions};
 use rerun::log::{Chunk, LogMsg};
 use rerun::sink::{LogSink, SinkFlushError};
 
-use crate::error::Error;
-
 /// The timeline whose values count frames (see `record`).
 const FRAME_TIMELINE: &str = "frame";
+
+/// The recording file could not be created (its cause is part of the message, not a separate
+/// source, so that a chain of causes prints it once).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot create the recording {}: {cause}", path.display())]
+pub struct CreateError {
+    pub path: PathBuf,
+    pub cause: std::io::Error,
+}
 
 /// Why the file stopped growing, and how much of the run it holds.
 #[derive(Debug, Clone)]
@@ -229,8 +236,8 @@ pub struct RrdFile {
 
 /// Create `path` and write the stream's header. Without `footer`, the file ends with no chunk
 /// index, and no index is kept in memory while it is written (long runs: see BENCHMARKS.md).
-pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), Error> {
-    let create_error = |cause: std::io::Error| Error::CreateRecording {
+pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), CreateError> {
+    let create_error = |cause: std::io::Error| CreateError {
         path: path.to_owned(),
         cause,
     };
@@ -241,7 +248,7 @@ pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), Error
         EncodingOptions::PROTOBUF_COMPRESSED,
         file,
     )
-    .map_err(|e| Error::CreateRecording {
+    .map_err(|e| CreateError {
         path: path.to_owned(),
         cause: std::io::Error::other(cause(&e)),
     })?;

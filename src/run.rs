@@ -1,5 +1,5 @@
-//! `hooke run` as a library call: build the model, start the simulation thread and the recorder
-//! thread, join them, and say how it went.
+//! `hooke run` as a library call: given a prepared scene (see [`crate::prepare`]), start the
+//! simulation thread and the recorder thread, join them, and say how it went.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,6 +14,7 @@ use crate::rrd_file::RrdFile;
 use crate::scene::LoadedScene;
 use crate::settings::Settings;
 use crate::sim::{self, Delivery};
+use crate::state::Snapshot;
 use crate::viewer::{LinkState, ViewerLink};
 
 /// Snapshots in flight between the threads: enough to smooth out a slow log call, small enough
@@ -73,23 +74,64 @@ pub fn run(
     );
     recorder
         .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
-        .map_err(|e| Error::Rerun(e.to_string()))?;
+        .map_err(|e| Error::Rerun(e.into()))?;
 
     let start = std::time::Instant::now();
-    let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
-    // The recorder hands logged snapshots back so that their buffers are reused.
-    let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     let mut progress = Progress::new(opts.progress, settings.frames + 1, &loaded.scene.name);
-    let frame_rate_hz = settings.frame_rate_hz;
     let be: Box<dyn Backend> = if opts.realtime {
-        Box::new(Paced::new(be, Pacer::start(frame_rate_hz)))
+        Box::new(Paced::new(be, Pacer::start(settings.frame_rate_hz)))
     } else {
         be
     };
+    let (outcome, recorded, recorder_error) =
+        simulate_and_record(be, &mut recorder, &mut progress, settings, opts, &cancel);
+    progress.finish();
+    if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
+        // Nothing more can reach that viewer; do not wait for it.
+        let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
+        return Err(gone);
+    }
+    // Whatever happened, what was logged reaches the sink before we report.
+    let flushed = rec.flush_blocking();
+    if let Some(file) = &opts.file {
+        // A failed write explains a failed flush better than the flush does.
+        file.finish().map_err(Error::WriteRecording)?;
+    }
+    flushed.map_err(Error::FlushRun)?;
+    let outcome = outcome?;
+    if let Some(e) = recorder_error {
+        return Err(e);
+    }
+    if let Some(e) = outcome.failed {
+        return Err(Error::Backend(e));
+    }
+    Ok(RunSummary {
+        backend: backend_name,
+        frames_recorded: recorded,
+        frames_dropped: outcome.frames_dropped,
+        sim_time_secs: settings.frames.min(outcome.frames_sent.saturating_sub(1)) as f64
+            / settings.frame_rate_hz,
+        wall_secs: start.elapsed().as_secs_f64(),
+        cancelled: outcome.cancelled,
+    })
+}
 
+/// The simulation thread stepping `be` and the recorder thread logging what it sends, joined:
+/// how the simulation ended, the frames recorded, and why the recorder stopped early, if it did.
+fn simulate_and_record(
+    be: Box<dyn Backend>,
+    recorder: &mut Recorder,
+    progress: &mut Progress,
+    settings: &Settings,
+    opts: &RunOptions,
+    cancel: &Arc<AtomicBool>,
+) -> (Result<sim::SimOutcome>, u64, Option<Error>) {
+    let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
+    // The recorder hands logged snapshots back so that their buffers are reused.
+    let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     // Set by the recorder when it can take no more: the simulation stops within a chunk.
     let halt = AtomicBool::new(false);
-    let (outcome, recorded, recorder_error) = std::thread::scope(|scope| {
+    std::thread::scope(|scope| {
         let sim = std::thread::Builder::new()
             .name("hooke-sim".into())
             .spawn_scoped(scope, {
@@ -117,102 +159,177 @@ pub fn run(
         let rec_thread = std::thread::Builder::new()
             .name("hooke-record".into())
             .spawn_scoped(scope, || {
-                // Owned here, so that returning early drops it: the simulation then stops at
-                // its next frame instead of stepping on with nobody to record.
-                let rx = rx;
-                let mut recorded = 0u64;
-                let mut viewer_lost = false;
-                let stop_simulation = |e: Error| {
-                    halt.store(true, Ordering::SeqCst);
-                    // Returning drops the receiver as well, which a waiting simulation sees.
-                    Some(e)
+                let recording = Recording {
+                    recorder,
+                    progress,
+                    opts,
+                    halt: &halt,
+                    frame_rate_hz: settings.frame_rate_hz,
                 };
-                for snap in rx.iter() {
-                    if let Err(e) = recorder.log_snapshot(&snap) {
-                        return (recorded, stop_simulation(Error::RecorderGone(e.to_string())));
-                    }
-                    // The flag first: the writer's lock may be held by a long write.
-                    let failed = opts.file.as_ref().filter(|f| f.failed());
-                    if let Some(failure) = failed.and_then(RrdFile::failure) {
-                        return (recorded, stop_simulation(Error::WriteRecording(failure)));
-                    }
-                    recorded += 1;
-                    progress.frame(recorded, snap.frame as f64 / frame_rate_hz);
-                    // A lost viewer is said once; then the run finishes into the file, or stops.
-                    if let Some(w) = opts.viewer.as_ref().filter(|_| !viewer_lost)
-                        && let LinkState::Gone(why) = w.link.state()
-                    {
-                        viewer_lost = true;
-                        let Some(file) = &w.file else {
-                            let gone = Error::ViewerGone {
-                                url: w.link.url().to_owned(),
-                                frame: snap.frame,
-                                why,
-                            };
-                            return (recorded, Some(gone));
-                        };
-                        progress.suspend(|| {
-                            eprintln!(
-                                "the viewer at {} went away at frame {} ({why}); recording the rest of the run to {} only",
-                                w.link.url(),
-                                snap.frame,
-                                file.display()
-                            )
-                        });
-                    }
-                    // Back to the simulation for reuse; if its queue is full, just drop it.
-                    let _ = back_tx.try_send(snap);
-                }
-                (recorded, None)
+                recording.record(rx, &back_tx)
             });
         match (sim, rec_thread) {
             (Ok(s), Ok(r)) => {
                 let outcome = s
                     .join()
-                    .map_err(|_| "the simulation thread panicked".to_owned());
+                    .map_err(|p| Error::panicked(p.as_ref(), Error::SimulationPanicked));
                 let rec_out = r
                     .join()
-                    .map_err(|_| "the recorder thread panicked".to_owned());
+                    .map_err(|p| Error::panicked(p.as_ref(), Error::RecorderPanicked));
                 match (outcome, rec_out) {
                     (Ok(o), Ok((n, err))) => (Ok(o), n, err),
                     (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
                 }
             }
-            (Err(e), _) | (_, Err(e)) => (Err(format!("cannot start a thread: {e}")), 0, None),
+            (Err(e), _) | (_, Err(e)) => (Err(Error::SpawnThread(e)), 0, None),
         }
-    });
-    progress.finish();
-    if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
-        // Nothing more can reach that viewer; do not wait for it.
-        let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
-        return Err(gone);
-    }
-    // Whatever happened, what was logged reaches the sink before we report.
-    let flushed = rec.flush_blocking();
-    if let Some(file) = &opts.file {
-        // A failed write explains a failed flush better than the flush does.
-        file.finish().map_err(Error::WriteRecording)?;
-    }
-    flushed.map_err(|e| {
-        Error::Rerun(format!(
-            "flushing the recording failed: {e}. If streaming, is a Rerun viewer listening there? \
-             Start one with `rerun`, or record to a file with --save FILE"
-        ))
-    })?;
-    let outcome = outcome.map_err(Error::Rerun)?;
-    if let Some(e) = recorder_error {
-        return Err(e);
-    }
-    if let Some(e) = outcome.failed {
-        return Err(Error::Backend(e));
-    }
-    Ok(RunSummary {
-        backend: backend_name,
-        frames_recorded: recorded,
-        frames_dropped: outcome.frames_dropped,
-        sim_time_secs: settings.frames.min(outcome.frames_sent.saturating_sub(1)) as f64
-            / settings.frame_rate_hz,
-        wall_secs: start.elapsed().as_secs_f64(),
-        cancelled: outcome.cancelled,
     })
+}
+
+/// The recorder thread's side of a run.
+struct Recording<'a> {
+    recorder: &'a mut Recorder,
+    progress: &'a mut Progress,
+    opts: &'a RunOptions,
+    /// Set when the recorder can take no more.
+    halt: &'a AtomicBool,
+    frame_rate_hz: f64,
+}
+
+impl Recording<'_> {
+    /// Log every snapshot `rx` brings, handing each back on `back` for reuse: the frames
+    /// recorded, and why recording stopped early, if it did. The receiver is owned here, so that
+    /// returning early drops it: the simulation then stops at its next frame instead of
+    /// stepping on with nobody to record.
+    fn record(
+        self,
+        rx: crossbeam_channel::Receiver<Snapshot>,
+        back: &crossbeam_channel::Sender<Snapshot>,
+    ) -> (u64, Option<Error>) {
+        let Recording {
+            recorder,
+            progress,
+            opts,
+            halt,
+            frame_rate_hz,
+        } = self;
+        let mut recorded = 0u64;
+        let mut viewer_lost = false;
+        let stop_simulation = |e: Error| {
+            halt.store(true, Ordering::SeqCst);
+            // Returning drops the receiver as well, which a waiting simulation sees.
+            Some(e)
+        };
+        for snap in rx.iter() {
+            if let Err(e) = recorder.log_snapshot(&snap) {
+                return (recorded, stop_simulation(Error::RecorderGone(e)));
+            }
+            // The flag first: the writer's lock may be held by a long write.
+            let failed = opts.file.as_ref().filter(|f| f.failed());
+            if let Some(failure) = failed.and_then(RrdFile::failure) {
+                return (recorded, stop_simulation(Error::WriteRecording(failure)));
+            }
+            recorded += 1;
+            progress.frame(recorded, snap.frame as f64 / frame_rate_hz);
+            // A lost viewer is said once; then the run finishes into the file, or stops.
+            if let Some(w) = opts.viewer.as_ref().filter(|_| !viewer_lost)
+                && let LinkState::Gone(why) = w.link.state()
+            {
+                viewer_lost = true;
+                let Some(file) = &w.file else {
+                    let gone = Error::ViewerGone {
+                        url: w.link.url().to_owned(),
+                        frame: snap.frame,
+                        why,
+                    };
+                    return (recorded, Some(gone));
+                };
+                progress.suspend(|| {
+                    eprintln!(
+                        "the viewer at {} went away at frame {} ({why}); recording the rest of the run to {} only",
+                        w.link.url(),
+                        snap.frame,
+                        file.display()
+                    )
+                });
+            }
+            // Back to the simulation for reuse; if its queue is full, just drop it.
+            let _ = back.try_send(snap);
+        }
+        (recorded, None)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::BackendError;
+    use crate::settings::Overrides;
+    use crate::state::{State, StepStats};
+
+    /// A backend with a bug: it panics on its first step.
+    struct PanicsWhenStepped;
+
+    impl Backend for PanicsWhenStepped {
+        fn describe(&self) -> String {
+            "a backend that panics".to_owned()
+        }
+        fn advance(&mut self, _substeps: u32) -> Result<StepStats, BackendError> {
+            let doing = "stepping";
+            panic!("the test backend panicked while {doing}");
+        }
+        fn request_snapshot(&mut self, _frame: u64, _stats: StepStats) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+            Ok(None)
+        }
+        fn state(&mut self) -> Result<State, BackendError> {
+            Err(BackendError::Device("no state".to_owned()))
+        }
+    }
+
+    #[test]
+    fn a_panicking_simulation_thread_is_reported_as_one_with_its_message() {
+        let loaded = crate::scene::load("hair").expect("the built-in hair scene loads");
+        let model = Arc::new(crate::model::build(&loaded.scene));
+        let overrides = Overrides {
+            frames: Some(2),
+            substeps: Some(3),
+            ..Overrides::default()
+        };
+        let settings = Settings::resolve(&loaded.scene, &overrides).expect("settings resolve");
+        let (rec, _storage) = rerun::RecordingStreamBuilder::new("hooke-test")
+            .memory()
+            .expect("an in-memory recording");
+        let opts = RunOptions {
+            delivery: Delivery::Lossless,
+            progress: ProgressMode::Off,
+            realtime: false,
+            record: RecordOptions::default(),
+            viewer: None,
+            file: None,
+        };
+        let cancel = Arc::new(AtomicBool::new(false));
+        let result = run(
+            &loaded,
+            model,
+            Box::new(PanicsWhenStepped),
+            &settings,
+            rec,
+            &opts,
+            cancel,
+        );
+        let Err(e) = result else {
+            panic!("a run whose backend panics must fail");
+        };
+        assert!(
+            matches!(&e, Error::SimulationPanicked(Some(m)) if m == "the test backend panicked while stepping"),
+            "{e:?}"
+        );
+        assert_eq!(
+            e.to_string(),
+            "the simulation thread panicked: the test backend panicked while stepping"
+        );
+    }
 }

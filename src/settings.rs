@@ -1,8 +1,14 @@
 //! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
 
-use crate::error::{Error, Result};
 use crate::integrator::Integrator;
 use crate::scene::Scene;
+
+/// A value the run cannot use, and what would fix it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid setting: {0}")]
+pub struct SettingsError(pub String);
+
+type Result<T> = std::result::Result<T, SettingsError>;
 
 /// Values given on the command line; each replaces the scene's.
 #[derive(Debug, Clone, Default)]
@@ -38,19 +44,19 @@ impl Settings {
         if let Some(dt) = o.dt_secs
             && !(dt.is_finite() && dt > 0.0)
         {
-            return Err(Error::Settings(format!(
+            return Err(SettingsError(format!(
                 "--dt must be a positive number of seconds, got {dt}"
             )));
         }
         if o.integrator == Some(Integrator::Implicit) && scene.effects.self_collision.is_some() {
-            return Err(Error::Settings(
+            return Err(SettingsError(
                 "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
                  use semi-implicit, verlet or rk4"
                     .into(),
             ));
         }
         if o.substeps == Some(0) {
-            return Err(Error::Settings("--substeps must be at least 1".into()));
+            return Err(SettingsError("--substeps must be at least 1".into()));
         }
         // The command line wins; within one source, dt and substeps are two views of one value.
         let (dt_req, sub_req) = match (o.dt_secs, o.substeps) {
@@ -60,7 +66,7 @@ impl Settings {
         let substeps = match (dt_req, sub_req) {
             (Some(dt), Some(n)) => {
                 if ((dt * fps * f64::from(n)) - 1.0).abs() > 1e-6 {
-                    return Err(Error::Settings(format!(
+                    return Err(SettingsError(format!(
                         "--dt {dt} s and --substeps {n} disagree: at {fps} frames/s, {n} substeps means dt = {:.6e} s; give only one",
                         frame_secs / f64::from(n)
                     )));
@@ -72,7 +78,7 @@ impl Settings {
                 let exact = frame_secs / dt;
                 let n = (exact - 1e-9).ceil().max(1.0);
                 if n > f64::from(u32::MAX) {
-                    return Err(Error::Settings(format!(
+                    return Err(SettingsError(format!(
                         "dt = {dt} s would need {n} substeps per frame"
                     )));
                 }
@@ -95,7 +101,7 @@ impl Settings {
             (None, None, None, None) => duration_frames(DEFAULT_DURATION_SECS, fps)?,
         };
         if frames == 0 {
-            return Err(Error::Settings("--frames must be at least 1".into()));
+            return Err(SettingsError("--frames must be at least 1".into()));
         }
         Ok(Self {
             integrator: o.integrator.unwrap_or(s.integrator),
@@ -114,7 +120,7 @@ impl Settings {
 
 fn duration_frames(d: f64, fps: f64) -> Result<u64> {
     if !(d.is_finite() && d > 0.0) {
-        return Err(Error::Settings(format!(
+        return Err(SettingsError(format!(
             "--duration must be a positive number of seconds, got {d}"
         )));
     }

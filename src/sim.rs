@@ -126,7 +126,7 @@ pub enum Delivery {
 }
 
 /// How a simulation ended.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct SimOutcome {
     /// Snapshots handed to the recorder (frame 0, the initial state, included).
     pub frames_sent: u64,
@@ -153,40 +153,12 @@ pub fn simulate<'a>(
     recycled: Option<&Receiver<Snapshot>>,
 ) -> SimOutcome {
     let stop: Stop<'a> = stop.into();
-    let mut out = SimOutcome {
-        frames_sent: 0,
-        frames_dropped: 0,
-        cancelled: false,
-        failed: None,
-        recorder_gone: false,
-    };
-    // Sends one snapshot; false when the recorder has gone.
-    let deliver = |out: &mut SimOutcome, snap: Snapshot| -> bool {
-        let sent = match delivery {
-            Delivery::Lossless => tx.send(snap).is_ok(),
-            Delivery::DropWhenBusy => match tx.try_send(snap) {
-                Ok(()) => true,
-                Err(TrySendError::Full(_)) => {
-                    out.frames_dropped += 1;
-                    return true;
-                }
-                Err(TrySendError::Disconnected(_)) => false,
-            },
-        };
-        if sent {
-            out.frames_sent += 1;
-        } else {
-            out.recorder_gone = true;
-        }
-        sent
-    };
-    let mut healthy = match backend.request_snapshot(0, StepStats::default()) {
-        Ok(()) => true,
-        Err(e) => {
-            out.failed = Some(e);
-            false
-        }
-    };
+    let mut out = SimOutcome::default();
+    let deliver = |out: &mut SimOutcome, snap: Snapshot| deliver(tx, delivery, out, snap);
+    let mut healthy = backend
+        .request_snapshot(0, StepStats::default())
+        .map_err(|e| out.failed = Some(e))
+        .is_ok();
     let mut chunker = Chunker::default();
     let mut frame = 1;
     while healthy && frame <= frames {
@@ -244,4 +216,30 @@ pub fn simulate<'a>(
         }
     }
     out
+}
+
+/// Send one snapshot as `delivery` says; false when the recorder has gone.
+fn deliver(
+    tx: &Sender<Snapshot>,
+    delivery: Delivery,
+    out: &mut SimOutcome,
+    snap: Snapshot,
+) -> bool {
+    let sent = match delivery {
+        Delivery::Lossless => tx.send(snap).is_ok(),
+        Delivery::DropWhenBusy => match tx.try_send(snap) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                out.frames_dropped += 1;
+                return true;
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        },
+    };
+    if sent {
+        out.frames_sent += 1;
+    } else {
+        out.recorder_gone = true;
+    }
+    sent
 }

@@ -1,8 +1,10 @@
 //! How large a step the scene survives: a bound on its stiffest mode, fed to each integrator's
-//! own amplification (see [`Integrator::stable_dt`]).
+//! own amplification (see [`Integrator::stable_dt`]), and the warning a run gets when its step
+//! is above that estimate.
 
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::settings::Settings;
 
 /// The stiffest mode's angular frequency (an upper bound) and its damping ratio.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,4 +95,33 @@ pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
             )
         })
         .collect()
+}
+
+/// Is the chosen dt above the estimated limit of the chosen integrator?
+pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
+    let limit = stable_dts(model)
+        .into_iter()
+        .find(|(i, _)| *i == settings.integrator)?
+        .1;
+    match limit {
+        Some(l) if settings.dt_secs <= l => None,
+        Some(l) => Some(format!(
+            "dt = {:.3e} s is above the estimated stable limit {:.3e} s of `{}` for this scene's stiffest spring; \
+             use at least {} substeps per frame (or --dt {:.1e})",
+            settings.dt_secs,
+            l,
+            settings.integrator,
+            (1.0 / (settings.frame_rate_hz * l)).ceil(),
+            l
+        )),
+        None if has_no_damping(model) => Some(format!(
+            "`{}` gains energy at every dt on this undamped scene; prefer semi-implicit, verlet or rk4",
+            settings.integrator
+        )),
+        None => None,
+    }
+}
+
+fn has_no_damping(model: &Model) -> bool {
+    stiffest_mode(model).damping_ratio == 0.0
 }

@@ -25,6 +25,18 @@ impl std::fmt::Debug for ViewerLink {
     }
 }
 
+/// Why a viewer cannot be streamed to.
+#[derive(Debug, thiserror::Error)]
+pub enum ConnectError {
+    #[error(
+        "`{url}` is not a viewer address ({source}): use rerun+http://HOST:PORT/proxy, e.g. rerun+http://127.0.0.1:9876/proxy"
+    )]
+    NotAnAddress {
+        url: String,
+        source: rerun::external::re_uri::Error,
+    },
+}
+
 /// What became of the viewer.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LinkState {
@@ -39,11 +51,13 @@ impl ViewerLink {
     /// Start connecting to the viewer at `url` (`rerun+http://HOST:PORT/proxy`); returns the link
     /// and the sink to give the recording stream. `tolerate_loss`: a file is recorded as well, so
     /// a lost viewer is no error when the recording is flushed.
-    pub fn connect(url: &str, tolerate_loss: bool) -> Result<(Self, Box<dyn LogSink>), String> {
-        let uri = url.parse().map_err(|e| {
-            format!(
-                "`{url}` is not a viewer address ({e}): use rerun+http://HOST:PORT/proxy, e.g. rerun+http://127.0.0.1:9876/proxy"
-            )
+    pub fn connect(
+        url: &str,
+        tolerate_loss: bool,
+    ) -> Result<(Self, Box<dyn LogSink>), ConnectError> {
+        let uri = url.parse().map_err(|source| ConnectError::NotAnAddress {
+            url: url.to_owned(),
+            source,
         })?;
         let sink = Arc::new(GrpcSink::new(uri));
         let link = Self {

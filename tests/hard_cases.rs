@@ -5,26 +5,20 @@
 //! and nothing tunnelling through a collider. GPU runs skip only where no adapter exists and
 //! HOOKE_REQUIRE_ADAPTER is unset (CI sets it).
 
+mod common;
+
 use std::sync::Arc;
 
+use common::{gpu_available, ok};
+
 use glam::Vec3;
-use hooke::backend::{Backend, BackendKind};
+use hooke::backend::Backend;
 use hooke::integrator::Integrator;
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
+use hooke::select::BackendKind;
 
 fn backends() -> Vec<BackendKind> {
-    let gpu = !hooke::gpu::adapters().is_empty();
-    if !gpu && std::env::var(hooke::gpu::REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!("no GPU adapter, and {}=1", hooke::gpu::REQUIRE_ADAPTER_ENV);
-    }
-    if !gpu {
-        eprintln!("SKIPPED on the GPU: no adapter on this machine");
-    }
-    if gpu {
+    if gpu_available() {
         vec![BackendKind::Cpu, BackendKind::Gpu]
     } else {
         vec![BackendKind::Cpu]
@@ -65,7 +59,7 @@ fn survive(
         frames,
         substeps,
     } = stepping;
-    let mut be: Box<dyn Backend> = ok(hooke::backend::create(
+    let mut be: Box<dyn Backend> = ok(hooke::select::create(
         kind,
         model.clone(),
         integrator,
@@ -412,7 +406,7 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
         "dt {dt} should be far past the explicit limit {explicit_limit}"
     );
     for kind in backends() {
-        let mut be = ok(hooke::backend::create(
+        let mut be = ok(hooke::select::create(
             kind,
             model.clone(),
             Integrator::Implicit,

@@ -11,7 +11,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use common::{gpu_available, hooke, hooke_command, read_rrd, temp_dir, text};
-use hooke::backend::{Backend, BackendError, BackendKind};
+use hooke::backend::{Backend, BackendError};
+use hooke::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
 
 /// The promise in the README: a stop takes effect within this, whatever the frame's length.
@@ -229,7 +230,7 @@ fn chunked_frames_step_exactly_like_whole_ones() {
     let model = Arc::new(hooke::model::build(&loaded.scene));
     for kind in kinds {
         let run = |chunks: &[u32]| {
-            let mut be = hooke::backend::create(
+            let mut be = hooke::select::create(
                 kind,
                 model.clone(),
                 hooke::integrator::Integrator::Rk4,

@@ -634,14 +634,9 @@ fn auto_dt_meets_the_requested_accuracy() {
             },
         )
         .unwrap_or_else(|e| panic!("{e}"));
-        let auto = hooke::auto_dt::choose(
-            &model,
-            &settings,
-            hooke::backend::BackendKind::Cpu,
-            None,
-            tolerance,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
+        let auto =
+            hooke::auto_dt::choose(&model, &settings, &hooke::select::Device::cpu(), tolerance)
+                .unwrap_or_else(|e| panic!("{e}"));
         assert!(auto.estimated_error_m <= tolerance, "{integrator}: {auto}");
         let steps = (auto.probe_secs / auto.dt_secs).round() as u64;
         let s = run(&model, integrator, auto.dt_secs, steps);

@@ -1,7 +1,7 @@
 //! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
 //! [`super::from_toml`] adds the file position.
 
-use super::{Body, Keyframe, Scene, SelfCollision, SpringKind};
+use super::format::{Body, Keyframe, Scene, SelfCollision, SpringKind};
 use crate::integrator::Integrator;
 
 type Check = Result<(), (String, String)>;
@@ -10,7 +10,7 @@ type Check = Result<(), (String, String)>;
 /// that an absurd grid is refused before it is allocated.
 pub const MAX_MASSES: u64 = 1 << 26;
 
-fn fail(field: impl Into<String>, message: impl Into<String>) -> Check {
+fn fail<T>(field: impl Into<String>, message: impl Into<String>) -> Result<T, (String, String)> {
     Err((field.into(), message.into()))
 }
 
@@ -96,7 +96,7 @@ fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Chec
     non_negative(&format!("{field}.friction"), f64::from(friction))?;
     let r = f64::from(restitution);
     finite(&format!("{field}.restitution"), r)?;
-    let least = crate::model::MIN_RESTITUTION;
+    let least = crate::contact_law::MIN_RESTITUTION;
     if !(f64::from(least)..=1.0).contains(&r) {
         return fail(
             format!("{field}.restitution"),
@@ -114,7 +114,17 @@ pub fn validate(scene: &Scene) -> Check {
     if scene.name.trim().is_empty() {
         return fail("name", "must not be empty");
     }
-    let s = &scene.solver;
+    solver(&scene.solver)?;
+    effects(&scene.effects)?;
+    bodies(scene)?;
+    if let Some(sc) = &scene.effects.self_collision {
+        self_collision(scene, sc)?;
+    }
+    positive("view.strain_range", f64::from(scene.view.strain_range))?;
+    Ok(())
+}
+
+fn solver(s: &super::format::Solver) -> Check {
     positive("solver.frame_rate_hz", s.frame_rate_hz)?;
     if let Some(n) = s.substeps
         && n == 0
@@ -136,8 +146,10 @@ pub fn validate(scene: &Scene) -> Check {
     if s.frames == Some(0) {
         return fail("solver.frames", "must be at least 1");
     }
+    Ok(())
+}
 
-    let e = &scene.effects;
+fn effects(e: &super::format::Effects) -> Check {
     if let Some(g) = e.gravity_m_per_s2 {
         finite3("effects.gravity_m_per_s2", g)?;
     }
@@ -185,7 +197,11 @@ pub fn validate(scene: &Scene) -> Check {
             ),
         );
     }
+    Ok(())
+}
 
+/// Each body, then the scene's total of masses.
+fn bodies(scene: &Scene) -> Check {
     if scene.bodies.is_empty() {
         return fail("bodies", "a scene needs at least one body ([[bodies]])");
     }
@@ -207,10 +223,6 @@ pub fn validate(scene: &Scene) -> Check {
             );
         }
     }
-    if let Some(sc) = &e.self_collision {
-        self_collision(scene, sc)?;
-    }
-    positive("view.strain_range", f64::from(scene.view.strain_range))?;
     Ok(())
 }
 
@@ -288,6 +300,21 @@ fn body(f: &str, b: &Body) -> Check {
             format!("{count} masses is more than the limit of {MAX_MASSES}"),
         );
     }
+    placement(f, b)?;
+    pins(f, b)?;
+    springs(f, b)?;
+    if dim == 1 && b.springs.shear.is_some() {
+        return fail(
+            format!("{f}.springs.shear"),
+            "shear springs join diagonal neighbours and need a 2D or 3D grid; remove them for a strand",
+        );
+    }
+    geometry(f, b)
+}
+
+/// Spacing, mass, where the body starts and how its grid is laid out.
+fn placement(f: &str, b: &Body) -> Check {
+    let dim = b.grid.len();
     positive(&format!("{f}.spacing_m"), f64::from(b.spacing_m))?;
     positive(&format!("{f}.mass_kg"), f64::from(b.mass_kg))?;
     finite3(&format!("{f}.origin_m"), b.origin_m)?;
@@ -310,6 +337,11 @@ fn body(f: &str, b: &Body) -> Check {
             }
         }
     }
+    Ok(())
+}
+
+fn pins(f: &str, b: &Body) -> Check {
+    let dim = b.grid.len();
     for (p, pin) in b.pins.iter().enumerate() {
         let fp = format!("{f}.pins[{p}]");
         if pin.len() != dim {
@@ -333,6 +365,11 @@ fn body(f: &str, b: &Body) -> Check {
             }
         }
     }
+    Ok(())
+}
+
+/// Each spring kind's parameters, and the plasticity and tearing of its springs.
+fn springs(f: &str, b: &Body) -> Check {
     let kind = |name: &str, k: &Option<SpringKind>| -> Check {
         if let Some(k) = k {
             positive(
@@ -383,13 +420,7 @@ fn body(f: &str, b: &Body) -> Check {
             );
         }
     }
-    if dim == 1 && b.springs.shear.is_some() {
-        return fail(
-            format!("{f}.springs.shear"),
-            "shear springs join diagonal neighbours and need a 2D or 3D grid; remove them for a strand",
-        );
-    }
-    geometry(f, b)
+    Ok(())
 }
 
 /// How many f32 steps (ulps) of its ends' coordinates a spring must span at least: its strain is
@@ -405,30 +436,7 @@ const F32_EPSILON: f64 = 1.0 / 8_388_608.0;
 /// small spacing that is fine at the origin collapses at 0.5 m.
 fn geometry(f: &str, b: &Body) -> Check {
     let dim = b.grid.len();
-    let axes: Vec<glam::DVec3> = match &b.axes {
-        Some(a) => a
-            .iter()
-            .map(|v| glam::Vec3::from(*v).as_dvec3().normalize())
-            .collect(),
-        None => [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][..dim].to_vec(),
-    };
-    // Axes that span no area (volume) put grid points on top of each other.
-    let span = match dim {
-        2 => axes[0].cross(axes[1]).length(),
-        3 => axes[0].cross(axes[1]).dot(axes[2]).abs(),
-        _ => 1.0,
-    };
-    if span < 1e-3 {
-        return fail(
-            format!("{f}.axes"),
-            format!(
-                "body '{}': the axes are (nearly) {}, so masses of the grid lie on top of each \
-                 other and the springs between them have no length; give independent directions",
-                b.name,
-                if dim == 2 { "parallel" } else { "in one plane" }
-            ),
-        );
-    }
+    let axes = independent_axes(f, b)?;
     let s = f64::from(b.spacing_m);
     let reach: f64 = b.grid.iter().map(|&n| f64::from(n.saturating_sub(1))).sum();
     let origin = glam::Vec3::from(b.origin_m).as_dvec3().length();
@@ -437,17 +445,20 @@ fn geometry(f: &str, b: &Body) -> Check {
     let ulp = far * F32_EPSILON;
     let kinds = [
         (
-            crate::model::SpringKindTag::Structural,
+            crate::spring_kind::SpringKindTag::Structural,
             b.springs.structural,
         ),
-        (crate::model::SpringKindTag::Shear, b.springs.shear),
-        (crate::model::SpringKindTag::Bending, b.springs.bending),
+        (crate::spring_kind::SpringKindTag::Shear, b.springs.shear),
+        (
+            crate::spring_kind::SpringKindTag::Bending,
+            b.springs.bending,
+        ),
     ];
     for (tag, params) in kinds {
         if params.is_none() {
             continue;
         }
-        for off in crate::model::kind_offsets(tag) {
+        for off in crate::spring_kind::kind_offsets(tag) {
             if off.iter().enumerate().any(|(a, &o)| {
                 o != 0 && (a >= dim || u32::try_from(o.abs()).is_ok_and(|o| o >= b.grid[a]))
             }) {
@@ -490,4 +501,35 @@ fn geometry(f: &str, b: &Body) -> Check {
         }
     }
     Ok(())
+}
+
+/// The body's grid axes as unit vectors, refused when they span no area (volume): grid points
+/// would then lie on top of each other.
+fn independent_axes(f: &str, b: &Body) -> Result<Vec<glam::DVec3>, (String, String)> {
+    let dim = b.grid.len();
+    let axes: Vec<glam::DVec3> = match &b.axes {
+        Some(a) => a
+            .iter()
+            .map(|v| glam::Vec3::from(*v).as_dvec3().normalize())
+            .collect(),
+        None => [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][..dim].to_vec(),
+    };
+    // Axes that span no area (volume) put grid points on top of each other.
+    let span = match dim {
+        2 => axes[0].cross(axes[1]).length(),
+        3 => axes[0].cross(axes[1]).dot(axes[2]).abs(),
+        _ => 1.0,
+    };
+    if span < 1e-3 {
+        return fail(
+            format!("{f}.axes"),
+            format!(
+                "body '{}': the axes are (nearly) {}, so masses of the grid lie on top of each \
+                 other and the springs between them have no length; give independent directions",
+                b.name,
+                if dim == 2 { "parallel" } else { "in one plane" }
+            ),
+        );
+    }
+    Ok(axes)
 }

@@ -1,9 +1,11 @@
-//! Command-line interface: `hooke scenes | check | run`.
+//! The command line: `hooke scenes | check | run | bench …`, and how its flags become a
+//! [`Request`] for the library.
 
 use clap::{Args, Parser, Subcommand};
 
-use hooke::backend::BackendKind;
 use hooke::integrator::Integrator;
+use hooke::prepare::{Request, SceneSource, Step};
+use hooke::select::{BackendKind, Device};
 use hooke::settings::Overrides;
 
 #[derive(Debug, Parser)]
@@ -239,7 +241,31 @@ fn parse_dt(s: &str) -> Result<Dt, String> {
         .map_err(|_| format!("expected seconds (like 0.001) or `auto`, got '{s}'"))
 }
 
+impl DeviceArgs {
+    pub fn device(&self) -> Device {
+        Device {
+            kind: self.backend,
+            adapter: self.adapter.clone(),
+        }
+    }
+}
+
 impl SolverArgs {
+    /// What to prepare: `scene` with these settings on `device`.
+    pub fn request(&self, scene: &str, device: &DeviceArgs) -> Request {
+        Request {
+            scene: SceneSource::Named(scene.to_owned()),
+            overrides: self.overrides(),
+            step: match self.dt {
+                Some(Dt::Auto) => Step::Auto {
+                    tolerance_m: self.tolerance,
+                },
+                _ => Step::AsGiven,
+            },
+            device: device.device(),
+        }
+    }
+
     pub fn overrides(&self) -> Overrides {
         Overrides {
             integrator: self.integrator,

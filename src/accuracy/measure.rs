@@ -1,0 +1,182 @@
+//! The measurement itself: every integrator over a ladder of time steps against an f64 RK4
+//! reference, and each integrator's largest stable step searched.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::backend::{self, BackendError};
+use crate::error::{Error, Result};
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::prepare::{self, Request};
+use crate::reference::Reference;
+use crate::select::Device;
+use crate::settings::SettingsError;
+
+use super::report;
+use super::results::{Accuracy, Row, StableDt};
+use super::stable_dt::{
+    dissipated_pct, energy_scale, search_range, search_stable_dt, stayed_stable,
+};
+
+#[derive(Debug, Clone)]
+pub struct AccuracyOptions {
+    pub device: Device,
+    /// Simulated time each run covers.
+    pub duration_secs: f64,
+    /// Time steps tried: the scene's dt × 2^k for k from `coarsest` down, `points` of them.
+    pub points: u32,
+    pub coarsest: i32,
+    pub out_dir: PathBuf,
+    /// Also record the series to this .rrd file.
+    pub rrd: Option<PathBuf>,
+}
+
+struct RunEnd {
+    x: Vec<glam::Vec3>,
+    balance_change_j: f64,
+    wall_secs: f64,
+}
+
+/// Run `model` for `steps` steps of `dt` and time it (the wait for the device included).
+fn run(
+    model: &Arc<Model>,
+    device: &Device,
+    integrator: Integrator,
+    dt: f64,
+    steps: u64,
+) -> std::result::Result<(RunEnd, String), BackendError> {
+    let mut be = device.create(model.clone(), integrator, dt)?;
+    let name = be.describe();
+    let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
+    let start = Instant::now();
+    backend::advance_steps(be.as_mut(), steps, 1000)?;
+    be.finish()?;
+    let wall_secs = start.elapsed().as_secs_f64();
+    let end = be.snapshot(1, Default::default())?;
+    Ok((
+        RunEnd {
+            x: end.positions,
+            balance_change_j: end.energies.balance_j() - b0,
+            wall_secs,
+        },
+        name,
+    ))
+}
+
+pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
+    let planned = prepare::plan(&Request::named(scene_arg, opts.device.clone()), &mut |_| {})?;
+    let (model, scene_dt) = (&planned.model, planned.settings.dt_secs);
+    let duration = opts.duration_secs;
+    if !(duration.is_finite() && duration > 0.0) {
+        return Err(Error::Settings(SettingsError(format!(
+            "--duration must be a positive number of seconds, got {duration}"
+        ))));
+    }
+    let ladder: Vec<f64> = (0..opts.points.max(2))
+        .map(|k| {
+            let dt = scene_dt * 2f64.powi(opts.coarsest - k as i32);
+            // Whole steps that land on the duration.
+            duration / (duration / dt).round().max(1.0)
+        })
+        .collect();
+    let finest = ladder.iter().copied().fold(f64::INFINITY, f64::min);
+    let reference_dt = finest / 4.0;
+    // One reference per step size: friction's stick limit depends on the dt being judged.
+    let references: Vec<Vec<glam::DVec3>> = ladder
+        .iter()
+        .map(|&dt| {
+            let mut reference = Reference::new(model.clone());
+            reference.advance_to(duration, reference_dt, dt);
+            reference.x
+        })
+        .collect();
+    let mut rows = Vec::new();
+    for integrator in Integrator::ALL.into_iter().filter(|&i| supported(model, i)) {
+        for (&dt, reference_x) in ladder.iter().zip(&references) {
+            rows.push(row(model, opts, integrator, dt, reference_x)?);
+        }
+    }
+    let search_time = duration.min(0.5);
+    let stable = crate::stability::stable_dts(model)
+        .into_iter()
+        .filter(|(i, _)| supported(model, *i))
+        .map(|(integrator, estimate)| {
+            let searched = search_range(integrator, estimate, scene_dt);
+            StableDt {
+                integrator,
+                estimate,
+                found: search_stable_dt(model, integrator, searched, search_time),
+                searched,
+            }
+        })
+        .collect();
+    let result = Accuracy {
+        scene: planned.loaded.scene.name.clone(),
+        duration_secs: duration,
+        reference_dt_secs: reference_dt,
+        rows,
+        stable,
+    };
+    report::write_outputs(&result, &opts.out_dir)?;
+    if let Some(path) = &opts.rrd {
+        report::record(&result, path)?;
+    }
+    Ok(result)
+}
+
+/// Implicit Euler has no mass–mass contact (validation refuses the pair): no rows for it.
+fn supported(model: &Model, integrator: Integrator) -> bool {
+    !(integrator == Integrator::Implicit && model.effects.self_collision.is_some())
+}
+
+/// One run of `integrator` at `dt` over the whole duration, against its reference positions.
+fn row(
+    model: &Arc<Model>,
+    opts: &AccuracyOptions,
+    integrator: Integrator,
+    dt: f64,
+    reference_x: &[glam::DVec3],
+) -> Result<Row> {
+    let duration = opts.duration_secs;
+    let steps = (duration / dt).round() as u64;
+    Ok(match run(model, &opts.device, integrator, dt, steps) {
+        Ok((end, name)) => {
+            let errors: Vec<f64> = end
+                .x
+                .iter()
+                .zip(reference_x)
+                .map(|(p, q)| (p.as_dvec3() - *q).length())
+                .collect();
+            let rms =
+                (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
+            let max = errors.iter().copied().fold(0.0, f64::max);
+            Row {
+                integrator,
+                dt_secs: dt,
+                steps,
+                rms_error_m: rms,
+                max_error_m: max,
+                energy_drift_j: end.balance_change_j,
+                stable: rms.is_finite() && stayed_stable(end.balance_change_j, energy_scale(model)),
+                dissipated_pct: dissipated_pct(end.balance_change_j, energy_scale(model)),
+                wall_secs_per_sim_sec: end.wall_secs / duration,
+                backend: name,
+            }
+        }
+        Err(BackendError::Diverged(_)) => Row {
+            integrator,
+            dt_secs: dt,
+            steps,
+            rms_error_m: f64::NAN,
+            max_error_m: f64::NAN,
+            energy_drift_j: f64::NAN,
+            stable: false,
+            dissipated_pct: f64::NAN,
+            wall_secs_per_sim_sec: f64::NAN,
+            backend: format!("{:?}", opts.device.kind).to_lowercase(),
+        },
+        Err(e) => return Err(e.into()),
+    })
+}

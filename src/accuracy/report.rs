@@ -1,0 +1,200 @@
+//! The report of a measurement: Markdown (with the "which solver for this accuracy" guidance),
+//! CSV, the files they are written to, and the same series as a Rerun recording.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::integrator::Integrator;
+use crate::settings::SettingsError;
+
+use super::chart::svg;
+use super::results::{Accuracy, Found, Row};
+
+fn fmt_num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.3e}")
+    } else {
+        "—".to_owned()
+    }
+}
+
+pub fn markdown(r: &Accuracy) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Scene `{}`, {} s simulated, against f64 RK4 at dt = {:.3e} s.\n",
+        r.scene, r.duration_secs, r.reference_dt_secs
+    );
+    let _ = writeln!(
+        s,
+        "| integrator | dt (s) | steps | RMS error (m) | max error (m) | energy drift (J) | stable | energy dissipated (% of initial) | wall s per sim s | backend |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---|---:|---:|---|");
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "| {} | {:.3e} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            row.integrator,
+            row.dt_secs,
+            row.steps,
+            fmt_num(row.rms_error_m),
+            fmt_num(row.max_error_m),
+            fmt_num(row.energy_drift_j),
+            if row.stable { "yes" } else { "diverged" },
+            if row.dissipated_pct.is_finite() {
+                format!("{:.1}", row.dissipated_pct)
+            } else {
+                "—".to_owned()
+            },
+            fmt_num(row.wall_secs_per_sim_sec),
+            row.backend
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n| integrator | estimated stable dt (`hooke check`) | largest stable dt measured | dt searched |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|");
+    for st in &r.stable {
+        let est = match st.estimate {
+            Some(e) if e.is_finite() => format!("{e:.3e} s"),
+            Some(_) => "any".to_owned(),
+            None => "none (unstable even at ωdt = 0.01)".to_owned(),
+        };
+        let found = match st.found {
+            Found::Largest(f) => format!("{f:.3e} s"),
+            Found::AtLeast(f) => format!("≥ {f:.3e} s (largest tried)"),
+            Found::Unstable => "unstable at every dt tried".to_owned(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {est} | {found} | {:.3e} – {:.3e} s |",
+            st.integrator, st.searched.0, st.searched.1
+        );
+    }
+    s.push_str(&guidance(r));
+    s
+}
+
+/// Error levels the guidance table answers for, metres RMS.
+const ERROR_LEVELS_M: [f64; 6] = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
+
+/// For each error level, the cheapest run (least wall time per simulated second) that stayed
+/// stable and reached it: "which solver for this accuracy, at what cost".
+pub fn cheapest_per_level(r: &Accuracy) -> Vec<(f64, Option<&Row>)> {
+    ERROR_LEVELS_M
+        .iter()
+        .map(|&level| {
+            let best = r
+                .rows
+                .iter()
+                .filter(|row| row.stable && row.rms_error_m <= level)
+                .min_by(|a, b| a.wall_secs_per_sim_sec.total_cmp(&b.wall_secs_per_sim_sec));
+            (level, best)
+        })
+        .collect()
+}
+
+fn guidance(r: &Accuracy) -> String {
+    let mut s = String::from(
+        "\n| RMS error at most | cheapest solver measured | dt (s) | wall s per sim s |\n|---:|---|---:|---:|\n",
+    );
+    for (level, best) in cheapest_per_level(r) {
+        let _ = match best {
+            Some(row) => writeln!(
+                s,
+                "| {level:.0e} m | {} | {:.3e} | {} |",
+                row.integrator,
+                row.dt_secs,
+                fmt_num(row.wall_secs_per_sim_sec)
+            ),
+            None => writeln!(s, "| {level:.0e} m | none of the runs | — | — |"),
+        };
+    }
+    s
+}
+
+fn csv(r: &Accuracy) -> String {
+    let mut s = String::from(
+        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend\n",
+    );
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\"",
+            r.scene,
+            row.integrator,
+            row.dt_secs,
+            row.steps,
+            row.rms_error_m,
+            row.max_error_m,
+            row.energy_drift_j,
+            row.stable,
+            row.dissipated_pct,
+            row.wall_secs_per_sim_sec,
+            row.backend
+        );
+    }
+    s
+}
+
+pub(super) fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
+    let io = |e: std::io::Error, p: &Path| {
+        Error::Settings(SettingsError(format!("cannot write {}: {e}", p.display())))
+    };
+    std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
+    for (ext, text) in [("md", markdown(r)), ("csv", csv(r)), ("svg", svg(r))] {
+        let p = dir.join(format!("accuracy-{}.{ext}", r.scene));
+        std::fs::write(&p, text).map_err(|e| io(e, &p))?;
+    }
+    Ok(())
+}
+
+/// The same series in Rerun: per integrator, error and cost along the `dt_index` timeline
+/// (0 = coarsest step).
+pub(super) fn record(r: &Accuracy, path: &Path) -> Result<()> {
+    let rec = rerun::RecordingStreamBuilder::new("hooke-accuracy")
+        .save(path)
+        .map_err(|e| Error::rerun_while(format!("creating {}", path.display()), e))?;
+    let err = |e: rerun::RecordingStreamError| Error::Rerun(e.into());
+    for integrator in Integrator::ALL {
+        for (k, row) in r
+            .rows
+            .iter()
+            .filter(|p| p.integrator == integrator)
+            .enumerate()
+        {
+            rec.set_time_sequence("dt_index", k as i64);
+            if row.stable {
+                rec.log(
+                    format!("accuracy/{integrator}/rms_error_m"),
+                    &rerun::Scalars::single(row.rms_error_m),
+                )
+                .map_err(err)?;
+                rec.log(
+                    format!("accuracy/{integrator}/wall_secs_per_sim_sec"),
+                    &rerun::Scalars::single(row.wall_secs_per_sim_sec),
+                )
+                .map_err(err)?;
+                rec.log(
+                    format!("accuracy/{integrator}/energy_drift_j"),
+                    &rerun::Scalars::single(row.energy_drift_j),
+                )
+                .map_err(err)?;
+            }
+            rec.log(
+                format!("accuracy/{integrator}/dt_secs"),
+                &rerun::Scalars::single(row.dt_secs),
+            )
+            .map_err(err)?;
+        }
+    }
+    rec.log_static(
+        "accuracy/table",
+        &rerun::TextDocument::from_markdown(markdown(r)),
+    )
+    .map_err(err)?;
+    rec.flush_blocking().map_err(|e| Error::Rerun(e.into()))?;
+    Ok(())
+}

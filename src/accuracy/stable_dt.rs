@@ -1,0 +1,91 @@
+//! The largest stable step of an integrator, found by bisection on the CPU: what "stable" means
+//! (no energy gained beyond a tenth of the initial, damping is no divergence) and where to look.
+
+use std::sync::Arc;
+
+use crate::backend::{self, Backend as _, BackendError};
+use crate::integrator::Integrator;
+use crate::model::Model;
+
+use super::results::Found;
+
+/// Implicit Euler is searched from the scene's dt up to at least this (one step per 10 frames
+/// at 60 Hz): where users take it.
+pub const IMPLICIT_SEARCH_UP_TO_SECS: f64 = 0.1;
+
+/// The energy against which a run's balance drift is judged: the initial mechanical energy.
+pub(super) fn energy_scale(model: &Model) -> f64 {
+    let e0 = crate::cpu::compute_energies(model, &model.springs, &model.initial);
+    e0.total_j().abs().max(e0.kinetic_j).max(1e-6)
+}
+
+/// Stable: stays finite, and gains less than a tenth of the initial mechanical energy (a weakly
+/// unstable scheme grows without ever overflowing in a short run). Losing energy is not
+/// instability: a damped, bounded run is stable, and its loss is reported apart.
+pub(super) fn stayed_stable(balance_change_j: f64, scale: f64) -> bool {
+    balance_change_j.is_finite() && balance_change_j < 0.1 * scale
+}
+
+/// Energy lost beyond the ledger, in percent of `scale`.
+pub(super) fn dissipated_pct(balance_change_j: f64, scale: f64) -> f64 {
+    if balance_change_j.is_finite() {
+        100.0 * (-balance_change_j).max(0.0) / scale
+    } else {
+        f64::NAN
+    }
+}
+
+/// Whether `integrator` at `dt` runs `duration` on the CPU without diverging (see
+/// [`stayed_stable`]).
+pub fn is_stable(model: &Arc<Model>, integrator: Integrator, dt: f64, duration: f64) -> bool {
+    let steps = (duration / dt).ceil() as u64;
+    let mut be = crate::cpu::CpuBackend::new(model.clone(), integrator, dt);
+    run_cpu(&mut be, steps).is_ok_and(|change| stayed_stable(change, energy_scale(model)))
+}
+
+fn run_cpu(be: &mut crate::cpu::CpuBackend, steps: u64) -> std::result::Result<f64, BackendError> {
+    let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
+    backend::advance_steps(be, steps, 10_000)?;
+    Ok(be.snapshot(0, Default::default())?.energies.balance_j() - b0)
+}
+
+/// Bisection (in log dt) between a stable and an unstable step within `[lo, hi]`.
+pub fn search_stable_dt(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    (mut lo, mut hi): (f64, f64),
+    duration: f64,
+) -> Found {
+    if !is_stable(model, integrator, lo, duration) {
+        return Found::Unstable;
+    }
+    if is_stable(model, integrator, hi, duration) {
+        return Found::AtLeast(hi);
+    }
+    for _ in 0..10 {
+        let mid = (lo * hi).sqrt();
+        if is_stable(model, integrator, mid, duration) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Found::Largest(lo)
+}
+
+/// Where to search each integrator's largest stable dt: 16× either side of the estimate (of
+/// the scene's dt where there is none); implicit Euler from the scene's dt to at least
+/// [`IMPLICIT_SEARCH_UP_TO_SECS`], in whole doublings.
+pub fn search_range(integrator: Integrator, estimate: Option<f64>, scene_dt: f64) -> (f64, f64) {
+    match (integrator, estimate) {
+        (Integrator::Implicit, _) => {
+            let doublings = (IMPLICIT_SEARCH_UP_TO_SECS / scene_dt)
+                .log2()
+                .ceil()
+                .max(0.0);
+            (scene_dt, scene_dt * 2f64.powf(doublings))
+        }
+        (_, Some(e)) if e.is_finite() => (e / 16.0, e * 16.0),
+        _ => (scene_dt / 16.0, scene_dt * 16.0),
+    }
+}

@@ -1,0 +1,100 @@
+//! `hooke bench`: each benchmark run through the library, its figures printed.
+
+use hooke::{accuracy, bench};
+
+use super::args::BenchCommand;
+
+pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
+    match which {
+        BenchCommand::Soak {
+            scene,
+            device,
+            duration,
+            save,
+            no_rrd_footer,
+        } => {
+            let s = bench::soak(&scene, &device.device(), duration, &save, !no_rrd_footer)?;
+            println!("{}", bench::format_soak(&s));
+        }
+        BenchCommand::Accuracy {
+            scene,
+            device,
+            duration,
+            points,
+            coarsest,
+            out,
+            save,
+        } => {
+            let opts = accuracy::AccuracyOptions {
+                device: device.device(),
+                duration_secs: duration,
+                points,
+                coarsest,
+                out_dir: out.clone(),
+                rrd: save.clone(),
+            };
+            let report = accuracy::accuracy(&scene, &opts)?;
+            println!("{}", accuracy::markdown(&report));
+            println!(
+                "wrote {0}/accuracy-{1}.md, .csv and .svg (the work-precision chart){2}",
+                out.display(),
+                report.scene,
+                save.map(|p| format!("; recording {}", p.display()))
+                    .unwrap_or_default()
+            );
+        }
+        BenchCommand::Record {
+            scene,
+            frames,
+            save,
+            recording,
+        } => {
+            let opts = bench::RecordBenchOptions {
+                frames,
+                record: recording.options(),
+                save,
+            };
+            println!("{}", bench::format_record(&bench::record(&scene, &opts)?));
+        }
+        BenchCommand::Throughput {
+            scenes,
+            device,
+            integrator,
+            steps,
+            batch,
+            effects,
+        } => {
+            let opts = bench::ThroughputOptions {
+                device: device.device(),
+                integrator,
+                steps,
+                batch,
+            };
+            throughput(scenes, &opts, effects)?;
+        }
+    }
+    Ok(())
+}
+
+fn throughput(
+    scenes: Vec<String>,
+    opts: &bench::ThroughputOptions,
+    effects: bool,
+) -> anyhow::Result<()> {
+    let scenes = if scenes.is_empty() {
+        vec!["cloth-64".to_owned(), "cloth-256".to_owned()]
+    } else {
+        scenes
+    };
+    for s in &scenes {
+        if effects {
+            println!(
+                "{}",
+                bench::format_effect_costs(&bench::effect_costs(s, opts)?)
+            );
+        } else {
+            println!("{}", bench::format_throughput(&bench::throughput(s, opts)?));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,197 @@
+//! `hooke run`: prepare the scene, open the sink, step and record until done or interrupted,
+//! and say how it went. With `--stdout` the recording owns standard output, so everything said
+//! here goes to standard error.
+
+use std::io::IsTerminal as _;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use hooke::prepare::{self, Prepared};
+
+use super::args::{DeviceArgs, OutputArgs, RecordingArgs, SolverArgs};
+use super::sink::{self, Sink};
+
+/// How a command ended without error.
+pub enum Outcome {
+    Done,
+    /// Ctrl-C or SIGTERM stopped a run; everything produced before it was recorded.
+    Interrupted,
+}
+
+/// What `hooke run` was given.
+pub struct RunArgs<'a> {
+    pub scene: &'a str,
+    pub solver: &'a SolverArgs,
+    pub device: &'a DeviceArgs,
+    pub rerun: &'a rerun::clap::RerunArgs,
+    pub output: &'a OutputArgs,
+    pub recording: &'a RecordingArgs,
+    /// The `run` subcommand's matches: which of Rerun's flags were given.
+    pub matches: &'a clap::ArgMatches,
+}
+
+pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
+    let request = args.solver.request(args.scene, args.device);
+    let prepared = prepare::prepare(&request, &mut |notice| eprintln!("{notice}"))?;
+    describe(&prepared, args.recording);
+    let sink = sink::open_sink(
+        args.rerun,
+        args.output,
+        args.matches,
+        &prepared.loaded.scene.name,
+    )?;
+    if let Some(file) = &sink.file {
+        let size = hooke::recording_size::estimate(
+            &prepared.model,
+            &prepared.settings,
+            prepared.loaded.scene.view.strain_range,
+            args.recording.options(),
+        )?;
+        eprintln!(
+            "{}",
+            hooke::recording_size::describe_for_file(&size, prepared.settings.frames, file.path())
+        );
+    }
+    let opts = hooke::run::RunOptions {
+        delivery: sink.delivery,
+        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        realtime: args.recording.realtime,
+        record: args.recording.options(),
+        viewer: sink.viewer.clone(),
+        file: sink.file.clone(),
+    };
+    let interrupts = Interrupts::install();
+    let Prepared {
+        loaded,
+        settings,
+        model,
+        backend,
+    } = prepared;
+    let result = hooke::run::run(
+        &loaded,
+        model,
+        backend,
+        &settings,
+        sink.rec.clone(),
+        &opts,
+        interrupts.cancel.clone(),
+    );
+    say_where_saved(&sink, &result);
+    let summary = result?;
+    report(&summary);
+    if summary.cancelled {
+        return Ok(Outcome::Interrupted);
+    }
+    if let Some(serving) = &sink.serving {
+        interrupts.serve_until_interrupted(&serving.page);
+    }
+    Ok(Outcome::Done)
+}
+
+/// The run about to start, and what its recording holds.
+fn describe(p: &Prepared, recording: &RecordingArgs) {
+    eprintln!(
+        "hooke: '{}' with {} masses and {} springs on {}, {}, dt = {:.3e} s × {} substeps, {} frames",
+        p.loaded.scene.name,
+        p.model.mass_count(),
+        p.model.spring_count(),
+        p.backend.describe(),
+        p.settings.integrator,
+        p.settings.dt_secs,
+        p.settings.substeps,
+        p.settings.frames
+    );
+    for line in hooke::record::describe(&p.model, &recording.options()) {
+        eprintln!("  recording {line}");
+    }
+}
+
+/// Where the recording is, whether the run went well or not.
+fn say_where_saved(sink: &Sink, result: &hooke::Result<hooke::run::RunSummary>) {
+    let Some(p) = &sink.saved else {
+        return;
+    };
+    let open = format!("open it with `rerun {}`", p.display());
+    match result {
+        Ok(_) => eprintln!("saved {}; {open}", p.display()),
+        // Its own message says what the file holds.
+        Err(hooke::Error::WriteRecording(_)) => {}
+        Err(_) => eprintln!(
+            "the frames recorded before the error are in {}; {open}",
+            p.display()
+        ),
+    }
+}
+
+fn report(summary: &hooke::run::RunSummary) {
+    eprintln!(
+        "{}: {} frames ({:.3} s simulated) in {:.2} s wall{}",
+        if summary.cancelled {
+            "interrupted"
+        } else {
+            "done"
+        },
+        summary.frames_recorded,
+        summary.sim_time_secs,
+        summary.wall_secs,
+        if summary.frames_dropped > 0 {
+            format!(
+                ", {} frames not shown because the viewer fell behind",
+                summary.frames_dropped
+            )
+        } else {
+            String::new()
+        }
+    );
+}
+
+/// Ctrl-C and SIGTERM. The first stops stepping within a chunk of substeps (the frame in
+/// progress is dropped), records every frame already produced and ends the file; a second one
+/// ends the process at once. After the run, with `--serve`, an interrupt just ends the serving.
+struct Interrupts {
+    cancel: Arc<AtomicBool>,
+    serving_only: Arc<AtomicBool>,
+}
+
+impl Interrupts {
+    fn install() -> Self {
+        let cancel = Arc::new(AtomicBool::new(false));
+        let serving_only = Arc::new(AtomicBool::new(false));
+        let installed = ctrlc::set_handler({
+            let cancel = cancel.clone();
+            let serving_only = serving_only.clone();
+            move || {
+                if serving_only.load(Ordering::SeqCst) {
+                    cancel.store(true, Ordering::SeqCst);
+                    return;
+                }
+                if cancel.swap(true, Ordering::SeqCst) {
+                    eprintln!("second interrupt: exiting without finishing the recording");
+                    std::process::exit(130);
+                }
+                eprintln!(
+                    "interrupted: stopping now, dropping the frame in progress and saving every finished frame (again to quit at once)"
+                );
+            }
+        });
+        if let Err(e) = installed {
+            eprintln!(
+                "warning: cannot catch Ctrl-C ({e}); an interrupt will end the run without flushing"
+            );
+        }
+        Self {
+            cancel,
+            serving_only,
+        }
+    }
+
+    /// Keep the served recording up until the next interrupt.
+    fn serve_until_interrupted(&self, page: &str) {
+        self.serving_only.store(true, Ordering::SeqCst);
+        eprintln!("the recording stays served at {page} until Ctrl-C");
+        while !self.cancel.load(Ordering::SeqCst) {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        eprintln!("stopped serving");
+    }
+}

@@ -1,0 +1,27 @@
+//! The static model a backend steps: masses, springs, the per-mass CSR adjacency the force gather
+//! walks, pins and effects. Built from a validated [`crate::scene::Scene`] by [`build`] or, for
+//! tests and examples, by hand with [`ModelBuilder`].
+//!
+//! This file only names the parts; each lives in the file named for what it holds.
+
+mod builder;
+mod colliders;
+mod from_scene;
+mod springs;
+mod system;
+
+pub use builder::ModelBuilder;
+pub use colliders::{
+    Collider, ContactModel, Effects, GroundCollider, MassContact, Path, Pose, Shape, poses_at,
+};
+pub use from_scene::build;
+pub use springs::{Adjacency, NO_LIMITS, Neighbor, Spring, SpringLimits};
+pub use system::{BodyInfo, Model};
+
+// The contact law and the spring kinds sit below the scene (whose validation reads them); the
+// model is where most code looks for them.
+pub use crate::contact_law::{
+    MAX_CONTACT_DAMPING_RATIO, MIN_RESTITUTION, damping_ratio_for_restitution,
+    restitution_of_damping_ratio,
+};
+pub use crate::spring_kind::{SpringKindTag, kind_offsets};

@@ -1,0 +1,145 @@
+//! One entry for a prepared run: a scene (a built-in name or a file, or one already in hand) and
+//! the command line's overrides become the settings, the model and the backend that steps it.
+//! `run`, `check`, the benchmarks and `--dt auto` all start here, so the way a scene becomes a
+//! run is written once.
+
+use std::sync::Arc;
+
+use crate::auto_dt::{self, AutoDt};
+use crate::backend::Backend;
+use crate::error::{Error, Result};
+use crate::model::{self, Model};
+use crate::scene::{LoadedScene, Scene, SceneOrigin};
+use crate::select::Device;
+use crate::settings::{Overrides, Settings};
+
+/// Where the scene comes from.
+#[derive(Debug, Clone)]
+pub enum SceneSource {
+    /// A built-in name or a path to a TOML file, as the user gave it.
+    Named(String),
+    /// A variant of a loaded scene made in code (a benchmark's scene less one effect): it has
+    /// no text of its own.
+    Variant(Box<Scene>),
+}
+
+/// How the time step is chosen.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum Step {
+    /// The scene's, as the overrides change it.
+    #[default]
+    AsGiven,
+    /// `--dt auto`: substeps measured to keep the RMS position error within `tolerance_m`.
+    Auto { tolerance_m: f64 },
+}
+
+/// What to prepare.
+#[derive(Debug, Clone)]
+pub struct Request {
+    pub scene: SceneSource,
+    pub overrides: Overrides,
+    pub step: Step,
+    pub device: Device,
+}
+
+impl Request {
+    /// The scene named `scene` as it is, on `device`.
+    pub fn named(scene: &str, device: Device) -> Self {
+        Self {
+            scene: SceneSource::Named(scene.to_owned()),
+            overrides: Overrides::default(),
+            step: Step::AsGiven,
+            device,
+        }
+    }
+}
+
+/// What the user should know about how their values were applied, in the order it happened.
+#[derive(Debug, Clone)]
+pub enum Notice {
+    /// A value was adjusted (a dt rounded to whole substeps per frame, …).
+    Note(String),
+    /// What `--dt auto` chose, and why.
+    AutoDt(AutoDt),
+    /// The step is above the estimated stable limit of the integrator.
+    AboveStableLimit(String),
+}
+
+impl std::fmt::Display for Notice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Notice::Note(n) => write!(f, "note: {n}"),
+            Notice::AutoDt(auto) => write!(f, "{auto}"),
+            Notice::AboveStableLimit(w) => write!(f, "warning: {w}"),
+        }
+    }
+}
+
+/// A scene loaded, its settings resolved and its model built: all a run needs but a backend.
+#[derive(Debug, Clone)]
+pub struct Planned {
+    pub loaded: LoadedScene,
+    pub settings: Settings,
+    pub model: Arc<Model>,
+}
+
+/// A run ready to step.
+pub struct Prepared {
+    pub loaded: LoadedScene,
+    pub settings: Settings,
+    pub model: Arc<Model>,
+    pub backend: Box<dyn Backend>,
+}
+
+/// Load, resolve and build what `request` names, telling `say` what the user should know.
+pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
+    let loaded = match &request.scene {
+        SceneSource::Named(name) => crate::scene::load(name)?,
+        SceneSource::Variant(scene) => LoadedScene {
+            scene: scene.as_ref().clone(),
+            origin: SceneOrigin::Text,
+            text: String::new(),
+        },
+    };
+    let mut settings = Settings::resolve(&loaded.scene, &request.overrides)?;
+    for n in &settings.notes {
+        say(Notice::Note(n.clone()));
+    }
+    let model = Arc::new(model::build(&loaded.scene));
+    if let Step::Auto { tolerance_m } = request.step {
+        if !(tolerance_m.is_finite() && tolerance_m > 0.0) {
+            return Err(Error::Tolerance(tolerance_m));
+        }
+        let auto = auto_dt::choose(&model, &settings, &request.device, tolerance_m)?;
+        settings.substeps = auto.substeps;
+        settings.dt_secs = auto.dt_secs;
+        say(Notice::AutoDt(auto));
+    }
+    Ok(Planned {
+        loaded,
+        settings,
+        model,
+    })
+}
+
+/// [`plan`], a warning when the step looks unstable, and the backend. The backend comes before
+/// anything is written: a missing GPU or a scene beyond its limits fails first.
+pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepared> {
+    let Planned {
+        loaded,
+        settings,
+        model,
+    } = plan(request, say)?;
+    if let Some(w) = crate::stability::dt_warning(&model, &settings) {
+        say(Notice::AboveStableLimit(w));
+    }
+    let backend = request
+        .device
+        .create(model.clone(), settings.integrator, settings.dt_secs)?;
+    Ok(Prepared {
+        loaded,
+        settings,
+        model,
+        backend,
+    })
+}

@@ -1,0 +1,327 @@
+//! The scene file format itself: `deny_unknown_fields`, SI units in the field names. A value of
+//! these types is only handed out after validation (see [`super::load`]).
+
+use serde::{Deserialize, Serialize};
+
+use crate::integrator::Integrator;
+
+/// A whole scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name, used for the Rerun application id and default `.rrd` name.
+    pub name: String,
+    /// One line shown by `hooke scenes`.
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub solver: Solver,
+    #[serde(default)]
+    pub effects: Effects,
+    pub bodies: Vec<Body>,
+    #[serde(default)]
+    pub view: View,
+}
+
+/// Time stepping. One frame is `substeps` steps of `dt`, and `frame_rate_hz · substeps · dt = 1`;
+/// give `substeps` or `dt_secs` (not both), the other follows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Solver {
+    #[serde(default)]
+    pub integrator: Integrator,
+    #[serde(default = "default_frame_rate")]
+    pub frame_rate_hz: f64,
+    #[serde(default)]
+    pub substeps: Option<u32>,
+    #[serde(default)]
+    pub dt_secs: Option<f64>,
+    /// Simulated time to run; `frames` wins when both are given on the command line.
+    #[serde(default)]
+    pub duration_secs: Option<f64>,
+    #[serde(default)]
+    pub frames: Option<u64>,
+}
+
+fn default_frame_rate() -> f64 {
+    60.0
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Self {
+            integrator: Integrator::default(),
+            frame_rate_hz: default_frame_rate(),
+            substeps: None,
+            dt_secs: None,
+            duration_secs: None,
+            frames: None,
+        }
+    }
+}
+
+/// Effects a scene opts into. Anything absent is not simulated at all.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    /// Gravitational acceleration, e.g. `[0, -9.81, 0]` (y is up).
+    #[serde(default)]
+    pub gravity_m_per_s2: Option<[f32; 3]>,
+    /// Linear air drag as a rate: each mass feels `-m · air_drag_per_s · v`.
+    #[serde(default)]
+    pub air_drag_per_s: Option<f32>,
+    #[serde(default)]
+    pub ground: Option<Ground>,
+    #[serde(default)]
+    pub spheres: Vec<Sphere>,
+    #[serde(default)]
+    pub boxes: Vec<BoxCollider>,
+    #[serde(default)]
+    pub planes: Vec<Plane>,
+    /// Contact between mass points, of one body with itself and between bodies.
+    #[serde(default)]
+    pub self_collision: Option<SelfCollision>,
+}
+
+/// How a collider pushes back: a penalty spring along the contact normal, damped so that an
+/// impact keeps the given coefficient of restitution, plus Coulomb friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Penalty stiffness per mass point in contact.
+    pub stiffness_n_per_m: f32,
+    /// Coulomb friction coefficient (0 = frictionless).
+    pub friction: f32,
+    /// Coefficient of restitution of a single mass hitting the collider (0.05 = barely bounces, 1 = elastic).
+    pub restitution: f32,
+}
+
+fn default_contact_stiffness() -> f32 {
+    1.0e4
+}
+fn default_restitution() -> f32 {
+    0.5
+}
+
+/// The plane `y = height_m`, solid below.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ground {
+    #[serde(default)]
+    pub height_m: f32,
+    /// Penalty stiffness per mass point in contact.
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    /// Coulomb friction coefficient (0 = frictionless).
+    #[serde(default)]
+    pub friction: f32,
+    /// Coefficient of restitution of a single mass hitting the ground (0.05 = barely bounces, 1 = elastic).
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+/// A solid sphere. It moves on a path: from `center_m` at t = 0 at constant
+/// `velocity_m_per_s` (zero: fixed), or through `keyframes` (then leave out `center_m`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sphere {
+    #[serde(default)]
+    pub center_m: Option<[f32; 3]>,
+    pub radius_m: f32,
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    /// Positions at given times, passed through in straight lines; held before the first and
+    /// after the last.
+    #[serde(default)]
+    pub keyframes: Vec<Keyframe>,
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+/// One key of a collider's path.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    pub time_secs: f64,
+    pub center_m: [f32; 3],
+}
+
+/// A solid axis-aligned box, on a path like a sphere's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxCollider {
+    #[serde(default)]
+    pub center_m: Option<[f32; 3]>,
+    /// Half its size along x, y and z.
+    pub half_extents_m: [f32; 3],
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    #[serde(default)]
+    pub keyframes: Vec<Keyframe>,
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+/// A fixed plane through `point_m`, solid on the side away from `normal` (a wall, a slope).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plane {
+    pub point_m: [f32; 3],
+    /// Points out of the solid side; need not be unit length.
+    pub normal: [f32; 3],
+    #[serde(default = "default_contact_stiffness")]
+    pub stiffness_n_per_m: f32,
+    #[serde(default)]
+    pub friction: f32,
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+}
+
+/// Every collider's contact parameters, in the one form the model reads.
+macro_rules! contact_of {
+    ($($t:ty),*) => {$(
+        impl $t {
+            pub fn contact(&self) -> Contact {
+                Contact {
+                    stiffness_n_per_m: self.stiffness_n_per_m,
+                    friction: self.friction,
+                    restitution: self.restitution,
+                }
+            }
+        }
+    )*};
+}
+contact_of!(Ground, Sphere, BoxCollider, Plane, SelfCollision);
+
+/// Mass–mass contact: every mass is a sphere of `radius_m`, and two that overlap are pushed apart
+/// by a penalty spring along the line between them, damped so that a pair's impact keeps the
+/// given coefficient of restitution, plus Coulomb friction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfCollision {
+    /// Radius of each mass's contact sphere: a pair touches closer than `2 · radius_m`.
+    pub radius_m: f32,
+    /// Penalty stiffness per contacting pair.
+    pub stiffness_n_per_m: f32,
+    /// Coefficient of restitution of a pair impact (0 = no bounce, 1 = elastic).
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+    /// Coulomb friction coefficient between masses (0 = frictionless).
+    #[serde(default)]
+    pub friction: f32,
+    /// Masses of one body collide with each other too; `false`: only masses of different bodies.
+    #[serde(default = "default_within_bodies")]
+    pub within_bodies: bool,
+}
+
+fn default_within_bodies() -> bool {
+    true
+}
+
+/// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    pub name: String,
+    /// Masses along each grid axis: `[n]`, `[nu, nv]` or `[nu, nv, nw]`.
+    pub grid: Vec<u32>,
+    /// Distance between grid neighbours at rest.
+    pub spacing_m: f32,
+    /// Total mass of the body, shared equally by its mass points.
+    pub mass_kg: f32,
+    /// World position of grid index `[0, 0, 0]`.
+    #[serde(default)]
+    pub origin_m: [f32; 3],
+    /// World direction of each grid axis (normalised); defaults to x, y, z in turn.
+    #[serde(default)]
+    pub axes: Option<Vec<[f32; 3]>>,
+    /// Initial velocity of every mass.
+    #[serde(default)]
+    pub velocity_m_per_s: [f32; 3],
+    /// Grid indices of masses held fixed in place.
+    #[serde(default)]
+    pub pins: Vec<Vec<u32>>,
+    #[serde(default)]
+    pub springs: Springs,
+    /// Springs stretched or squeezed past a yield strain creep toward their current length.
+    #[serde(default)]
+    pub plasticity: Option<Plasticity>,
+    /// Springs stretched past a limit break for good.
+    #[serde(default)]
+    pub tearing: Option<Tearing>,
+}
+
+/// Plastic flow of a body's springs: past `yield_strain`, a spring's rest length relaxes toward
+/// the length at which its strain would be exactly `±yield_strain`, at rate `creep_per_s`
+/// (rest length `r` follows dr/dt = creep_per_s · (r* − r)). The elastic energy it lets go is
+/// dissipated (the ledger's plastic term).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plasticity {
+    /// |strain| below which a spring stays elastic, e.g. 0.05.
+    pub yield_strain: f32,
+    /// How fast the rest length follows past yield (1/s); large values make flow instantaneous.
+    pub creep_per_s: f32,
+}
+
+/// Tearing: a spring whose strain exceeds `max_strain` breaks. A broken spring exerts no force,
+/// is no longer drawn, and never heals; its elastic energy at the break is dissipated.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tearing {
+    /// Strain (|x| − L) / L at which a spring breaks, e.g. 0.3.
+    pub max_strain: f32,
+}
+
+/// Which spring kinds the body has. Absent kinds are not built.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Springs {
+    /// Nearest grid neighbours along each axis.
+    #[serde(default)]
+    pub structural: Option<SpringKind>,
+    /// Diagonal neighbours (face diagonals, and body diagonals in 3D).
+    #[serde(default)]
+    pub shear: Option<SpringKind>,
+    /// Second neighbours along each axis: resist folding.
+    #[serde(default)]
+    pub bending: Option<SpringKind>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringKind {
+    pub stiffness_n_per_m: f32,
+    /// Damping along the spring: force `-c (v_rel · x̂)`.
+    #[serde(default)]
+    pub damping_n_s_per_m: f32,
+}
+
+/// How the recording presents the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct View {
+    /// Strain mapped to the ends of the colour scale: `-strain_range` is fully blue (compressed),
+    /// `+strain_range` fully red (stretched).
+    #[serde(default = "default_strain_range")]
+    pub strain_range: f32,
+}
+
+fn default_strain_range() -> f32 {
+    0.1
+}
+
+impl Default for View {
+    fn default() -> Self {
+        Self {
+            strain_range: default_strain_range(),
+        }
+    }
+}

@@ -1,0 +1,69 @@
+//! The choice of backend: the CPU reference or the wgpu compute backend, on which adapter. It
+//! sits above both backends (each of which implements [`Backend`] from the layer below), so
+//! that neither they nor the trait need to know the other exists.
+
+use std::sync::Arc;
+
+use crate::backend::{Backend, BackendError};
+use crate::integrator::Integrator;
+use crate::model::Model;
+
+/// Which backend steps the simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum BackendKind {
+    /// wgpu compute shaders on the best (or the named) adapter.
+    #[default]
+    Gpu,
+    /// The multi-threaded CPU reference.
+    Cpu,
+}
+
+/// The backend a command asked for: its kind and, for the GPU, (part of) the adapter's name.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Device {
+    pub kind: BackendKind,
+    pub adapter: Option<String>,
+}
+
+impl Device {
+    /// The CPU reference (which has no adapter).
+    pub fn cpu() -> Self {
+        Self {
+            kind: BackendKind::Cpu,
+            adapter: None,
+        }
+    }
+
+    /// A backend of this kind stepping `model` by `dt_secs` with `integrator`.
+    pub fn create(
+        &self,
+        model: Arc<Model>,
+        integrator: Integrator,
+        dt_secs: f64,
+    ) -> Result<Box<dyn Backend>, BackendError> {
+        create(
+            self.kind,
+            model,
+            integrator,
+            dt_secs,
+            self.adapter.as_deref(),
+        )
+    }
+}
+
+/// A backend of `kind` stepping `model`; a GPU one on the adapter whose name contains `adapter`
+/// (the best one when `None`).
+pub fn create(
+    kind: BackendKind,
+    model: Arc<Model>,
+    integrator: Integrator,
+    dt_secs: f64,
+    adapter: Option<&str>,
+) -> Result<Box<dyn Backend>, BackendError> {
+    Ok(match kind {
+        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, integrator, dt_secs)),
+        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(
+            model, integrator, dt_secs, adapter,
+        )?),
+    })
+}

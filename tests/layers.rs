@@ -1,0 +1,197 @@
+//! The library's imports run one way: no module reaches, through `crate::` paths, a module that
+//! reaches it back (docs/ARCHITECTURE.md draws the layers). Within a folder, no file reaches a
+//! sibling that reaches it back through `super::` paths either, and a folder's `mod.rs` only names
+//! and re-exports its files. A cycle here means a layer leans on one above it.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// The code of a file, without comments and without its inline test module.
+fn code(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let text = match text.find("#[cfg(test)]\nmod tests") {
+        Some(at) => &text[..at],
+        None => &text[..],
+    };
+    text.lines()
+        .map(|l| l.split("//").next().unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Names that follow `prefix` in `code`: `crate::a::x` gives `a`; `use crate::{a, b::c}` gives
+/// `a` and `b`.
+fn referenced(code: &str, prefix: &str) -> BTreeSet<String> {
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect()
+    };
+    let mut out = BTreeSet::new();
+    for (at, _) in code.match_indices(prefix) {
+        let rest = &code[at + prefix.len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 0;
+            let mut start = 0;
+            for (i, c) in group.char_indices() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => {
+                        out.insert(ident(group[start..].trim_start()));
+                        break;
+                    }
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => {
+                        out.insert(ident(group[start..].trim_start()));
+                        start = i + 1;
+                    }
+                    _ => {}
+                }
+            }
+        } else {
+            out.insert(ident(rest));
+        }
+    }
+    out.remove("");
+    out
+}
+
+/// A cycle in `graph`, if there is one, as the path around it.
+fn cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        node: &str,
+        graph: &BTreeMap<String, BTreeSet<String>>,
+        path: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(at) = path.iter().position(|n| n == node) {
+            let mut c = path[at..].to_vec();
+            c.push(node.to_owned());
+            return Some(c);
+        }
+        if !done.insert(node.to_owned()) {
+            return None;
+        }
+        path.push(node.to_owned());
+        for next in graph.get(node).into_iter().flatten() {
+            if let Some(c) = visit(next, graph, path, done) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        None
+    }
+    let mut done = BTreeSet::new();
+    graph
+        .keys()
+        .find_map(|n| visit(n, graph, &mut Vec::new(), &mut done))
+}
+
+fn rust_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+        let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+        if path.is_dir() {
+            out.extend(rust_files(&path));
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+    out
+}
+
+/// The top-level module a file of `src/` belongs to (`src/gpu/context.rs` is in `gpu`).
+fn top_module(src: &Path, file: &Path) -> String {
+    let rel = file.strip_prefix(src).unwrap_or(file);
+    let first = rel
+        .components()
+        .next()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned());
+    first.unwrap_or_default().trim_end_matches(".rs").to_owned()
+}
+
+#[test]
+fn modules_import_one_way() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    // The binary's own files use the library as `hooke::`, from above.
+    let binary = ["lib", "main", "cli"];
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for file in rust_files(&src) {
+        let module = top_module(&src, &file);
+        if binary.contains(&module.as_str()) {
+            continue;
+        }
+        let uses = referenced(&code(&file), "crate::");
+        let entry = graph.entry(module.clone()).or_default();
+        entry.extend(uses.into_iter().filter(|u| *u != module));
+    }
+    for (module, uses) in &graph {
+        for u in uses {
+            assert!(
+                graph.contains_key(u) || ["Error", "Result"].contains(&u.as_str()),
+                "{module} uses crate::{u}, which is no module of src/"
+            );
+        }
+    }
+    // `crate::Error` and `crate::Result` are the error module's, re-exported at the root.
+    for uses in graph.values_mut() {
+        if uses.remove("Error") | uses.remove("Result") {
+            uses.insert("error".to_owned());
+        }
+    }
+    if let Some(c) = cycle(&graph) {
+        panic!("imports run in a circle: {}", c.join(" -> "));
+    }
+}
+
+/// Folders whose files are being split into rooms of their own (issue #14), checked once that
+/// lands.
+const BEING_SPLIT: [&str; 2] = ["cpu", "gpu"];
+
+#[test]
+fn files_of_a_folder_import_one_way() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let folders = std::fs::read_dir(&src)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("mod.rs").is_file())
+        .filter(|p| !BEING_SPLIT.iter().any(|f| p.ends_with(f)));
+    for folder in folders {
+        let files: BTreeMap<String, String> = std::fs::read_dir(&folder)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+            .map(|p| {
+                let name = p.file_stem().map(|s| s.to_string_lossy().into_owned());
+                (name.unwrap_or_default(), code(&p))
+            })
+            .collect();
+        let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (name, code) in &files {
+            let mut uses = referenced(code, "super::");
+            if name == "mod" {
+                uses = files.keys().filter(|f| *f != "mod").cloned().collect();
+            }
+            // `super::Item` names an item of mod.rs itself.
+            let uses = uses
+                .into_iter()
+                .map(|u| {
+                    if files.contains_key(&u) {
+                        u
+                    } else {
+                        "mod".to_owned()
+                    }
+                })
+                .filter(|u| u != name)
+                .collect();
+            graph.insert(name.clone(), uses);
+        }
+        if let Some(c) = cycle(&graph) {
+            panic!(
+                "files of {} import each other in a circle: {}",
+                folder.display(),
+                c.join(" -> ")
+            );
+        }
+    }
+}

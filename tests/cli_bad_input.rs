@@ -31,7 +31,7 @@ fn expect_scene_error(name: &str, toml: &str, field: &str, position: &str, says:
         "{name}: field `{field}` not named in: {err}"
     );
     assert!(err.contains(says), "{name}: `{says}` not in: {err}");
-    let _ = std::fs::remove_file(path);
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 const BODY: &str = "name = \"t\"\n[[bodies]]\nname = \"b\"\ngrid = [4, 4]\nspacing_m = 0.1\n";

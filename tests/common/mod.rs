@@ -44,7 +44,11 @@ pub fn text(b: &[u8]) -> String {
 
 /// A fresh folder of this test process.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hooke-test-{name}-{}", std::process::id()));
+    // Tests in one binary run on parallel threads and may ask for the same name: a per-call
+    // number keeps one test from removing the directory another is writing in.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!("hooke-test-{name}-{}-{n}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
     d

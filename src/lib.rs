@@ -1,7 +1,11 @@
 //! Hooke: mass-spring systems (hair, cloth, jello) stepped on wgpu compute shaders or the CPU
 //! reference backend, streamed to the Rerun viewer.
 //!
-//! Data flows one way: [`scene`] → [`model`] → [`backend`] stepped by [`sim`] → [`record`].
+//! Data flows one way: [`scene`] → [`model`] → a [`backend::Backend`] ([`gpu`] or [`cpu`],
+//! chosen by [`select`]) stepped by [`sim`] → [`record`]. Every command gets its settings, model
+//! and backend through [`prepare`]; [`run`] joins the simulation and recorder threads. Imports
+//! run one way, from the data at the bottom to the commands at the top: docs/ARCHITECTURE.md
+//! draws the layers, and `tests/layers.rs` keeps them.
 
 pub mod accuracy;
 pub mod auto_dt;

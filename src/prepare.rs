@@ -20,7 +20,7 @@ pub enum SceneSource {
     Named(String),
     /// A variant of a loaded scene made in code (a benchmark's scene less one effect): it has
     /// no text of its own.
-    Variant(Scene),
+    Variant(Box<Scene>),
 }
 
 /// How the time step is chosen.
@@ -96,7 +96,7 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
     let loaded = match &request.scene {
         SceneSource::Named(name) => crate::scene::load(name)?,
         SceneSource::Variant(scene) => LoadedScene {
-            scene: scene.clone(),
+            scene: scene.as_ref().clone(),
             origin: SceneOrigin::Text,
             text: String::new(),
         },

@@ -222,23 +222,33 @@ pub struct Series {
 
 /// A series colour and its name in the legend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Rgb(pub u8, pub u8, pub u8, pub &'static str);
+pub struct Rgb {
+    pub rgb: [u8; 3],
+    pub name: &'static str,
+}
+
+const fn rgb(r: u8, g: u8, b: u8, name: &'static str) -> Rgb {
+    Rgb {
+        rgb: [r, g, b],
+        name,
+    }
+}
 
 // Series colours: distinct within each plot on the viewer's dark background.
-const ORANGE: Rgb = Rgb(255, 160, 40, "orange");
-const GREEN: Rgb = Rgb(90, 200, 90, "green");
-const BLUE: Rgb = Rgb(80, 140, 255, "blue");
-const VIOLET: Rgb = Rgb(170, 110, 230, "violet");
-const RED: Rgb = Rgb(230, 60, 60, "red");
-const SALMON: Rgb = Rgb(245, 150, 130, "salmon");
-const PINK: Rgb = Rgb(240, 110, 200, "pink");
-const BROWN: Rgb = Rgb(170, 120, 70, "brown");
-const DARK_RED: Rgb = Rgb(140, 30, 40, "dark red");
-const CYAN: Rgb = Rgb(60, 200, 220, "cyan");
-const WHITE: Rgb = Rgb(235, 235, 235, "white");
+const ORANGE: Rgb = rgb(255, 160, 40, "orange");
+const GREEN: Rgb = rgb(90, 200, 90, "green");
+const BLUE: Rgb = rgb(80, 140, 255, "blue");
+const VIOLET: Rgb = rgb(170, 110, 230, "violet");
+const RED: Rgb = rgb(230, 60, 60, "red");
+const SALMON: Rgb = rgb(245, 150, 130, "salmon");
+const PINK: Rgb = rgb(240, 110, 200, "pink");
+const BROWN: Rgb = rgb(170, 120, 70, "brown");
+const DARK_RED: Rgb = rgb(140, 30, 40, "dark red");
+const CYAN: Rgb = rgb(60, 200, 220, "cyan");
+const WHITE: Rgb = rgb(235, 235, 235, "white");
 // The yellow of `world/most_strained`, so that the strain plot and the marked spring match.
-const YELLOW: Rgb = Rgb(255, 200, 0, "yellow");
-const GREY: Rgb = Rgb(150, 150, 150, "grey");
+const YELLOW: Rgb = rgb(255, 200, 0, "yellow");
+const GREY: Rgb = rgb(150, 150, 150, "grey");
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum When {
@@ -458,11 +468,7 @@ impl Recorder {
                     series.path,
                     &rerun::SeriesLines::new()
                         .with_names([series.name])
-                        .with_colors([rerun::Color::from_rgb(
-                            series.color.0,
-                            series.color.1,
-                            series.color.2,
-                        )]),
+                        .with_colors([rerun::Color::from(series.color.rgb)]),
                 )?;
             }
         }
@@ -595,7 +601,7 @@ impl Recorder {
                 .iter()
                 .chain(&MORE_SERIES)
                 .filter(|s| s.plot == plot && self.has(s.when))
-                .map(|s| format!("{} **{}**", s.name.trim_start_matches("· "), s.color.3))
+                .map(|s| format!("{} **{}**", s.name.trim_start_matches("· "), s.color.name))
                 .collect();
             key.push_str(&format!("- *{title}*: {}\n", lines.join(", ")));
         }

@@ -1,5 +1,5 @@
-//! `hooke run` as a library call: build the model, start the simulation thread and the recorder
-//! thread, join them, and say how it went.
+//! `hooke run` as a library call: given a prepared scene (see [`crate::prepare`]), start the
+//! simulation thread and the recorder thread, join them, and say how it went.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,5 +1,6 @@
 //! How large a step the scene survives: a bound on its stiffest mode, fed to each integrator's
-//! own amplification (see [`Integrator::stable_dt`]).
+//! own amplification (see [`Integrator::stable_dt`]), and the warning a run gets when its step
+//! is above that estimate.
 
 use crate::integrator::Integrator;
 use crate::model::Model;

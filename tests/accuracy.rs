@@ -1,29 +1,21 @@
 //! What `hooke bench accuracy` claims about stability is measured: implicit Euler's largest
 //! stable step is searched like the others', and damping is not mistaken for divergence.
 
-use std::sync::Arc;
+mod common;
+
+use common::scene_model;
 
 use hooke::accuracy::{
     Found, IMPLICIT_SEARCH_UP_TO_SECS, is_stable, search_range, search_stable_dt,
 };
 use hooke::integrator::Integrator;
 
-fn scene(name: &str) -> (Arc<hooke::model::Model>, f64) {
-    let loaded = hooke::scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    (
-        Arc::new(hooke::model::build(&loaded.scene)),
-        settings.dt_secs,
-    )
-}
-
 /// Searched from the scene's dt up to at least 0.1 s, implicit Euler stays stable to one step
 /// per frame (1/60 s) and beyond on hair, cloth and jello.
 #[test]
 fn implicit_euler_is_measured_stable_at_one_step_per_frame() {
     for name in ["hair", "cloth", "jello"] {
-        let (model, dt) = scene(name);
+        let (model, dt) = scene_model(name);
         let range = search_range(Integrator::Implicit, None, dt);
         assert!(
             range.0 == dt && range.1 >= IMPLICIT_SEARCH_UP_TO_SECS,
@@ -41,7 +33,7 @@ fn implicit_euler_is_measured_stable_at_one_step_per_frame() {
 /// implicit Euler at the same step, which loses energy, is stable.
 #[test]
 fn damping_is_not_divergence() {
-    let (model, dt) = scene("hair");
+    let (model, dt) = scene_model("hair");
     let coarse = 16.0 * dt;
     assert!(!is_stable(&model, Integrator::Euler, coarse, 0.5));
     assert!(is_stable(&model, Integrator::Implicit, coarse, 0.5));

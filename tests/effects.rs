@@ -3,42 +3,27 @@
 //! and the energy they let go kept in the ledger. GPU cases skip without an adapter unless
 //! HOOKE_REQUIRE_ADAPTER=1 (CI), where a missing adapter fails.
 
+mod common;
+
 use std::sync::Arc;
+
+use common::{gpu_available, ok};
 
 use glam::Vec3;
 use hooke::backend::Backend;
 use hooke::cpu::CpuBackend;
-use hooke::gpu::{GpuBackend, REQUIRE_ADAPTER_ENV};
+use hooke::gpu::GpuBackend;
 use hooke::integrator::Integrator;
 use hooke::model::{
     Collider, ContactModel, Effects, Model, ModelBuilder, NO_LIMITS, Path, Shape, SpringKindTag,
     SpringLimits,
 };
 
-fn have_adapter() -> bool {
-    if !hooke::gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var(REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!(
-            "no GPU adapter, and {REQUIRE_ADAPTER_ENV}=1: install mesa-vulkan-drivers (lavapipe)"
-        );
-    }
-    eprintln!(
-        "SKIPPED (GPU part): no GPU adapter on this machine (set {REQUIRE_ADAPTER_ENV}=1 to make this a failure)"
-    );
-    false
-}
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
 /// The CPU backend, and the GPU backend where there is an adapter.
 fn backends(model: &Arc<Model>, integrator: Integrator, dt: f64) -> Vec<Box<dyn Backend>> {
     let mut out: Vec<Box<dyn Backend>> =
         vec![Box::new(CpuBackend::new(model.clone(), integrator, dt))];
-    if have_adapter() {
+    if gpu_available() {
         out.push(Box::new(ok(GpuBackend::new(
             model.clone(),
             integrator,

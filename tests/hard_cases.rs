@@ -5,7 +5,11 @@
 //! and nothing tunnelling through a collider. GPU runs skip only where no adapter exists and
 //! HOOKE_REQUIRE_ADAPTER is unset (CI sets it).
 
+mod common;
+
 use std::sync::Arc;
+
+use common::{gpu_available, ok};
 
 use glam::Vec3;
 use hooke::backend::Backend;
@@ -13,19 +17,8 @@ use hooke::integrator::Integrator;
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
 use hooke::select::BackendKind;
 
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
 fn backends() -> Vec<BackendKind> {
-    let gpu = !hooke::gpu::adapters().is_empty();
-    if !gpu && std::env::var(hooke::gpu::REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!("no GPU adapter, and {}=1", hooke::gpu::REQUIRE_ADAPTER_ENV);
-    }
-    if !gpu {
-        eprintln!("SKIPPED on the GPU: no adapter on this machine");
-    }
-    if gpu {
+    if gpu_available() {
         vec![BackendKind::Cpu, BackendKind::Gpu]
     } else {
         vec![BackendKind::Cpu]

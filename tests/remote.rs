@@ -6,13 +6,13 @@
 //! The "viewer" here is a stand-in: this test binary re-run as a child process that serves
 //! Rerun's gRPC endpoint (what a viewer listens on) and is killed to make it go away.
 
-use std::io::{BufRead as _, Read as _, Write as _};
-use std::path::Path;
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+mod common;
 
-use rerun::log::{Chunk, LogMsg};
+use std::io::{Read as _, Write as _};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use common::{Running, free_port, read_rrd, wait_for};
 
 const STUB_PORT_ENV: &str = "HOOKE_TEST_STUB_VIEWER_PORT";
 
@@ -33,13 +33,6 @@ fn stub_viewer_process() {
     }
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .unwrap_or_else(|e| panic!("no free port: {e}"))
-}
-
 fn start_stub_viewer(port: u16) -> Child {
     let exe = std::env::current_exe().unwrap_or_else(|e| panic!("{e}"));
     let child = Command::new(exe)
@@ -56,115 +49,6 @@ fn start_stub_viewer(port: u16) -> Child {
     child
 }
 
-fn wait_for(mut ready: impl FnMut() -> bool, what: &str) {
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !ready() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
-/// `hooke` with its standard error read line by line as it comes.
-struct Hooke {
-    child: Child,
-    lines: mpsc::Receiver<String>,
-    seen: Vec<String>,
-}
-
-impl Hooke {
-    fn start(args: &[&str]) -> Self {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_hooke"))
-            .args(args)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot run hooke: {e}"));
-        let (tx, lines) = mpsc::channel();
-        let err = child.stderr.take().unwrap_or_else(|| panic!("no stderr"));
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
-            }
-        });
-        Self {
-            child,
-            lines,
-            seen: Vec::new(),
-        }
-    }
-
-    /// Wait for a line of standard error containing `needle`.
-    fn expect(&mut self, needle: &str) -> String {
-        let deadline = Instant::now() + Duration::from_secs(60);
-        loop {
-            if let Some(l) = self.seen.iter().find(|l| l.contains(needle)) {
-                return l.clone();
-            }
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(l) => self.seen.push(l),
-                Err(_) => panic!(
-                    "no line with `{needle}` from hooke; it said:\n{}",
-                    self.seen.join("\n")
-                ),
-            }
-        }
-    }
-
-    fn signal(&self, signal: &str) {
-        let sent = Command::new("kill")
-            .args([signal, &self.child.id().to_string()])
-            .status()
-            .unwrap_or_else(|e| panic!("{e}"));
-        assert!(sent.success());
-    }
-
-    /// Wait for the exit; returns its code and everything it said.
-    fn finish(mut self) -> (Option<i32>, String) {
-        let deadline = Instant::now() + Duration::from_secs(60);
-        let status = loop {
-            if let Some(s) = self.child.try_wait().unwrap_or_else(|e| panic!("{e}")) {
-                break s;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "hooke did not stop; it said:\n{}",
-                self.seen.join("\n")
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        };
-        // The reader thread ends with the pipe.
-        while let Ok(l) = self.lines.recv_timeout(Duration::from_secs(5)) {
-            self.seen.push(l);
-        }
-        (status.code(), self.seen.join("\n"))
-    }
-}
-
-/// Frames of `/world/strand_0/masses` (the hair's first strand) in a recording, in order.
-fn frames_in(path: &Path) -> Vec<i64> {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut frames = std::collections::BTreeSet::new();
-    for msg in re_log_encoding::DecoderApp::decode_lazy(std::io::BufReader::new(file)) {
-        let msg = msg.unwrap_or_else(|e| panic!("decoding {}: {e}", path.display()));
-        let LogMsg::ArrowMsg(_, arrow) = msg else {
-            continue;
-        };
-        let chunk = Chunk::from_arrow_msg(&arrow).unwrap_or_else(|e| panic!("{e}"));
-        if chunk.entity_path().to_string() != "/world/strand_0/masses" {
-            continue;
-        }
-        for (name, col) in chunk.timelines() {
-            if name.as_str() == "frame" {
-                frames.extend(col.times_raw().iter().copied());
-            }
-        }
-    }
-    frames.into_iter().collect()
-}
-
 /// With `--save FILE` beside `--connect`, a viewer that goes away is reported once and the run
 /// goes on into the file, which keeps every frame from the first.
 #[test]
@@ -175,7 +59,7 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let path = dir.join("hair.rrd");
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let mut run = Hooke::start(&[
+    let mut run = Running::start(&[
         "run",
         "hair",
         "--backend",
@@ -212,7 +96,7 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
         1,
         "said more than once:\n{err}"
     );
-    let frames = frames_in(&path);
+    let frames = read_rrd(&path).frames_of("/world/strand_0/masses");
     let n = frames.len() as i64;
     assert!(n > 10, "only {n} frames");
     assert_eq!(frames, (0..n).collect::<Vec<_>>(), "frames missing");
@@ -226,7 +110,7 @@ fn a_viewer_that_goes_away_stops_a_run_that_records_nowhere_else() {
     let port = free_port();
     let mut viewer = start_stub_viewer(port);
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let mut run = Hooke::start(&[
+    let mut run = Running::start(&[
         "run",
         "hair",
         "--backend",
@@ -255,7 +139,7 @@ fn a_viewer_that_goes_away_stops_a_run_that_records_nowhere_else() {
 fn connecting_to_no_viewer_is_a_clear_error() {
     let port = free_port();
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let run = Hooke::start(&[
+    let run = Running::start(&[
         "run",
         "hair",
         "--backend",
@@ -330,7 +214,7 @@ fn dechunk(mut rest: &[u8]) -> Vec<u8> {
 #[test]
 fn serve_hosts_the_web_viewer_and_the_recording() {
     let (grpc, web) = (free_port(), free_port());
-    let mut run = Hooke::start(&[
+    let mut run = Running::start(&[
         "run",
         "hair",
         "--backend",

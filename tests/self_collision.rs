@@ -3,48 +3,21 @@
 //! other, a folding cloth never lets two of its masses meet, and the GPU's hash grid and contact
 //! match the CPU's. GPU tests skip without an adapter unless HOOKE_REQUIRE_ADAPTER=1.
 
+mod common;
+
 use std::sync::Arc;
+
+use common::{gpu_available, ok, scene_model};
 
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
-use hooke::gpu::{GpuBackend, REQUIRE_ADAPTER_ENV};
+use hooke::gpu::GpuBackend;
 use hooke::integrator::Integrator;
 use hooke::model::{
     ContactModel, Effects, MassContact, Model, ModelBuilder, damping_ratio_for_restitution,
 };
 use hooke::state::State;
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn have_adapter() -> bool {
-    if !hooke::gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var(REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!(
-            "no GPU adapter, and {REQUIRE_ADAPTER_ENV}=1: install mesa-vulkan-drivers (lavapipe)"
-        );
-    }
-    eprintln!(
-        "SKIPPED: no GPU adapter on this machine (set {REQUIRE_ADAPTER_ENV}=1 to make this a failure)"
-    );
-    false
-}
-
-fn scene_model(name: &str) -> (Arc<Model>, f64) {
-    let loaded = ok(hooke::scene::load(name));
-    let settings = ok(hooke::settings::Settings::resolve(
-        &loaded.scene,
-        &Default::default(),
-    ));
-    (
-        Arc::new(hooke::model::build(&loaded.scene)),
-        settings.dt_secs,
-    )
-}
 
 const RADIUS_M: f32 = 0.02;
 const STIFFNESS_N_PER_M: f32 = 500.0;
@@ -332,7 +305,7 @@ const PARITY_X_M: f64 = 1e-4;
 /// energy (the pair potential) and the dissipated energy.
 #[test]
 fn gpu_matches_cpu_with_mass_contact() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     for (name, integrator, frames) in [
@@ -383,7 +356,7 @@ fn gpu_matches_cpu_with_mass_contact() {
 /// state where many pairs are pressed together: the pile mid-impact.
 #[test]
 fn gpu_contact_energy_matches_the_cpu_mid_impact() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("pile");
@@ -425,7 +398,7 @@ fn gpu_contact_energy_matches_the_cpu_mid_impact() {
 
 #[test]
 fn gpu_runs_with_mass_contact_are_bit_identical() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("pile");
@@ -490,7 +463,7 @@ fn cloud_model(n: usize, extent_m: f32, radius_m: f32, seed: u64) -> Arc<Model> 
 /// across chunks).
 #[test]
 fn gpu_hash_grid_equals_the_cpu_grid() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     for (n, extent, radius) in [(1000usize, 0.5f32, 0.02f32), (40_000, 1.5, 0.01)] {

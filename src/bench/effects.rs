@@ -84,10 +84,10 @@ pub fn effect_costs(scene_arg: &str, opts: &ThroughputOptions) -> Result<EffectC
     // Differences of a few percent drown in run-to-run noise: each configuration runs
     // `EFFECT_REPEATS` times, interleaved, and keeps its fastest run.
     let variants = effect_variants(&scene);
-    let mut all = throughput_of(SceneSource::Variant(scene.clone()), opts)?;
+    let mut all = throughput_of(variant(&scene), opts)?;
     let mut without = variants
         .iter()
-        .map(|(name, v)| Ok((*name, throughput_of(SceneSource::Variant(v.clone()), opts)?)))
+        .map(|(name, v)| Ok((*name, throughput_of(variant(v), opts)?)))
         .collect::<Result<Vec<_>>>()?;
     let faster = |best: &mut Throughput, t: Throughput| {
         if t.wall_secs < best.wall_secs {
@@ -95,15 +95,17 @@ pub fn effect_costs(scene_arg: &str, opts: &ThroughputOptions) -> Result<EffectC
         }
     };
     for _ in 1..EFFECT_REPEATS {
-        faster(
-            &mut all,
-            throughput_of(SceneSource::Variant(scene.clone()), opts)?,
-        );
+        faster(&mut all, throughput_of(variant(&scene), opts)?);
         for ((_, best), (_, v)) in without.iter_mut().zip(&variants) {
-            faster(best, throughput_of(SceneSource::Variant(v.clone()), opts)?);
+            faster(best, throughput_of(variant(v), opts)?);
         }
     }
     Ok(EffectCosts { all, without })
+}
+
+/// A scene made in code, to be prepared like a named one.
+fn variant(scene: &Scene) -> SceneSource {
+    SceneSource::Variant(Box::new(scene.clone()))
 }
 
 /// Runs of each configuration in `effect_costs`; the fastest counts.

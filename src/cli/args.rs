@@ -1,4 +1,5 @@
-//! Command-line interface: `hooke scenes | check | run`.
+//! The command line: `hooke scenes | check | run | bench …`, and how its flags become a
+//! [`Request`] for the library.
 
 use clap::{Args, Parser, Subcommand};
 

@@ -73,15 +73,27 @@ impl Sink {
     }
 }
 
+/// Every run's recording: Hooke's application id (its blueprint is sent once the stream exists,
+/// by `record::send_blueprint`).
+fn builder() -> rerun::RecordingStreamBuilder {
+    rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
+}
+
+/// A recording stream whose sinks are set afterwards, its blueprint sent.
+fn buffered() -> anyhow::Result<rerun::RecordingStream> {
+    let rec = builder()
+        .buffered()
+        .context("starting the Rerun recording")?;
+    hooke::record::send_blueprint(&rec)?;
+    Ok(rec)
+}
+
 /// A recording stream whose only sink is our `.rrd` writer at `path`.
 fn file_recording(
     path: &std::path::Path,
     footer: bool,
 ) -> anyhow::Result<(rerun::RecordingStream, hooke::rrd_file::RrdFile)> {
-    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
-        .buffered()
-        .context("starting the Rerun recording")?;
-    hooke::record::send_blueprint(&rec)?;
+    let rec = buffered()?;
     let (sink, file) = hooke::rrd_file::create(path, footer)?;
     rec.set_sink(Box::new(sink));
     Ok((rec, file))
@@ -146,10 +158,7 @@ pub fn open_sink(
         sinks.push(Box::new(sink));
         file = Some(handle);
     }
-    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
-        .buffered()
-        .context("starting the Rerun recording")?;
-    hooke::record::send_blueprint(&rec)?;
+    let rec = buffered()?;
     rec.set_sinks(sinks);
     Ok(Sink {
         rec,
@@ -187,7 +196,7 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &OutputArgs) -> anyhow::Result
         })?,
         cors_allowed_origins: Vec::new(),
     };
-    let rec = rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
+    let rec = builder()
         .serve_grpc_opts(&bind, output.grpc_port, options)
         .with_context(|| {
             format!(

@@ -123,16 +123,6 @@ pub struct Ground {
     pub restitution: f32,
 }
 
-impl Ground {
-    pub fn contact(&self) -> Contact {
-        Contact {
-            stiffness_n_per_m: self.stiffness_n_per_m,
-            friction: self.friction,
-            restitution: self.restitution,
-        }
-    }
-}
-
 /// A solid sphere. It moves on a path: from `center_m` at t = 0 at constant
 /// `velocity_m_per_s` (zero: fixed), or through `keyframes` (then leave out `center_m`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -198,6 +188,7 @@ pub struct Plane {
     pub restitution: f32,
 }
 
+/// Every collider's contact parameters, in the one form the model reads.
 macro_rules! contact_of {
     ($($t:ty),*) => {$(
         impl $t {
@@ -211,7 +202,7 @@ macro_rules! contact_of {
         }
     )*};
 }
-contact_of!(Sphere, BoxCollider, Plane);
+contact_of!(Ground, Sphere, BoxCollider, Plane, SelfCollision);
 
 /// Mass–mass contact: every mass is a sphere of `radius_m`, and two that overlap are pushed apart
 /// by a penalty spring along the line between them, damped so that a pair's impact keeps the
@@ -236,16 +227,6 @@ pub struct SelfCollision {
 
 fn default_within_bodies() -> bool {
     true
-}
-
-impl SelfCollision {
-    pub fn contact(&self) -> Contact {
-        Contact {
-            stiffness_n_per_m: self.stiffness_n_per_m,
-            friction: self.friction,
-            restitution: self.restitution,
-        }
-    }
 }
 
 /// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).

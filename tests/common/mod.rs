@@ -3,8 +3,11 @@
 #![allow(dead_code)]
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 use rerun::log::{Chunk, LogMsg};
 
@@ -23,13 +26,29 @@ pub fn hooke(args: &[&str]) -> Output {
         .unwrap_or_else(|e| panic!("cannot run hooke: {e}"))
 }
 
+/// The value, or the test fails with the error's message.
+pub fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
+    r.unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A built-in scene's model and its own dt, prepared as `hooke run` prepares it.
+pub fn scene_model(name: &str) -> (std::sync::Arc<hooke::model::Model>, f64) {
+    let request = hooke::prepare::Request::named(name, hooke::select::Device::cpu());
+    let planned = ok(hooke::prepare::plan(&request, &mut |_| {}));
+    (planned.model, planned.settings.dt_secs)
+}
+
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
 /// A fresh folder of this test process.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hooke-test-{name}-{}", std::process::id()));
+    // Tests in one binary run on parallel threads and may ask for the same name: a per-call
+    // number keeps one test from removing the directory another is writing in.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!("hooke-test-{name}-{}-{n}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
     d
@@ -49,14 +68,24 @@ pub fn gpu_available() -> bool {
 
 /// A recording decoded with Rerun's own decoder, which must read it to its end.
 pub struct Recording {
-    /// Per entity: the `frame` values it has data at.
+    /// Per entity: the `frame` values it has data at (none for static data).
     pub frames: BTreeMap<String, BTreeSet<i64>>,
+    /// Per entity: the `sim_time` values (ns) it has data at.
+    pub sim_time: BTreeMap<String, BTreeSet<i64>>,
     /// Whether the file ends with Rerun's end-of-stream footer (its chunk index).
     pub has_footer: bool,
 }
 
 impl Recording {
     /// Frames 0..n that every entity logged at frame 0 has: the frames a user can scrub whole.
+    /// The frames `entity` has data at, in order (none when it is not in the recording).
+    pub fn frames_of(&self, entity: &str) -> Vec<i64> {
+        self.frames
+            .get(entity)
+            .map(|f| f.iter().copied().collect())
+            .unwrap_or_default()
+    }
+
     pub fn complete_frames(&self) -> i64 {
         let mut n = 0;
         while self
@@ -74,20 +103,25 @@ impl Recording {
 pub fn read_rrd(path: &Path) -> Recording {
     let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut frames: BTreeMap<String, BTreeSet<i64>> = BTreeMap::new();
+    let mut sim_time: BTreeMap<String, BTreeSet<i64>> = BTreeMap::new();
     for msg in re_log_encoding::DecoderApp::decode_lazy(std::io::BufReader::new(file)) {
         let msg = msg.unwrap_or_else(|e| panic!("decoding {}: {e}", path.display()));
         let LogMsg::ArrowMsg(_, arrow) = msg else {
             continue;
         };
         let chunk = Chunk::from_arrow_msg(&arrow).unwrap_or_else(|e| panic!("{e}"));
-        let entry = frames.entry(chunk.entity_path().to_string()).or_default();
-        if let Some(col) = chunk.timelines().get(&"frame".into()) {
-            entry.extend(col.times_raw().iter().copied());
+        let entity = chunk.entity_path().to_string();
+        for (name, timeline) in [("frame", &mut frames), ("sim_time", &mut sim_time)] {
+            let entry = timeline.entry(entity.clone()).or_default();
+            if let Some(col) = chunk.timelines().get(&name.into()) {
+                entry.extend(col.times_raw().iter().copied());
+            }
         }
     }
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{e}"));
     Recording {
         frames,
+        sim_time,
         has_footer: ends_with_stream_footer(&bytes),
     }
 }
@@ -96,4 +130,97 @@ pub fn read_rrd(path: &Path) -> Recording {
 /// number of index entries (u32). A file cut short, or written without an index, lacks it.
 fn ends_with_stream_footer(bytes: &[u8]) -> bool {
     bytes.len() >= 12 && bytes[bytes.len() - 12..].starts_with(b"RRF2FOOT")
+}
+
+/// A free TCP port on loopback (free when asked; tests take it at once).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .unwrap_or_else(|e| panic!("no free port: {e}"))
+}
+
+/// Wait up to a minute for `ready`.
+pub fn wait_for(mut ready: impl FnMut() -> bool, what: &str) {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !ready() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// `hooke` running, its standard error read line by line as it comes.
+pub struct Running {
+    pub child: Child,
+    lines: mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Running {
+    pub fn start(args: &[&str]) -> Self {
+        let mut child = hooke_command(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run hooke: {e}"));
+        let (tx, lines) = mpsc::channel();
+        let err = child.stderr.take().unwrap_or_else(|| panic!("no stderr"));
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        Self {
+            child,
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// Wait for a line of standard error containing `needle`.
+    pub fn expect(&mut self, needle: &str) -> String {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            if let Some(l) = self.seen.iter().find(|l| l.contains(needle)) {
+                return l.clone();
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) => self.seen.push(l),
+                Err(_) => panic!(
+                    "no line with `{needle}` from hooke; it said:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+
+    pub fn signal(&self, signal: &str) {
+        let sent = Command::new("kill")
+            .args([signal, &self.child.id().to_string()])
+            .status()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(sent.success());
+    }
+
+    /// Wait for the exit; returns its code and everything it said.
+    pub fn finish(mut self) -> (Option<i32>, String) {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let status = loop {
+            if let Some(s) = self.child.try_wait().unwrap_or_else(|e| panic!("{e}")) {
+                break s;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "hooke did not stop; it said:\n{}",
+                self.seen.join("\n")
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        // The reader thread ends with the pipe.
+        while let Ok(l) = self.lines.recv_timeout(Duration::from_secs(5)) {
+            self.seen.push(l);
+        }
+        (status.code(), self.seen.join("\n"))
+    }
 }

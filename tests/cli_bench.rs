@@ -1,0 +1,155 @@
+//! `hooke bench accuracy` and `--dt auto` end to end: the table, chart and stable-step search a
+//! benchmark writes, and the step `--dt auto` picks for a tolerance.
+
+mod common;
+
+use common::{hooke, temp_dir, text};
+
+#[test]
+fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
+    let dir = temp_dir("accuracy");
+    let out = hooke(&[
+        "bench",
+        "accuracy",
+        "hair",
+        "--backend",
+        "cpu",
+        "--duration",
+        "0.1",
+        "--points",
+        "3",
+        "--coarsest",
+        "0",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv =
+        std::fs::read_to_string(dir.join("accuracy-hair.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 6 * 3, "six integrators × three steps:\n{csv}");
+    // Semi-implicit Euler is first order: halving dt about halves the error.
+    let semi: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[1] == "semi-implicit")
+        .map(|r| r[4].parse().unwrap_or(f64::NAN))
+        .collect();
+    for w in semi.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            (1.6..2.5).contains(&ratio),
+            "semi-implicit error ratio {ratio} ({semi:?})"
+        );
+    }
+    // Forward Euler is far past its limit at these steps; implicit Euler is stable at all of
+    // them, and its numerical damping shows as dissipated energy, not as instability.
+    assert!(
+        rows.iter()
+            .filter(|r| r[1] == "euler")
+            .all(|r| r[7] == "false"),
+        "{csv}"
+    );
+    assert!(
+        rows.iter()
+            .filter(|r| r[1] == "implicit")
+            .all(|r| r[7] == "true" && r[8].parse::<f64>().is_ok_and(|p| p > 0.0)),
+        "{csv}"
+    );
+    // The search agrees with `hooke check`'s estimate for semi-implicit Euler within 10%.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("| semi-implicit | ") && l.matches('|').count() == 5)
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let cells: Vec<f64> = line
+        .split('|')
+        .filter_map(|c| c.trim().trim_end_matches(" s").parse().ok())
+        .collect();
+    assert_eq!(cells.len(), 2, "{line}");
+    assert!(
+        (cells[1] / cells[0] - 1.0).abs() < 0.1,
+        "estimate {} vs found {}",
+        cells[0],
+        cells[1]
+    );
+    assert_guidance_names_the_cheapest_runs(&stdout, &rows, &csv);
+    let svg =
+        std::fs::read_to_string(dir.join("accuracy-hair.svg")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        svg.starts_with("<svg") && svg.contains("polyline") && svg.trim_end().ends_with("</svg>")
+    );
+    assert!(dir.join("accuracy-hair.md").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The guidance names, for each error level, the cheapest stable run that reached it.
+fn assert_guidance_names_the_cheapest_runs(stdout: &str, rows: &[Vec<&str>], csv: &str) {
+    let num = |c: &str| c.parse::<f64>().unwrap_or(f64::NAN);
+    let mut named = 0;
+    for line in stdout.lines().filter(|l| l.starts_with("| 1e-")) {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        let level = num(cells[1].trim_end_matches(" m"));
+        let reaching: Vec<&Vec<&str>> = rows
+            .iter()
+            .filter(|r| r[7] == "true" && num(r[4]) <= level)
+            .collect();
+        let cheapest = reaching
+            .iter()
+            .map(|r| num(r[9]))
+            .fold(f64::INFINITY, f64::min);
+        if cells[2] == "none of the runs" {
+            assert!(reaching.is_empty(), "{line}");
+            continue;
+        }
+        named += 1;
+        let row = reaching
+            .iter()
+            .find(|r| r[1] == cells[2] && (num(r[2]) / num(cells[3]) - 1.0).abs() < 1e-3)
+            .unwrap_or_else(|| panic!("{line} names a run that does not reach it:\n{csv}"));
+        assert_eq!(num(row[9]), cheapest, "{line}: not the cheapest\n{csv}");
+    }
+    assert!(named >= 2, "{stdout}");
+}
+
+#[test]
+fn dt_auto_says_what_it_picked_and_a_tighter_tolerance_takes_more_substeps() {
+    let substeps = |tolerance: &str| -> u32 {
+        let out = hooke(&[
+            "check",
+            "hair",
+            "--backend",
+            "cpu",
+            "--dt",
+            "auto",
+            "--tolerance",
+            tolerance,
+        ]);
+        let err = text(&out.stderr);
+        let out_text = text(&out.stdout);
+        let line = out_text
+            .lines()
+            .chain(err.lines())
+            .find(|l| l.starts_with("--dt auto: "))
+            .unwrap_or_else(|| panic!("no --dt auto line:\n{out_text}\n{err}"));
+        line["--dt auto: ".len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    let (loose, tight) = (substeps("1e-3"), substeps("1e-5"));
+    assert!(
+        tight > loose,
+        "tolerance 1e-5 took {tight} substeps, 1e-3 took {loose}"
+    );
+    let out = hooke(&["check", "hair", "--dt", "fast"]);
+    assert!(
+        text(&out.stderr).contains("expected seconds (like 0.001) or `auto`"),
+        "{}",
+        text(&out.stderr)
+    );
+}

@@ -32,7 +32,12 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    assert_eq!(rows.len(), 6 * 3, "six integrators × three steps:\n{csv}");
+    let integrators = hooke::integrator::Integrator::ALL.len();
+    assert_eq!(
+        rows.len(),
+        integrators * 3,
+        "{integrators} integrators × three steps:\n{csv}"
+    );
     // Semi-implicit Euler is first order: halving dt about halves the error.
     let semi: Vec<f64> = rows
         .iter()
@@ -60,6 +65,16 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
             .all(|r| r[7] == "true" && r[8].parse::<f64>().is_ok_and(|p| p > 0.0)),
         "{csv}"
     );
+    // XPBD too is stable at every step, and the springs it projects lose energy: its error
+    // falls with dt.
+    let xpbd: Vec<&Vec<&str>> = rows.iter().filter(|r| r[1] == "xpbd").collect();
+    assert!(
+        xpbd.iter()
+            .all(|r| r[7] == "true" && r[8].parse::<f64>().is_ok_and(|p| p > 0.0)),
+        "{csv}"
+    );
+    let error = |r: &Vec<&str>| r[4].parse::<f64>().unwrap_or(f64::NAN);
+    assert!(xpbd.windows(2).all(|w| error(w[1]) < error(w[0])), "{csv}");
     // The search agrees with `hooke check`'s estimate for semi-implicit Euler within 10%.
     let line = stdout
         .lines()

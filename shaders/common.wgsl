@@ -92,6 +92,22 @@ struct Spring {
     damping: f32,
 }
 
+// XPBD: a spring's constants for the substep length h (XpbdSpring in src/cpu/xpbd.rs), and the
+// colour a dispatch of xpbd_solve_spring solves (XpbdColour in src/gpu/layout.rs).
+struct XpbdSpring {
+    alpha_tilde: f32,
+    gamma: f32,
+}
+
+struct XpbdColour {
+    // The colour's springs are colour_order[start .. start + count].
+    start: u32,
+    count: u32,
+    // 1 on a substep's first sweep: the multipliers start from zero.
+    first: u32,
+    _pad: u32,
+}
+
 // A broken spring has neither stiffness nor damping (as Spring::is_broken in src/model.rs).
 fn is_broken(s: Spring) -> bool {
     return s.stiffness == 0.0 && s.damping == 0.0;

@@ -151,6 +151,31 @@ fn verlet_kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     check_state(x[i].xyz, v[i].xyz);
 }
 
+// XPBD (src/cpu/xpbd.rs), around the springs' projection in xpbd.wgsl: the kick of every force
+// that is not a spring (compute_forces compiled with XPBD) and the predicted displacement, kept
+// in xt; then, after the sweeps, the velocity the masses moved with and their new positions.
+@compute @workgroup_size(64)
+fn xpbd_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let dt = stage.dt;
+    let vn = v[i].xyz + dt * acc(i);
+    v[i] = vec4<f32>(vn, 0.0);
+    xt[i] = vec4<f32>(dt * vn, 0.0);
+    ledger[i] += dt * rate(i);
+}
+
+@compute @workgroup_size(64)
+fn xpbd_update_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let d = xt[i].xyz;
+    let vn = d / stage.dt;
+    v[i] = vec4<f32>(vn, 0.0);
+    x[i] = vec4<f32>(x[i].xyz + d, 0.0);
+    check_state(x[i].xyz, vn);
+}
+
 // Implicit Euler (src/cpu/implicit.rs's implicit_step), the parts that touch the state: Δv starts
 // at zero; each Newton iterate is (x + h (v + Δv), v + Δv); the step ends at the last iterate.
 // The linear solves between are in implicit.wgsl.

@@ -79,8 +79,10 @@ pub fn create_with(
         BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::with_options(
             model, integrator, dt_secs, options,
         )),
-        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(
-            model, integrator, dt_secs, adapter,
+        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::with_options(
+            model,
+            (integrator, dt_secs, options),
+            adapter,
         )?),
     })
 }

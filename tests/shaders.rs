@@ -193,6 +193,7 @@ fn every_cpu_namesake_exists_and_shares_its_kernels_name() {
         "integrate",
         "reduce",
         "springs",
+        "xpbd",
     ];
     let all_cpu: BTreeSet<String> = modules.iter().flat_map(|m| cpu_functions(m)).collect();
     for s in table() {

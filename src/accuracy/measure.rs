@@ -11,7 +11,7 @@ use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::prepare::{self, Request};
 use crate::reference::Reference;
-use crate::select::{BackendKind, Device};
+use crate::select::Device;
 use crate::settings::SettingsError;
 
 use super::report;
@@ -94,7 +94,7 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
         })
         .collect();
     let mut rows = Vec::new();
-    let supported = |i| supported(model, i, opts.device.kind);
+    let supported = |i| supported(model, i);
     for integrator in Integrator::ALL.into_iter().filter(|&i| supported(i)) {
         for (&dt, reference_x) in ladder.iter().zip(&references) {
             rows.push(row(model, opts, integrator, dt, reference_x)?);
@@ -128,12 +128,10 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
     Ok(result)
 }
 
-/// Implicit Euler has no mass–mass contact (validation refuses the pair), and XPBD runs on the
-/// CPU backend only for now: no rows for them there.
-fn supported(model: &Model, integrator: Integrator, kind: BackendKind) -> bool {
+/// Implicit Euler has no mass–mass contact (validation refuses the pair): no rows for it there.
+fn supported(model: &Model, integrator: Integrator) -> bool {
     match integrator {
         Integrator::Implicit => model.effects.self_collision.is_none(),
-        Integrator::Xpbd => kind == BackendKind::Cpu,
         _ => true,
     }
 }

@@ -106,10 +106,9 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
 type Profile = (Option<Vec<(String, f64)>>, Option<u64>);
 
 fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) -> Result<Profile> {
-    let mut gpu = crate::gpu::GpuBackend::new(
+    let mut gpu = crate::gpu::GpuBackend::with_options(
         model.clone(),
-        settings.integrator,
-        settings.dt_secs,
+        (settings.integrator, settings.dt_secs, settings.options),
         opts.device.adapter.as_deref(),
     )?;
     let steps = opts.steps.clamp(1, 20);

@@ -150,8 +150,13 @@ pub fn xpbd_solve_spring(
     let numerator = -c - k.alpha_tilde * lambda - k.gamma * n.dot(moved);
     let denominator = (1.0 + k.gamma) * w + k.alpha_tilde;
     let dl = numerator / denominator;
-    dx[a] += (wa * dl) * n;
-    dx[b] -= (wb * dl) * n;
+    // A pinned end is never written (as on the GPU, where springs of one colour may share it).
+    if wa > 0.0 {
+        dx[a] += (wa * dl) * n;
+    }
+    if wb > 0.0 {
+        dx[b] -= (wb * dl) * n;
+    }
     dl
 }
 

@@ -17,7 +17,7 @@ use super::resources::Resources;
 use super::shaders::constants;
 use super::stages::{Clock, StageSlots};
 use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
 
@@ -51,27 +51,39 @@ impl GpuBackend {
         dt_secs: f64,
         adapter: Option<&str>,
     ) -> Result<Self, BackendError> {
+        Self::with_options(
+            model,
+            (integrator, dt_secs, StepOptions::default()),
+            adapter,
+        )
+    }
+
+    /// [`GpuBackend::new`] with the integrator's options (XPBD's iterations).
+    pub fn with_options(
+        model: Arc<Model>,
+        (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+        adapter: Option<&str>,
+    ) -> Result<Self, BackendError> {
         let implicit = integrator == Integrator::Implicit;
         if implicit && model.effects.self_collision.is_some() {
             return Err(DeviceError::ImplicitWithMassContact.into());
-        }
-        if integrator == Integrator::Xpbd {
-            return Err(BackendError::Device(
-                "--integrator xpbd runs on the CPU backend only in this version (its GPU kernels \
-                 are not written yet): add --backend cpu"
-                    .to_owned(),
-            ));
         }
         let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
         let layouts = Layouts::new(device);
-        let resources =
-            Resources::new(device, &ctx.limits, &layouts, &model, (integrator, dt_secs));
+        let resources = Resources::new(
+            device,
+            &ctx.limits,
+            &layouts,
+            &model,
+            (integrator, dt_secs, options),
+        );
         let needed = Needed {
             implicit,
             springs_change: model.effects.springs_change(),
             mass_contact: model.effects.self_collision.is_some(),
+            xpbd: integrator == Integrator::Xpbd,
         };
         let pipelines = Pipelines::new(device, &layouts, &constants(&model, integrator), needed);
         let stages = StageSlots::new(
@@ -121,15 +133,26 @@ impl GpuBackend {
         self.stages.write(&self.ctx.queue, 0, &stages);
     }
 
+    /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0)).
+    pub(super) fn step_plan(&self, prime: bool) -> Vec<Dispatch> {
+        let sweeps = self.resources.xpbd.as_ref().map(|x| x.sweeps);
+        step_plan(
+            self.integrator,
+            &self.model.effects,
+            prime,
+            sweeps.unwrap_or_default(),
+        )
+    }
+
     /// The dispatches of the next `steps` steps, each slot counted from slot 0; Verlet's first
     /// step also evaluates a(x_0).
     pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
-        let warm = step_plan(self.integrator, &self.model.effects, false);
+        let warm = self.step_plan(false);
         let mut all = Vec::with_capacity(warm.len() * steps as usize);
         for k in 0..steps {
             let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
             let plan = if prime {
-                step_plan(self.integrator, &self.model.effects, true)
+                self.step_plan(true)
             } else {
                 warm.clone()
             };
@@ -144,7 +167,7 @@ impl GpuBackend {
 
     fn advance_implicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.prepare_stages(substeps);
-        let post = step_plan(self.integrator, &self.model.effects, false);
+        let post = self.step_plan(false);
         let Some(solver) = self.resources.solver.as_ref() else {
             return Err(DeviceError::Internal("no implicit solver".to_owned()).into());
         };

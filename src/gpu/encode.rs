@@ -33,9 +33,22 @@ impl Dispatcher<'_> {
             )))
         };
         let pipeline = self.pipelines.get(d.kernel);
-        let group0 = self.resources.group(spec.group);
-        let (Some(pipeline), Some(group0)) = (pipeline, group0) else {
-            return Err(internal("asked for without its effect"));
+        // XPBD's projection binds its colour's group and runs over its colour's springs.
+        let (group0, groups) = match d.colour {
+            Some(pass) => {
+                let xpbd = self.resources.xpbd.as_ref();
+                (
+                    xpbd.and_then(|x| x.group(pass)),
+                    xpbd.and_then(|x| x.workgroups(pass.colour)),
+                )
+            }
+            None => (
+                self.resources.group(spec.group),
+                self.resources.workgroups.of(spec.threads),
+            ),
+        };
+        let (Some(pipeline), Some(group0), Some(groups)) = (pipeline, group0, groups) else {
+            return Err(internal("asked for without its effect or its colour"));
         };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group0, &[]);
@@ -45,7 +58,6 @@ impl Dispatcher<'_> {
             _ => return Err(internal("planned with the wrong state")),
         }
         self.stages.bind(pass, base + d.slot);
-        let groups = self.resources.workgroups.of(spec.threads);
         pass.dispatch_workgroups(groups.0, groups.1, 1);
         Ok(())
     }

@@ -18,6 +18,7 @@ pub enum Group {
     Springs,
     Grid,
     CollideMasses,
+    XpbdSolve,
 }
 
 /// Binding kinds, in binding order.
@@ -29,7 +30,7 @@ pub enum Slot {
 }
 
 impl Group {
-    pub const ALL: [Group; 8] = [
+    pub const ALL: [Group; 9] = [
         Group::ForcesModel,
         Group::Integrate,
         Group::Collide,
@@ -38,6 +39,7 @@ impl Group {
         Group::Springs,
         Group::Grid,
         Group::CollideMasses,
+        Group::XpbdSolve,
     ];
 
     /// The group's bindings, as the WGSL declares them (the buffers are bound in this order in
@@ -75,12 +77,17 @@ impl Group {
             Group::CollideMasses => &[
                 Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite,
             ],
+            // params, colour, springs, constants, colour order, mass, x, dx (xt), lambda.
+            Group::XpbdSolve => &[
+                Uniform, Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+            ],
         }
     }
 }
 
 /// How many threads a kernel runs: one per mass, per spring, per mass or spring (the energy
-/// sums), per bucket of the hash grid, per block of its prefix sum, or one workgroup.
+/// sums), per bucket of the hash grid, per block of its prefix sum, per spring of one XPBD
+/// colour (the dispatch names the colour), or one workgroup.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Threads {
     Masses,
@@ -88,6 +95,7 @@ pub enum Threads {
     Energies,
     Buckets,
     ScanBlocks,
+    Colour,
     OneGroup,
 }
 
@@ -101,6 +109,8 @@ pub enum Needs {
     SpringsChange,
     /// Mass–mass contact.
     MassContact,
+    /// The XPBD integrator.
+    Xpbd,
 }
 
 /// A kernel's CPU namesake, or why it has none.
@@ -253,6 +263,25 @@ kernels! {
     }
     ImplicitFinal = implicit_final in Integrate {
         group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
+    }
+
+    XpbdPredict = xpbd_predict in Integrate {
+        group: Integrate, threads: Masses, needs: Xpbd, cpu: (integrate),
+        // v and deriv read; v, dx (xt) and ledger written.
+        bytes: |z| z.n * (16 + 32 + 2 * 16 + 2 * 16),
+    }
+    XpbdUpdateVelocity = xpbd_update_velocity in Integrate {
+        group: Integrate, threads: Masses, needs: Xpbd, cpu: (xpbd),
+        // dx (xt) read; x read and written; v written.
+        bytes: |z| z.n * (4 * 16),
+    }
+
+    // ---- xpbd.wgsl: XPBD's springs, projected colour by colour ----
+    /// Dispatched once per colour and sweep; its bytes are per sweep over all colours.
+    XpbdSolveSpring = xpbd_solve_spring in Xpbd {
+        group: XpbdSolve, threads: Colour, needs: Xpbd, cpu: (xpbd),
+        // Spring, constants, index and multiplier; both ends' mass, x and dx read, dx written.
+        bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
     }
 
     // ---- implicit.wgsl: implicit Euler's linear solves ----

@@ -104,8 +104,23 @@ pub struct SolverStatus {
     pub _pad: u32,
 }
 
+pub use crate::cpu::XpbdSpring;
+
+/// The colour one dispatch of `xpbd_solve_spring` solves (`XpbdColour` in WGSL): its springs are
+/// `colour_order[start..start + count]`; `first` on a substep's first sweep.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct XpbdColour {
+    pub start: u32,
+    pub count: u32,
+    pub first: u32,
+    pub _pad: u32,
+}
+
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 9] = [
+pub const SHARED_STRUCTS: [(&str, usize); 11] = [
+    ("XpbdSpring", std::mem::size_of::<XpbdSpring>()),
+    ("XpbdColour", std::mem::size_of::<XpbdColour>()),
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),
     ("MassContact", std::mem::size_of::<MassContact>()),
     ("Solver", std::mem::size_of::<SolverStatus>()),

@@ -6,13 +6,15 @@
 //!   fits the adapter.
 //! - `shaders`: the WGSL programs and their override constants; `kernels`: the kernel table;
 //!   `layout`: the host copies of the WGSL structs.
-//! - `pipelines`: bind group layouts and pipelines; `resources`: buffers and bind groups;
+//! - `pipelines`: bind group layouts and pipelines; `buffers`: the model's and state's buffers;
+//!   `resources`: those and the effects' buffers, bound; `xpbd`: XPBD's colours and multipliers;
 //!   `stages`: the stage slots and the run's clock.
 //! - `plan`: the dispatch sequences of a step; `encode`: recording a dispatch.
 //! - `implicit`: implicit Euler's solve; `readback`: what a snapshot reads back.
 //! - `backend`: `GpuBackend`; `profile` and `inspect` add to it (bench timings, test hooks).
 
 mod backend;
+mod buffers;
 mod context;
 mod encode;
 mod implicit;
@@ -28,6 +30,7 @@ mod readback;
 mod resources;
 mod shaders;
 mod stages;
+mod xpbd;
 
 pub use backend::GpuBackend;
 pub use context::{

@@ -76,6 +76,7 @@ pub struct Needed {
     pub implicit: bool,
     pub springs_change: bool,
     pub mass_contact: bool,
+    pub xpbd: bool,
 }
 
 impl Needed {
@@ -85,6 +86,7 @@ impl Needed {
             Needs::Implicit => self.implicit,
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
+            Needs::Xpbd => self.xpbd,
         }
     }
 }

@@ -17,13 +17,29 @@ pub enum StateIn {
     XVt,
 }
 
-/// One dispatch: a kernel, the state it reads (for the kernels that read one), and its stage
-/// slot relative to its step's first.
+/// One sweep of XPBD's projection over one colour of springs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ColourPass {
+    pub colour: u32,
+    /// The substep's first sweep, which starts the multipliers from zero.
+    pub first: bool,
+}
+
+/// XPBD's sweeps of a substep: the springs' colours, and the sweeps over all of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Sweeps {
+    pub colours: u32,
+    pub iterations: u32,
+}
+
+/// One dispatch: a kernel, the state it reads (for the kernels that read one), its stage slot
+/// relative to its step's first, and for XPBD's projection the colour it solves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Dispatch {
     pub kernel: Kernel,
     pub state: Option<StateIn>,
     pub slot: u32,
+    pub colour: Option<ColourPass>,
 }
 
 impl Dispatch {
@@ -33,6 +49,7 @@ impl Dispatch {
             kernel,
             state: None,
             slot,
+            colour: None,
         }
     }
 
@@ -42,8 +59,31 @@ impl Dispatch {
             kernel,
             state: Some(state),
             slot,
+            colour: None,
         }
     }
+
+    /// XPBD's projection of one colour.
+    pub const fn colour(pass: ColourPass) -> Self {
+        Self {
+            kernel: Kernel::XpbdSolveSpring,
+            state: None,
+            slot: 0,
+            colour: Some(pass),
+        }
+    }
+}
+
+/// XPBD's substep between the kick and the new state: every sweep over every colour.
+fn xpbd_sweeps(sweeps: Sweeps) -> impl Iterator<Item = Dispatch> {
+    (0..sweeps.iterations).flat_map(move |it| {
+        (0..sweeps.colours).map(move |colour| {
+            Dispatch::colour(ColourPass {
+                colour,
+                first: it == 0,
+            })
+        })
+    })
 }
 
 /// Mass–mass contact's grid build from the positions of `state`, in order.
@@ -59,9 +99,15 @@ pub fn grid_build(state: StateIn, slot: u32) -> [Dispatch; 6] {
     ]
 }
 
-/// The dispatches of one step. `prime`: Verlet's first step also evaluates a(x_0). Implicit
-/// Euler's solve is planned below; only the post-step passes are here for it.
-pub fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<Dispatch> {
+/// The dispatches of one step. `prime`: Verlet's first step also evaluates a(x_0); `sweeps`:
+/// XPBD's (unused by the other integrators). Implicit Euler's solve is planned below; only the
+/// post-step passes are here for it.
+pub fn step_plan(
+    integrator: Integrator,
+    effects: &Effects,
+    prime: bool,
+    sweeps: Sweeps,
+) -> Vec<Dispatch> {
     use Kernel::*;
     use StateIn::*;
     let forces = |state, slot| Dispatch::reading(ComputeForces, state, slot);
@@ -92,8 +138,14 @@ pub fn step_plan(integrator: Integrator, effects: &Effects, prime: bool) -> Vec<
             }
             p
         }
-        // Implicit's solve is planned apart; XPBD does not reach the GPU yet (backend.rs).
-        Integrator::Implicit | Integrator::Xpbd => Vec::new(),
+        // compute_forces is compiled with XPBD: every force but the springs'.
+        Integrator::Xpbd => [forces(XV, 0), at(XpbdPredict, 0)]
+            .into_iter()
+            .chain(xpbd_sweeps(sweeps))
+            .chain([at(XpbdUpdateVelocity, 0)])
+            .collect(),
+        // Implicit's solve is planned apart.
+        Integrator::Implicit => Vec::new(),
     };
     if effects.has_contact() && integrator != Integrator::Implicit {
         plan.push(at(ProjectContacts, 3));
@@ -172,10 +224,18 @@ pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&
     } else {
         Vec::new()
     };
+    // XPBD's sweeps are listed once, in brackets: their count is the run's.
+    let one_sweep = Sweeps {
+        colours: 1,
+        iterations: 1,
+    };
     passes.extend(
-        step_plan(integrator, &model.effects, false)
+        step_plan(integrator, &model.effects, false, one_sweep)
             .into_iter()
-            .map(|d| d.kernel.name().to_owned()),
+            .map(|d| match d.colour {
+                Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
+                None => d.kernel.name().to_owned(),
+            }),
     );
     let effects = effect_constants(model)
         .into_iter()
@@ -189,6 +249,26 @@ pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&
 mod tests {
     use super::*;
     use crate::model::{ContactModel, MassContact};
+
+    /// XPBD's substep: the kick, every colour once per sweep with the multipliers reset on the
+    /// first sweep only, then the new state; no colour is skipped or repeated within a sweep.
+    #[test]
+    fn an_xpbd_step_sweeps_every_colour_once_per_iteration() {
+        let sweeps = Sweeps {
+            colours: 4,
+            iterations: 3,
+        };
+        let plan = step_plan(Integrator::Xpbd, &Effects::default(), false, sweeps);
+        let names: Vec<&str> = plan.iter().map(|d| d.kernel.name()).collect();
+        assert_eq!(names[..2], ["compute_forces", "xpbd_predict"]);
+        assert_eq!(names.last(), Some(&"xpbd_update_velocity"));
+        let passes: Vec<ColourPass> = plan.iter().filter_map(|d| d.colour).collect();
+        assert_eq!(passes.len(), 12);
+        for (k, p) in passes.iter().enumerate() {
+            assert_eq!(p.colour, k as u32 % 4);
+            assert_eq!(p.first, k < 4);
+        }
+    }
 
     /// Every plan binds a state exactly for the kernels that read one (the dispatcher would
     /// refuse it at run time otherwise), and stays within its step's stage slots.
@@ -217,14 +297,25 @@ mod tests {
                     tearing,
                     ..Effects::default()
                 };
-                plans.push(step_plan(integrator, &effects, true));
-                plans.push(step_plan(integrator, &effects, false));
+                let sweeps = Sweeps {
+                    colours: 3,
+                    iterations: 2,
+                };
+                plans.push(step_plan(integrator, &effects, true, sweeps));
+                plans.push(step_plan(integrator, &effects, false, sweeps));
             }
         }
         plans.push(grid_build(StateIn::XV, 0).to_vec());
         for d in plans.iter().flatten() {
             let spec = d.kernel.spec();
             assert_eq!(spec.reads_state, d.state.is_some(), "{}", spec.entry);
+            // Exactly the per-colour kernel names a colour.
+            assert_eq!(
+                spec.threads == crate::gpu::kernels::Threads::Colour,
+                d.colour.is_some(),
+                "{}",
+                spec.entry
+            );
             assert!(d.slot < SLOTS_PER_STEP, "{}", spec.entry);
         }
     }

@@ -3,7 +3,6 @@
 
 use super::backend::GpuBackend;
 use super::context::DeviceError;
-use super::plan::step_plan;
 use crate::backend::BackendError;
 
 impl GpuBackend {
@@ -12,7 +11,7 @@ impl GpuBackend {
     /// this is the achieved bandwidth that BENCHMARKS.md compares with the card's peak.
     pub fn bytes_per_step(&self) -> u64 {
         let sizes = self.resources.sizes(&self.model);
-        step_plan(self.integrator, &self.model.effects, false)
+        self.step_plan(false)
             .iter()
             .map(|d| d.kernel.bytes(&sizes).unwrap_or(0))
             .sum()

@@ -2,81 +2,15 @@
 //! upload), the state's, and those of the effects a scene has (plasticity and tearing, mass–mass
 //! contact, implicit Euler's solver).
 
-use glam::Vec3;
-use wgpu::util::DeviceExt as _;
-
+use super::buffers::{Alloc, Bufs};
 use super::kernels::{Group, Sizes, Threads};
-use super::layout::{self, Collider, MassContact, Params, SolverStatus};
-use super::limits::{deriv_bytes, scratch_bytes};
+use super::layout::{MassContact, SolverStatus};
 use super::pipelines::Layouts;
 use super::plan::StateIn;
-use super::shaders::WORKGROUP;
-use crate::backend::RUNAWAY_SPEED_M_PER_S;
-use crate::integrator::Integrator;
-use crate::model::{Model, Shape};
-
-/// Creates buffers and counts their bytes.
-struct Alloc<'a> {
-    device: &'a wgpu::Device,
-    bytes: u64,
-}
-
-const COPY: wgpu::BufferUsages = wgpu::BufferUsages::COPY_SRC.union(wgpu::BufferUsages::COPY_DST);
-
-impl Alloc<'_> {
-    fn count(&mut self, b: wgpu::Buffer) -> wgpu::Buffer {
-        self.bytes += b.size();
-        b
-    }
-
-    fn storage(&mut self, label: &str, contents: &[u8], extra: wgpu::BufferUsages) -> wgpu::Buffer {
-        // wgpu rejects zero-sized bindings: give empty arrays one zeroed element.
-        let zeros = [0u8; 64];
-        let b = self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: if contents.is_empty() {
-                    &zeros
-                } else {
-                    contents
-                },
-                usage: wgpu::BufferUsages::STORAGE | extra,
-            });
-        self.count(b)
-    }
-
-    /// Read-only after upload.
-    fn model(&mut self, label: &str, contents: &[u8]) -> wgpu::Buffer {
-        self.storage(label, contents, wgpu::BufferUsages::empty())
-    }
-
-    fn zeros(&mut self, label: &str, bytes: usize) -> wgpu::Buffer {
-        self.storage(label, &vec![0u8; bytes], COPY)
-    }
-
-    fn uniform(&mut self, label: &str, contents: &[u8]) -> wgpu::Buffer {
-        let b = self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        self.count(b)
-    }
-
-    /// Where the host maps what it reads back.
-    fn read_back(&mut self, label: &str, size: u64) -> wgpu::Buffer {
-        let b = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        self.count(b)
-    }
-}
+use super::shaders::{WORKGROUP, groups_for};
+use super::xpbd::{XpbdBuffers, XpbdSetup};
+use crate::integrator::{Integrator, StepOptions};
+use crate::model::Model;
 
 /// Workgroup counts of each kind of dispatch.
 #[derive(Debug, Clone, Copy)]
@@ -91,31 +25,22 @@ pub struct Workgroups {
 }
 
 impl Workgroups {
-    pub fn of(&self, t: Threads) -> (u32, u32) {
-        match t {
+    /// `None` for a kernel over one XPBD colour: its count is the colour's (`XpbdBuffers`).
+    pub fn of(&self, t: Threads) -> Option<(u32, u32)> {
+        Some(match t {
             Threads::Masses => self.masses,
             Threads::Springs => self.springs,
             Threads::Energies => self.energies,
             Threads::Buckets => self.buckets,
             Threads::ScanBlocks => self.scan_blocks,
             Threads::OneGroup => (1, 1),
-        }
+            Threads::Colour => return None,
+        })
     }
 
     /// Per-workgroup partial sums of the energy reductions.
     pub fn partial_count(&self) -> u64 {
         u64::from(self.energies.0 * self.energies.1)
-    }
-}
-
-/// Workgroup counts for `threads` threads: a 2D grid when x would exceed the adapter's limit.
-pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
-    let groups = threads.div_ceil(WORKGROUP).max(1);
-    if groups <= max_per_dim {
-        (groups, 1)
-    } else {
-        let y = groups.div_ceil(max_per_dim);
-        (groups.div_ceil(y), y)
     }
 }
 
@@ -151,33 +76,10 @@ pub struct Resources {
     states: [wgpu::BindGroup; 3],
     pub grid: Option<GridBuffers>,
     pub solver: Option<SolverBuffers>,
+    pub xpbd: Option<XpbdBuffers>,
     pub workgroups: Workgroups,
     /// Bytes of GPU memory held by the buffers above (all but the stage slots').
     pub memory_bytes: u64,
-}
-
-/// The buffers bind groups are made of, by name.
-struct Bufs {
-    params: wgpu::Buffer,
-    springs: wgpu::Buffer,
-    offsets: wgpu::Buffer,
-    neighbors: wgpu::Buffer,
-    colliders: wgpu::Buffer,
-    mass: wgpu::Buffer,
-    x: wgpu::Buffer,
-    v: wgpu::Buffer,
-    xt: wgpu::Buffer,
-    vt: wgpu::Buffer,
-    deriv: wgpu::Buffer,
-    sums: wgpu::Buffer,
-    ledger: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    strain: wgpu::Buffer,
-    partials: wgpu::Buffer,
-}
-
-fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
-    v.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect()
 }
 
 fn bind_group(
@@ -199,46 +101,6 @@ fn bind_group(
         layout,
         entries: &entries,
     })
-}
-
-/// Scene-wide constants.
-fn params(model: &Model) -> Params {
-    let e = &model.effects;
-    let ground = e.ground;
-    Params {
-        mass_count: model.mass_count() as u32,
-        spring_count: model.spring_count() as u32,
-        collider_count: e.colliders.len() as u32,
-        runaway_speed: RUNAWAY_SPEED_M_PER_S,
-        gravity: e.gravity_m_per_s2.unwrap_or(Vec3::ZERO).to_array(),
-        drag_per_s: e.air_drag_per_s.unwrap_or(0.0),
-        ground_height: ground.map_or(0.0, |g| g.height_m),
-        ground_stiffness: ground.map_or(0.0, |g| g.contact.stiffness_n_per_m),
-        ground_friction: ground.map_or(0.0, |g| g.contact.friction),
-        ground_damping_ratio: ground.map_or(0.0, |g| g.contact.damping_ratio),
-        ground_max_depth: ground.map_or(0.0, |g| g.max_depth_m),
-        _pad: [0.0; 3],
-    }
-}
-
-fn colliders(model: &Model) -> Vec<Collider> {
-    let collider = |c: &crate::model::Collider| {
-        let (kind, shape) = match c.shape {
-            Shape::Sphere { radius_m } => (layout::SPHERE, [radius_m, 0.0, 0.0, 0.0]),
-            Shape::Box { half_extents_m } => (layout::BOX, half_extents_m.extend(0.0).to_array()),
-            Shape::Plane { normal } => (layout::PLANE, normal.extend(0.0).to_array()),
-        };
-        Collider {
-            kind,
-            stiffness: c.contact.stiffness_n_per_m,
-            friction: c.contact.friction,
-            damping_ratio: c.contact.damping_ratio,
-            shape,
-            max_depth: c.max_depth_m,
-            _pad: [0.0; 3],
-        }
-    };
-    model.effects.colliders.iter().map(collider).collect()
 }
 
 /// Bind group 0 of each kernel group, as they are made.
@@ -335,7 +197,7 @@ impl Resources {
         limits: &wgpu::Limits,
         layouts: &Layouts,
         model: &Model,
-        (integrator, dt_secs): (Integrator, f64),
+        (integrator, dt_secs, options): (Integrator, f64, StepOptions),
     ) -> Self {
         let mut a = Alloc { device, bytes: 0 };
         let (n, ns) = (model.mass_count(), model.spring_count());
@@ -359,6 +221,16 @@ impl Resources {
         }
         let solver = (integrator == Integrator::Implicit)
             .then(|| SolverBuffers::new(&mut a, &b, &mut groups, workgroups.masses));
+        let xpbd = (integrator == Integrator::Xpbd).then(|| {
+            let setup = XpbdSetup {
+                layout: layouts.group(Group::XpbdSolve),
+                dt_secs,
+                iterations: options.xpbd_iterations,
+                uniform_align: limits.min_uniform_buffer_offset_alignment,
+                max_per_dim: max_dim,
+            };
+            XpbdBuffers::new(&mut a, &b, model, &setup)
+        });
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
             workgroups.buckets = groups_for(grid.table_size, max_dim);
@@ -382,6 +254,7 @@ impl Resources {
             states,
             grid,
             solver,
+            xpbd,
             workgroups,
             memory_bytes: a.bytes,
         }
@@ -408,36 +281,6 @@ impl Resources {
             table,
             blocks,
             colliders: model.effects.colliders.len() as u64 * 48,
-        }
-    }
-}
-
-impl Bufs {
-    fn new(a: &mut Alloc<'_>, model: &Model, integrator: Integrator, partial_count: u64) -> Self {
-        let (n, ns) = (model.mass_count(), model.spring_count());
-        let mass: Vec<[f32; 2]> = model
-            .mass_kg
-            .iter()
-            .zip(&model.inv_mass)
-            .map(|(&m, &w)| [m, w])
-            .collect();
-        Self {
-            params: a.uniform("params", bytemuck::bytes_of(&params(model))),
-            springs: a.model("springs", bytemuck::cast_slice(&model.springs)),
-            offsets: a.model("offsets", bytemuck::cast_slice(&model.adjacency.offsets)),
-            neighbors: a.model("neighbors", bytemuck::cast_slice(&model.adjacency.entries)),
-            colliders: a.model("colliders", bytemuck::cast_slice(&colliders(model))),
-            mass: a.model("mass", bytemuck::cast_slice(&mass)),
-            x: a.storage("x", bytemuck::cast_slice(&vec4s(&model.initial.x)), COPY),
-            v: a.storage("v", bytemuck::cast_slice(&vec4s(&model.initial.v)), COPY),
-            xt: a.zeros("xt", 16 * n),
-            vt: a.zeros("vt", 16 * n),
-            deriv: a.zeros("deriv", deriv_bytes(model, integrator) as usize),
-            sums: a.zeros("sums", scratch_bytes(model, integrator) as usize),
-            ledger: a.zeros("ledger", 16 * n),
-            counters: a.zeros("counters", 16),
-            strain: a.zeros("strain", 4 * ns),
-            partials: a.zeros("partials", 48 * partial_count as usize),
         }
     }
 }

@@ -18,10 +18,11 @@ pub enum Program {
     Springs,
     Grid,
     CollideMasses,
+    Xpbd,
 }
 
 impl Program {
-    pub const ALL: [Program; 8] = [
+    pub const ALL: [Program; 9] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -30,6 +31,7 @@ impl Program {
         Program::Springs,
         Program::Grid,
         Program::CollideMasses,
+        Program::Xpbd,
     ];
 
     pub fn file(self) -> &'static str {
@@ -56,16 +58,28 @@ impl Program {
             Program::Springs => file!("springs.wgsl"),
             Program::Grid => file!("grid.wgsl"),
             Program::CollideMasses => file!("collide_masses.wgsl"),
+            Program::Xpbd => file!("xpbd.wgsl"),
         }
     }
 }
 
 /// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 8] {
+pub fn programs() -> [(&'static str, String); 9] {
     Program::ALL.map(|p| (p.file(), p.source()))
 }
 
 pub const WORKGROUP: u32 = 64;
+
+/// Workgroup counts for `threads` threads: a 2D grid when x would exceed the adapter's limit.
+pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(WORKGROUP).max(1);
+    if groups <= max_per_dim {
+        (groups, 1)
+    } else {
+        let y = groups.div_ceil(max_per_dim);
+        (groups.div_ceil(y), y)
+    }
+}
 
 // The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
 // (`SCAN_BLOCK` in shaders/common.wgsl).
@@ -76,15 +90,10 @@ const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
 pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
     use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_TOLERANCE};
     let mut c = effect_constants(model);
+    let flag = |on: bool| if on { 1.0 } else { 0.0 };
     c.extend([
-        (
-            "IMPLICIT",
-            if integrator == Integrator::Implicit {
-                1.0
-            } else {
-                0.0
-            },
-        ),
+        ("XPBD", flag(integrator == Integrator::Xpbd)),
+        ("IMPLICIT", flag(integrator == Integrator::Implicit)),
         ("CG_TOLERANCE", CG_TOLERANCE),
         ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),

@@ -1,0 +1,109 @@
+//! XPBD on the GPU: the springs' colouring and constants, uploaded once (both computed by the
+//! CPU backend's functions, so the two backends solve alike), each spring's multiplier, and one
+//! bind group per colour and kind of sweep for `xpbd_solve_spring` (shaders/xpbd.wgsl).
+
+use super::buffers::{Alloc, Bufs};
+use super::kernels::Group;
+use super::layout::XpbdColour;
+use super::plan::{ColourPass, Sweeps};
+use super::shaders::groups_for;
+use crate::cpu::{colour_springs, xpbd_constants};
+use crate::model::Model;
+
+pub struct XpbdBuffers {
+    /// Bind group 0 of `xpbd_solve_spring` for colour c: [2c] a later sweep, [2c + 1] the first.
+    groups: Vec<wgpu::BindGroup>,
+    /// Workgroups over each colour's springs.
+    workgroups: Vec<(u32, u32)>,
+    pub sweeps: Sweeps,
+}
+
+/// What the XPBD buffers are made from: the run's substep and sweeps, and the adapter's limits.
+pub struct XpbdSetup<'a> {
+    pub layout: &'a wgpu::BindGroupLayout,
+    pub dt_secs: f64,
+    pub iterations: u32,
+    pub uniform_align: u32,
+    pub max_per_dim: u32,
+}
+
+impl XpbdBuffers {
+    pub(super) fn new(a: &mut Alloc<'_>, b: &Bufs, model: &Model, s: &XpbdSetup<'_>) -> Self {
+        let colouring = colour_springs(&model.springs, &model.inv_mass);
+        let constants = a.model(
+            "xpbd constants",
+            bytemuck::cast_slice(&xpbd_constants(&model.springs, s.dt_secs)),
+        );
+        let order = a.model("xpbd colour order", bytemuck::cast_slice(&colouring.order));
+        let lambda = a.zeros("xpbd lambda", 4 * model.spring_count());
+        // One uniform per (colour, first sweep or not), each at an offset a binding may start at.
+        let stride =
+            std::mem::size_of::<XpbdColour>().next_multiple_of(s.uniform_align.max(1) as usize);
+        let colours = colouring.colours();
+        let mut uniforms = vec![0u8; (2 * colours).max(1) * stride];
+        for c in 0..colours {
+            for first in [0u32, 1] {
+                let u = XpbdColour {
+                    start: colouring.starts[c],
+                    count: colouring.starts[c + 1] - colouring.starts[c],
+                    first,
+                    _pad: 0,
+                };
+                let at = (2 * c + first as usize) * stride;
+                uniforms[at..at + std::mem::size_of::<XpbdColour>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
+            }
+        }
+        let uniform = a.uniform("xpbd colours", &uniforms);
+        let size = wgpu::BufferSize::new(std::mem::size_of::<XpbdColour>() as u64);
+        let groups = (0..2 * colours)
+            .map(|k| {
+                let colour = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &uniform,
+                    offset: (k * stride) as u64,
+                    size,
+                });
+                let buffers = [
+                    &b.springs, &constants, &order, &b.mass, &b.x, &b.xt, &lambda,
+                ];
+                debug_assert_eq!(buffers.len() + 2, Group::XpbdSolve.slots().len());
+                let entries: Vec<wgpu::BindGroupEntry<'_>> = [b.params.as_entire_binding(), colour]
+                    .into_iter()
+                    .chain(buffers.iter().map(|b| b.as_entire_binding()))
+                    .enumerate()
+                    .map(|(i, resource)| wgpu::BindGroupEntry {
+                        binding: i as u32,
+                        resource,
+                    })
+                    .collect();
+                a.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("XpbdSolve"),
+                    layout: s.layout,
+                    entries: &entries,
+                })
+            })
+            .collect();
+        let workgroups = (0..colours)
+            .map(|c| groups_for(colouring.springs_of(c).len() as u32, s.max_per_dim))
+            .collect();
+        Self {
+            groups,
+            workgroups,
+            sweeps: Sweeps {
+                colours: colours as u32,
+                iterations: s.iterations,
+            },
+        }
+    }
+
+    /// Bind group 0 of a sweep over one colour.
+    pub fn group(&self, pass: ColourPass) -> Option<&wgpu::BindGroup> {
+        self.groups
+            .get(2 * pass.colour as usize + usize::from(pass.first))
+    }
+
+    /// Workgroups over one colour's springs.
+    pub fn workgroups(&self, colour: u32) -> Option<(u32, u32)> {
+        self.workgroups.get(colour as usize).copied()
+    }
+}

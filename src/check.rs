@@ -235,6 +235,15 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
 fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
     let (passes, effects) = crate::gpu::step_passes(model, settings.integrator);
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
+    if settings.integrator == crate::integrator::Integrator::Xpbd {
+        let colours = crate::cpu::colour_springs(&model.springs, &model.inv_mass).colours();
+        let _ = writeln!(
+            s,
+            "  XPBD: {colours} spring colours × {} iteration(s): {} xpbd_solve_spring dispatches per substep",
+            settings.options.xpbd_iterations,
+            colours as u32 * settings.options.xpbd_iterations
+        );
+    }
     let _ = writeln!(
         s,
         "  compiled-in effects: {}",

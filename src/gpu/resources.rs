@@ -253,8 +253,11 @@ impl GroupSet<'_> {
     fn set(&mut self, g: Group, buffers: &[&wgpu::Buffer]) {
         debug_assert_eq!(buffers.len(), g.slots().len(), "{g:?}");
         let label = format!("{g:?}");
-        let bg = bind_group(self.device, self.layouts.group(g), &label, buffers);
-        self.groups[g as usize] = Some(bg);
+        // A group no kernel of the run uses has no layout, and is never bound.
+        self.groups[g as usize] = self
+            .layouts
+            .group(g)
+            .map(|layout| bind_group(self.device, layout, &label, buffers));
     }
 
     /// The groups every run binds.
@@ -455,10 +458,16 @@ impl SolverBuffers {
                 &b.springs,
                 &b.offsets,
                 &b.neighbors,
+                &b.colliders,
                 &b.mass,
-                &b.xt,
                 &b.deriv,
+                &b.x,
+                &b.v,
+                &b.xt,
+                &b.vt,
                 &b.sums,
+                &b.ledger,
+                &b.counters,
                 &scratch,
             ],
         );

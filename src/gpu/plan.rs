@@ -219,6 +219,39 @@ pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&
     (passes, effects)
 }
 
+/// How many dispatches one GPU step records: `fixed`, plus (implicit Euler a dispatch per pass)
+/// so many per Newton iteration and per CG iteration (at least: a chunk of CG iterations may
+/// encode a few that find the solve stopped and return at once).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DispatchCount {
+    pub fixed: u32,
+    pub per_newton_iteration: u32,
+    pub per_cg_iteration: u32,
+}
+
+/// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
+/// evaluates a(x₀)), as the plans above record them.
+pub fn dispatches_per_step(model: &Model, integrator: Integrator) -> DispatchCount {
+    use implicit::*;
+    let count = |n: usize| n as u32;
+    let steps = count(step_plan(integrator, &model.effects, false).len());
+    match (integrator, path(model)) {
+        (Integrator::Implicit, Path::InGroup) => DispatchCount {
+            fixed: count(IN_GROUP.len()) + steps,
+            ..DispatchCount::default()
+        },
+        (Integrator::Implicit, Path::Passes) => DispatchCount {
+            fixed: count(BEGIN.len() + END.len()) + steps,
+            per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len()),
+            per_cg_iteration: count(CG_ITERATION.len()),
+        },
+        _ => DispatchCount {
+            fixed: steps,
+            ..DispatchCount::default()
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

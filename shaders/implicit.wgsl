@@ -36,6 +36,9 @@
 // snapshot; [3] the largest residual (an f32's bits: positive floats order as their bits).
 @group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read_write> scratch: Scratch;
+// Each CSR entry's spring terms at the iterate (spring_terms), stored by implicit_rhs_at for the
+// solve's products: [2e] (n, h²k + h c), [2e + 1] (h²k·max(0, 1 − L/l), …).
+@group(0) @binding(15) var<storage, read_write> terms: array<vec4<f32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus (the host reads it between chunks).

@@ -110,7 +110,10 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
         let end = offsets[i + 1u];
         for (var e = offsets[i]; e < end; e++) {
             let t = spring_terms(i, neighbors[e]);
-            diag += (t.stiff_along + t.damp_along) * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
+            let along = t.stiff_along + t.damp_along;
+            terms[2u * e] = vec4<f32>(t.n, along);
+            terms[2u * e + 1u] = vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0);
+            diag += along * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
         }
     }
     let z = b / diag;
@@ -130,15 +133,13 @@ fn apply_system_at(i: u32) -> vec4<f32> {
         out = own_mass_term(i) * pi;
         let end = offsets[i + 1u];
         for (var e = offsets[i]; e < end; e++) {
-            let nb = neighbors[e];
-            let t = spring_terms(i, nb);
-            var pj = vec3<f32>(0.0);
-            if (mass[nb.other].y != 0.0) {
-                pj = work[block(DIRECTION, nb.other)].xyz;
-            }
-            let dp = pi - pj;
-            let dn = dot(t.n, dp);
-            out += (t.stiff_along + t.damp_along) * dn * t.n + t.stiff_across * (dp - dn * t.n);
+            // The terms implicit_rhs_at stored. A pinned neighbour's p is always 0 (its b is 0 and
+            // its row is filtered), so its column drops out without reading its mass.
+            let t = terms[2u * e];
+            let stiff_across = terms[2u * e + 1u].x;
+            let dp = pi - work[block(DIRECTION, neighbors[e].other)].xyz;
+            let dn = dot(t.xyz, dp);
+            out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
         }
         if (has_contact_terms()) {
             out += contact_times(i, pi);

@@ -61,10 +61,11 @@ impl Group {
                 Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
             ],
             // params, springs, offsets, neighbours, colliders, mass, deriv, x, v, xt, vt, work,
-            // ledger, counters, scratch: implicit_step does the whole step in one dispatch.
+            // ledger, counters, scratch, each CSR entry's spring terms: implicit_step does the
+            // whole step in one dispatch.
             Group::Solve => &[
                 Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-                ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+                ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
             ],
             // params, springs, limits, x, released, partials.
             Group::Springs => &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],

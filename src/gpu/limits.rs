@@ -13,7 +13,7 @@ const IMPLICIT_VECTORS: u64 = 7;
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
 const STORAGE_BUFFERS_NEEDED: u32 = 8;
 /// Implicit Euler's: implicit_step reads and writes everything a step touches (implicit.wgsl).
-const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 14;
+const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
@@ -53,6 +53,14 @@ pub fn check_fits(
         ("per-mass derivatives", deriv_bytes(model, integrator)),
         ("springs", 20 * ns),
         ("adjacency", 16 * ns),
+        (
+            "implicit spring terms",
+            if integrator == Integrator::Implicit {
+                64 * ns
+            } else {
+                0
+            },
+        ),
         (
             "mass-contact hash grid",
             model.effects.self_collision.map_or(0, |_| {

@@ -361,7 +361,7 @@ impl Resources {
             groups.springs(&mut a, &b, model, dt_secs);
         }
         let solver = (integrator == Integrator::Implicit)
-            .then(|| SolverBuffers::new(&mut a, &b, &mut groups, workgroups.masses));
+            .then(|| SolverBuffers::new(&mut a, (&b, model), &mut groups, workgroups.masses));
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
             workgroups.buckets = groups_for(grid.table_size, max_dim);
@@ -447,10 +447,17 @@ impl Bufs {
 
 impl SolverBuffers {
     /// The solver's status, then one partial sum per mass workgroup.
-    fn new(a: &mut Alloc<'_>, b: &Bufs, groups: &mut GroupSet<'_>, masses: (u32, u32)) -> Self {
+    fn new(
+        a: &mut Alloc<'_>,
+        (b, model): (&Bufs, &Model),
+        groups: &mut GroupSet<'_>,
+        masses: (u32, u32),
+    ) -> Self {
         let status_bytes = std::mem::size_of::<SolverStatus>();
         let scratch = a.zeros("solver", status_bytes + 16 * (masses.0 * masses.1) as usize);
         let status = a.read_back("solver status", status_bytes as u64);
+        // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
+        let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
         groups.set(
             Group::Solve,
             &[
@@ -469,6 +476,7 @@ impl SolverBuffers {
                 &b.ledger,
                 &b.counters,
                 &scratch,
+                &terms,
             ],
         );
         Self { scratch, status }

@@ -22,6 +22,7 @@ override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
+override NEWTON_MAX_ITERATIONS: u32 = 10u;
 // XPBD: compute_forces leaves the springs out (they are projected as constraints, xpbd.wgsl) but
 // for their dashpots' power, which the ledger books.
 override XPBD: bool = false;

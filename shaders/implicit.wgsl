@@ -1,26 +1,44 @@
-// Implicit Euler's linear solves: for each Newton iterate (x, v), solve
+// Implicit Euler (src/cpu/implicit.rs's implicit_step): Δv starts at zero; for each Newton iterate
+// (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv), forces_on (mass_force.wgsl) evaluates f and linearises the
+// contacts, and
 //   (M − h D − h² K) δ = h f(x, v) − M Δv
-// by matrix-free conjugate gradients with a Jacobi preconditioner. Mirrors src/cpu/implicit.rs;
-// the state-side kernels (implicit_begin, implicit_iterate, implicit_final) are in
-// integrate.wgsl, and compute_forces evaluates f and linearises the contacts at the iterate.
-//
-// The host encodes a few CG iterations at a time and reads the solver's status between: every
-// kernel here does nothing once its solve has stopped, so a chunk longer than needed costs only
-// empty dispatches. Dot products are summed per workgroup, then over the workgroups in a fixed
-// order by one workgroup, so a run is repeatable.
+// is solved by matrix-free conjugate gradients with a Jacobi preconditioner; the step ends at the
+// last iterate. The arithmetic per mass is written once (the *_at functions in
+// implicit_terms.wgsl, compiled before this file); two ways run it:
+// - implicit_step: one workgroup loops over the whole step in one dispatch, every sum reduced in
+//   workgroup memory, every stopping rule decided on the device. For small systems
+//   (src/gpu/implicit.rs says which): no host wait, one dispatch per step.
+// - larger systems: one dispatch per pass over the masses (implicit_begin … newton_end), each dot
+//   product summed per workgroup, then over the workgroups in a fixed order by one workgroup (the
+//   *_begin/_alpha/_beta/_end kernels); a kernel whose solve has stopped does nothing, and the
+//   host reads the status between chunks of CG iterations.
+// Both keep the frame's largest CG count and residual per step in counters[2] and [3], which the
+// snapshot reads back once per frame. Sums run in a fixed order, so a run is repeatable.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> springs: array<Spring>;
 @group(0) @binding(2) var<storage, read> offsets: array<u32>;
 @group(0) @binding(3) var<storage, read> neighbors: array<Neighbor>;
-@group(0) @binding(4) var<storage, read> mass: array<vec2<f32>>;
-// The Newton iterate's positions.
-@group(0) @binding(5) var<storage, read> xt: array<vec4<f32>>;
-// From compute_forces at the iterate: [2i] acceleration, [2n + 2i], [2n + 2i + 1] contacts.
-@group(0) @binding(6) var<storage, read> deriv: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> colliders: array<Collider>;
+@group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
+// forces_on's output at the iterate: [2i] acceleration, [2i + 1] ledger rates, [2n + 2i],
+// [2n + 2i + 1] contacts.
+@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> v: array<vec4<f32>>;
+// The Newton iterate (the state forces_on reads).
+@group(0) @binding(9) var<storage, read_write> x_in: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> v_in: array<vec4<f32>>;
 // The solver's per-mass vectors (block() in common.wgsl).
-@group(0) @binding(7) var<storage, read_write> work: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> scratch: Scratch;
+@group(0) @binding(11) var<storage, read_write> work: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> ledger: array<vec4<f32>>;
+// [1] the divergence flag (check_state); [2] the most CG iterations of a step since the last
+// snapshot; [3] the largest residual (an f32's bits: positive floats order as their bits).
+@group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(14) var<storage, read_write> scratch: Scratch;
+// Each CSR entry's spring terms at the iterate (spring_terms), stored by implicit_rhs_at for the
+// solve's products: [2e] (n, h²k + h c), [2e + 1] (h²k·max(0, 1 − L/l), …).
+@group(0) @binding(15) var<storage, read_write> terms: array<vec4<f32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus (the host reads it between chunks).
@@ -61,8 +79,10 @@ struct Scratch {
 var<workgroup> sum_sh: array<vec4<f32>, 64>;
 var<workgroup> flag_sh: u32;
 
-// The workgroup's sum (or max, per component) of `value`; every thread gets it. Call from uniform
-// control flow.
+// ---- workgroup sums ----
+
+// The workgroup's sum (or max, per component) of `value`, the same for every thread (a uniform
+// value, so loops and branches on it may hold barriers). Call from uniform control flow.
 fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
     sum_sh[lid] = value;
     workgroupBarrier();
@@ -76,7 +96,7 @@ fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
         }
         workgroupBarrier();
     }
-    let total = sum_sh[0];
+    let total = workgroupUniformLoad(&sum_sh[0]);
     workgroupBarrier();
     return total;
 }
@@ -86,12 +106,8 @@ fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
 fn store_partial(lid: u32, wid: vec3<u32>, groups: vec3<u32>, value: vec4<f32>, take_max: bool) {
     let total = workgroup_reduce(lid, value, take_max);
     if (lid == 0u) {
-        scratch.partials[group_index(wid, groups)] = total;
+        scratch.partials[wid.x + wid.y * groups.x] = total;
     }
-}
-
-fn group_index(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return wid.x + wid.y * groups.x;
 }
 
 // Sum (or max) of the per-workgroup partials, by the single workgroup of a reduction kernel.
@@ -127,55 +143,128 @@ fn newton_update_due(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
-struct SpringTerms {
-    n: vec3<f32>,
-    // h²k along n, h²k·max(0, 1 − L/l) across it, h c along it.
-    stiff_along: f32,
-    stiff_across: f32,
-    damp_along: f32,
-}
+// ---- one workgroup, the whole step ----
 
-// One spring's share of the system at the iterate, seen from mass i (src/cpu/implicit.rs's
-// linearise; the sign of n does not matter, the terms are in n nᵀ).
-fn spring_terms(i: u32, nb: Neighbor) -> SpringTerms {
-    let s = springs[nb.spring];
-    let d = xt[i].xyz - xt[nb.other].xyz;
-    let len = length(d);
-    var t = SpringTerms(vec3<f32>(0.0), 0.0, 0.0, 0.0);
-    if (len > MIN_SPRING_LENGTH) {
-        let h = stage.dt;
-        let k = h * h * s.stiffness;
-        t.n = d * (1.0 / len);
-        t.stiff_along = k;
-        t.stiff_across = k * max(1.0 - s.rest / len, 0.0);
-        if (HAS_DAMPING) {
-            t.damp_along = h * s.damping;
+// The conjugate-gradient solve from implicit_rhs's start (r·z = `rz`, |b| = `b_norm`) to
+// |r| ≤ CG_TOLERANCE · `scale`, each thread on the masses lid, lid + WORKGROUP, …. Returns the
+// iterations and the final relative residual (as src/cpu/implicit.rs's solve).
+fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32> {
+    let n = params.mass_count;
+    if (b_norm == 0.0 || scale == 0.0) {
+        return vec2<f32>(0.0);
+    }
+    var rz = rz_start;
+    var residual = b_norm / scale;
+    var iterations = 0u;
+    while (cg_goes_on(residual, iterations)) {
+        iterations += 1u;
+        // Every thread's p is written before any is read across a spring.
+        storageBarrier();
+        var pap = vec4<f32>(0.0);
+        for (var i = lid; i < n; i += WORKGROUP) {
+            pap += apply_system_at(i);
+        }
+        let curvature = workgroup_reduce(lid, pap, false).x;
+        if (!usable_curvature(curvature)) {
+            break;
+        }
+        let alpha = rz / curvature;
+        var rr = vec4<f32>(0.0);
+        for (var i = lid; i < n; i += WORKGROUP) {
+            rr += cg_update_at(i, alpha);
+        }
+        let sums = workgroup_reduce(lid, rr, false);
+        let beta = sums.x / rz;
+        rz = sums.x;
+        residual = sqrt(sums.y) / scale;
+        for (var i = lid; i < n; i += WORKGROUP) {
+            cg_direction_at(i, beta);
         }
     }
-    return t;
+    return vec2<f32>(f32(iterations), residual);
 }
 
-fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
-    let n2 = 2u * params.mass_count;
-    let d = deriv[n2 + 2u * i].xyz;
-    let o = deriv[n2 + 2u * i + 1u].xyz;
-    return vec3<f32>(
-        d.x * p.x + o.x * p.y + o.y * p.z,
-        o.x * p.x + d.y * p.y + o.z * p.z,
-        o.y * p.x + o.z * p.y + d.z * p.z,
-    );
-}
-
-fn own_mass_term(i: u32) -> f32 {
-    var drag = 0.0;
-    if (HAS_DRAG) {
-        drag = params.drag_per_s;
+// One backward Euler step of the whole system by one workgroup (src/cpu/implicit.rs's
+// implicit_step): Newton iterations, each a CG solve, to the same stopping rules. Threads own the
+// masses lid, lid + WORKGROUP, …; a storage barrier separates a pass that writes what another
+// thread's next pass reads across a spring.
+@compute @workgroup_size(64)
+fn implicit_step(@builtin(local_invocation_index) lid: u32) {
+    let n = params.mass_count;
+    for (var i = lid; i < n; i += WORKGROUP) {
+        implicit_begin_at(i);
     }
-    return mass[i].x * (1.0 + stage.dt * drag);
+    var scale = 0.0;
+    var iterations = 0u;
+    var max_residual = 0.0;
+    for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
+        for (var i = lid; i < n; i += WORKGROUP) {
+            implicit_iterate_at(i);
+        }
+        storageBarrier();
+        var start = vec4<f32>(0.0);
+        for (var i = lid; i < n; i += WORKGROUP) {
+            forces_on(i);
+            start += implicit_rhs_at(i);
+        }
+        let t = workgroup_reduce(lid, start, false);
+        let b_norm = sqrt(t.y);
+        if (scale == 0.0) {
+            scale = b_norm;
+        }
+        let solved = solve_in_group(lid, t.x, b_norm, scale);
+        iterations += u32(solved.x);
+        max_residual = max(max_residual, solved.y);
+        var norms = vec4<f32>(0.0);
+        for (var i = lid; i < n; i += WORKGROUP) {
+            norms = max(norms, newton_update_at(i));
+        }
+        let m = workgroup_reduce(lid, norms, true);
+        if (newton_converged(m.x, m.y)) {
+            break;
+        }
+    }
+    for (var i = lid; i < n; i += WORKGROUP) {
+        implicit_final_at(i);
+    }
+    if (lid == 0u) {
+        book_solve(iterations, max_residual);
+    }
 }
 
-// Newton's right-hand side h f − M Δv, the Jacobi diagonal, and the solve's start from δ = 0:
-// r = b, z = r / diag, p = z. Partials: (r·z, b·b).
+// ---- a dispatch per pass (larger systems) ----
+
+@compute @workgroup_size(64)
+fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i < params.mass_count) {
+        implicit_begin_at(i);
+    }
+}
+
+@compute @workgroup_size(64)
+fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i < params.mass_count) {
+        implicit_iterate_at(i);
+    }
+}
+
+@compute @workgroup_size(64)
+fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i < params.mass_count) {
+        implicit_final_at(i);
+    }
+}
+
+// The start of a step's first solve: no residual scale yet, nothing done.
+@compute @workgroup_size(1)
+fn solver_begin() {
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+}
+
+// Partials: (r·z, b·b).
 @compute @workgroup_size(64)
 fn implicit_rhs(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -186,36 +275,9 @@ fn implicit_rhs(
     let i = thread_index(gid, groups);
     var partial = vec4<f32>(0.0);
     if (i < params.mass_count) {
-        var b = vec3<f32>(0.0);
-        var diag = vec3<f32>(1.0);
-        if (mass[i].y != 0.0) {
-            let m = mass[i].x;
-            b = stage.dt * m * deriv[2u * i].xyz - m * work[block(DV_TOTAL, i)].xyz;
-            diag = vec3<f32>(own_mass_term(i));
-            if (has_contact_terms()) {
-                diag += deriv[2u * params.mass_count + 2u * i].xyz;
-            }
-            let end = offsets[i + 1u];
-            for (var e = offsets[i]; e < end; e++) {
-                let t = spring_terms(i, neighbors[e]);
-                diag += (t.stiff_along + t.damp_along) * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
-            }
-        }
-        let z = b / diag;
-        work[block(DV, i)] = vec4<f32>(0.0);
-        work[block(RESIDUAL, i)] = vec4<f32>(b, 0.0);
-        work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
-        work[block(DIRECTION, i)] = vec4<f32>(z, 0.0);
-        work[block(DIAGONAL, i)] = vec4<f32>(diag, 0.0);
-        partial = vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
+        partial = implicit_rhs_at(i);
     }
     store_partial(lid, wid, groups, partial, false);
-}
-
-// The start of a step's first solve: no residual scale yet, nothing done.
-@compute @workgroup_size(1)
-fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
 }
 
 // After implicit_rhs: r·z, the residual scale (the first iterate's |b|), and whether to iterate.
@@ -238,13 +300,12 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
         sv.cg_active = 0u;
     } else {
         sv.residual = b_norm / sv.scale;
-        sv.cg_active = select(0u, 1u, sv.residual > CG_TOLERANCE && CG_MAX_ITERATIONS > 0u);
+        sv.cg_active = select(0u, 1u, cg_goes_on(sv.residual, 0u));
     }
     scratch.solver = sv;
 }
 
-// Ap = (M − h D − h² K) p, pinned rows and columns filtered out (src/cpu/implicit.rs's
-// apply_system). Partials: (p·Ap).
+// Partials: (p·Ap).
 @compute @workgroup_size(64)
 fn apply_system(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -258,33 +319,12 @@ fn apply_system(
     let i = thread_index(gid, groups);
     var partial = vec4<f32>(0.0);
     if (i < params.mass_count) {
-        var out = vec3<f32>(0.0);
-        let pi = work[block(DIRECTION, i)].xyz;
-        if (mass[i].y != 0.0) {
-            out = own_mass_term(i) * pi;
-            let end = offsets[i + 1u];
-            for (var e = offsets[i]; e < end; e++) {
-                let nb = neighbors[e];
-                let t = spring_terms(i, nb);
-                var pj = vec3<f32>(0.0);
-                if (mass[nb.other].y != 0.0) {
-                    pj = work[block(DIRECTION, nb.other)].xyz;
-                }
-                let dp = pi - pj;
-                let dn = dot(t.n, dp);
-                out += (t.stiff_along + t.damp_along) * dn * t.n + t.stiff_across * (dp - dn * t.n);
-            }
-            if (has_contact_terms()) {
-                out += contact_times(i, pi);
-            }
-        }
-        work[block(PRODUCT, i)] = vec4<f32>(out, 0.0);
-        partial = vec4<f32>(dot(pi, out), 0.0, 0.0, 0.0);
+        partial = apply_system_at(i);
     }
     store_partial(lid, wid, groups, partial, false);
 }
 
-// α = r·z / p·Ap; a solve whose p·Ap is not positive and finite stops where it is.
+// α = r·z / p·Ap, or the solve stops where it is.
 @compute @workgroup_size(64)
 fn cg_alpha(@builtin(local_invocation_index) lid: u32) {
     if (!solve_running(lid)) {
@@ -298,15 +338,15 @@ fn cg_alpha(@builtin(local_invocation_index) lid: u32) {
     sv.iterations += 1u;
     sv.total_iterations += 1u;
     sv.pap = t.x;
-    if (!(t.x > 0.0) || t.x > 3.4028235e38) {
-        sv.cg_active = 0u;
-    } else {
+    if (usable_curvature(t.x)) {
         sv.alpha = sv.rz / t.x;
+    } else {
+        sv.cg_active = 0u;
     }
     scratch.solver = sv;
 }
 
-// δ += α p, r −= α Ap, z = r / diag. Partials: (r·z, r·r).
+// Partials: (r·z, r·r).
 @compute @workgroup_size(64)
 fn cg_update(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -318,15 +358,9 @@ fn cg_update(
         return;
     }
     let i = thread_index(gid, groups);
-    let alpha = scratch.solver.alpha;
     var partial = vec4<f32>(0.0);
     if (i < params.mass_count) {
-        work[block(DV, i)] += alpha * work[block(DIRECTION, i)];
-        let r = work[block(RESIDUAL, i)].xyz - alpha * work[block(PRODUCT, i)].xyz;
-        let z = r / work[block(DIAGONAL, i)].xyz;
-        work[block(RESIDUAL, i)] = vec4<f32>(r, 0.0);
-        work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
-        partial = vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
+        partial = cg_update_at(i, scratch.solver.alpha);
     }
     store_partial(lid, wid, groups, partial, false);
 }
@@ -345,11 +379,10 @@ fn cg_beta(@builtin(local_invocation_index) lid: u32) {
     sv.beta = t.x / sv.rz;
     sv.rz = t.x;
     sv.residual = sqrt(t.y) / sv.scale;
-    sv.cg_active = select(0u, 1u, sv.residual > CG_TOLERANCE && sv.iterations < CG_MAX_ITERATIONS);
+    sv.cg_active = select(0u, 1u, cg_goes_on(sv.residual, sv.iterations));
     scratch.solver = sv;
 }
 
-// p = z + β p.
 @compute @workgroup_size(64)
 fn cg_direction(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -361,12 +394,11 @@ fn cg_direction(
     }
     let i = thread_index(gid, groups);
     if (i < params.mass_count) {
-        let beta = scratch.solver.beta;
-        work[block(DIRECTION, i)] = work[block(PRECONDITIONED, i)] + beta * work[block(DIRECTION, i)];
+        cg_direction_at(i, scratch.solver.beta);
     }
 }
 
-// Once the solve has stopped: Δv += δ. Partials: (max |δ|, max |Δv|).
+// Once the solve has stopped. Partials: (max |δ|, max |Δv|).
 @compute @workgroup_size(64)
 fn newton_update(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -380,15 +412,12 @@ fn newton_update(
     let i = thread_index(gid, groups);
     var partial = vec4<f32>(0.0);
     if (i < params.mass_count) {
-        let dv = work[block(DV, i)].xyz;
-        let total = work[block(DV_TOTAL, i)].xyz + dv;
-        work[block(DV_TOTAL, i)] = vec4<f32>(total, 0.0);
-        partial = vec4<f32>(length(dv), length(total), 0.0, 0.0);
+        partial = newton_update_at(i);
     }
     store_partial(lid, wid, groups, partial, true);
 }
 
-// Newton stops when its update is small against Δv (or Δv is below 1e-7 m/s).
+// Whether Newton has converged; the step's solve figures are booked for the snapshot.
 @compute @workgroup_size(64)
 fn newton_end(@builtin(local_invocation_index) lid: u32) {
     if (!newton_update_due(lid)) {
@@ -404,6 +433,7 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
     sv.max_residual = max(sv.max_residual, sv.residual);
     sv.step_norm = t.x;
     sv.size_norm = t.y;
-    sv.converged = select(0u, 1u, t.x <= NEWTON_TOLERANCE * t.y || t.x < 1e-7);
+    sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
     scratch.solver = sv;
+    book_solve(sv.total_iterations, sv.max_residual);
 }

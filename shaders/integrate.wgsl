@@ -9,24 +9,13 @@
 // [2i] acceleration, [2i+1] ledger rates, from the last compute_forces.
 @group(0) @binding(5) var<storage, read> deriv: array<vec4<f32>>;
 // Per-mass scratch. RK4 and Verlet: [3i] Σ weighted stage velocities, [3i+1] Σ weighted
-// accelerations, [3i+2] Σ weighted rates. Implicit Euler: the solver's vectors (block() in
-// common.wgsl), shared with implicit.wgsl.
+// accelerations, [3i+2] Σ weighted rates. (Implicit Euler's kernels are all in implicit.wgsl.)
 @group(0) @binding(6) var<storage, read_write> sums: array<vec4<f32>>;
 // Energy that left (damping, drag, contact) or entered (collider work) through this mass.
 @group(0) @binding(7) var<storage, read_write> ledger: array<vec4<f32>>;
 // [1]: u32::MAX − (index of the first step whose state went non-finite or ran away), 0 if none.
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
-
-// Flag the step if the new state of mass i is not finite or runs away (as src/backend.rs's
-// find_divergence): atomicMax of the complement keeps the earliest step.
-fn check_state(xi: vec3<f32>, vi: vec3<f32>) {
-    let limit = vec3<f32>(3.4028235e38);
-    let finite = all(abs(xi) <= limit) && all(abs(vi) <= limit);
-    if (!finite || length(vi) > params.runaway_speed) {
-        atomicMax(&counters[1], 0xFFFFFFFFu - stage.step);
-    }
-}
 
 fn acc(i: u32) -> vec3<f32> {
     return deriv[2u * i].xyz;
@@ -173,36 +162,5 @@ fn xpbd_update_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(
     let vn = d / stage.dt;
     v[i] = vec4<f32>(vn, 0.0);
     x[i] = vec4<f32>(x[i].xyz + d, 0.0);
-    check_state(x[i].xyz, vn);
-}
-
-// Implicit Euler (src/cpu/implicit.rs's implicit_step), the parts that touch the state: Δv starts
-// at zero; each Newton iterate is (x + h (v + Δv), v + Δv); the step ends at the last iterate.
-// The linear solves between are in implicit.wgsl.
-@compute @workgroup_size(64)
-fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
-    sums[block(DV_TOTAL, i)] = vec4<f32>(0.0);
-}
-
-@compute @workgroup_size(64)
-fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
-    let vk = v[i].xyz + sums[block(DV_TOTAL, i)].xyz;
-    vt[i] = vec4<f32>(vk, 0.0);
-    xt[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
-}
-
-// The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU).
-@compute @workgroup_size(64)
-fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
-    let vn = v[i].xyz + sums[block(DV_TOTAL, i)].xyz;
-    v[i] = vec4<f32>(vn, 0.0);
-    x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
-    ledger[i] += stage.dt * rate(i);
     check_state(x[i].xyz, vn);
 }

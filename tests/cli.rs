@@ -324,22 +324,32 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     assert!(text(&out.stdout).contains(
         "GPU step passes: compute_forces → rk2_stage → compute_forces → rk2_final → project_contacts → update_springs\n"
     ));
-    // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update.
-    let out = hooke(&[
-        "check",
-        "hair",
-        "--integrator",
-        "implicit",
-        "--backend",
-        "cpu",
-    ]);
-    let s = text(&out.stdout);
-    assert!(
-        s.contains(
-            "GPU step passes: implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final\n"
+    // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update; a small
+    // system's whole step in one workgroup's dispatch, a larger one's a dispatch per pass.
+    for (scene, passes) in [
+        (
+            "hair",
+            "implicit_step (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
         ),
-        "hair, implicit:\n{s}"
-    );
+        (
+            "cloth-64",
+            "implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final",
+        ),
+    ] {
+        let out = hooke(&[
+            "check",
+            scene,
+            "--integrator",
+            "implicit",
+            "--backend",
+            "cpu",
+        ]);
+        let s = text(&out.stdout);
+        assert!(
+            s.contains(&format!("GPU step passes: {passes}\n")),
+            "{scene}, implicit:\n{s}"
+        );
+    }
 }
 
 #[test]

@@ -12,4 +12,6 @@ pub use record::{
     RecordBench, RecordBenchOptions, RecordPass, format_record, peak_resident_bytes, record,
 };
 pub use soak::{Soak, format_soak, resident_bytes, soak};
-pub use throughput::{Throughput, ThroughputOptions, format_throughput, throughput};
+pub use throughput::{
+    Throughput, ThroughputOptions, format_throughput, throughput, throughput_json,
+};

@@ -1,4 +1,6 @@
-//! `hooke bench throughput`: how fast a backend steps a scene, headless and with no recording.
+//! `hooke bench throughput`: how fast a backend steps a scene, headless and with no recording;
+//! timed `repeat` times for a median and a spread, printed as text or as one JSON object per
+//! configuration (for scripts comparing runs).
 
 use std::fmt::Write as _;
 use std::sync::Arc;
@@ -6,6 +8,7 @@ use std::time::Instant;
 
 use crate::backend::{self, Backend as _};
 use crate::error::Result;
+use crate::gpu::DispatchCount;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::prepare::{self, Prepared, Request, SceneSource};
@@ -20,6 +23,8 @@ pub struct ThroughputOptions {
     pub steps: u32,
     /// Steps per submission on the GPU (the whole run is timed, so this is the batch size).
     pub batch: u32,
+    /// Timed runs of `steps` steps each, after one warm-up.
+    pub repeat: u32,
 }
 
 #[derive(Debug, Clone)]
@@ -30,8 +35,14 @@ pub struct Throughput {
     pub masses: usize,
     pub springs: usize,
     pub steps: u32,
+    pub batch: u32,
+    /// The wall time of each timed run, in run order.
+    pub runs_secs: Vec<f64>,
+    /// Their median.
     pub wall_secs: f64,
     pub memory_bytes: Option<u64>,
+    /// GPU: the dispatches of one step, as its plan records them.
+    pub dispatches: Option<DispatchCount>,
     /// GPU time per step of each kernel (ms), where the adapter has timestamp queries.
     pub kernels_ms: Option<Vec<(String, f64)>>,
     /// Compulsory bytes a GPU step moves (see `GpuBackend::bytes_per_step`).
@@ -39,8 +50,16 @@ pub struct Throughput {
 }
 
 impl Throughput {
+    /// At the median run's time.
     pub fn steps_per_sec(&self) -> f64 {
         f64::from(self.steps) / self.wall_secs
+    }
+    /// The slowest and the fastest run's steps/s.
+    pub fn steps_per_sec_spread(&self) -> (f64, f64) {
+        let per_sec = |secs: f64| f64::from(self.steps) / secs;
+        let slowest = self.runs_secs.iter().copied().fold(0.0, f64::max);
+        let fastest = self.runs_secs.iter().copied().fold(f64::INFINITY, f64::min);
+        (per_sec(slowest), per_sec(fastest))
     }
     /// Springs × steps per second: each spring's force evaluated once per force evaluation of a step.
     pub fn spring_updates_per_sec(&self) -> f64 {
@@ -74,13 +93,20 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
     // Warm-up: pipelines compiled, caches and clocks up.
     be.advance(batch.min(opts.steps).max(1))?;
     be.finish()?;
-    let start = Instant::now();
-    backend::advance_steps(be.as_mut(), u64::from(opts.steps), batch)?;
-    be.finish()?;
-    let wall_secs = start.elapsed().as_secs_f64();
+    let mut runs_secs = Vec::with_capacity(opts.repeat.max(1) as usize);
+    for _ in 0..opts.repeat.max(1) {
+        let start = Instant::now();
+        backend::advance_steps(be.as_mut(), u64::from(opts.steps), batch)?;
+        be.finish()?;
+        runs_secs.push(start.elapsed().as_secs_f64());
+    }
+    let wall_secs = median(&runs_secs);
     // The final state must still be sound, or the figure means nothing.
     be.snapshot(0, Default::default())?;
     // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
+    let gpu = opts.device.kind == BackendKind::Gpu;
+    let dispatches =
+        gpu.then(|| crate::gpu::dispatches_per_step(&model, settings.integrator, settings.options));
     let (kernels_ms, bytes_per_step) = match opts.device.kind {
         BackendKind::Gpu if settings.integrator != Integrator::Implicit => {
             profile(&model, &settings, opts)?
@@ -94,11 +120,26 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         masses: model.mass_count(),
         springs: model.spring_count(),
         steps: opts.steps,
+        batch,
+        runs_secs,
         wall_secs,
         memory_bytes: be.memory_bytes(),
+        dispatches,
         kernels_ms,
         bytes_per_step,
     })
+}
+
+/// The median of `xs` (the mean of the middle two of an even count); 0 for none.
+fn median(xs: &[f64]) -> f64 {
+    let mut sorted = xs.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let n = sorted.len();
+    match n {
+        0 => 0.0,
+        _ if n % 2 == 1 => sorted[n / 2],
+        _ => 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]),
+    }
 }
 
 /// Per-kernel GPU times from a separate, profiled run (timestamps around every dispatch would
@@ -132,6 +173,17 @@ pub fn format_throughput(t: &Throughput) -> String {
         t.wall_secs,
         t.backend
     );
+    if t.runs_secs.len() > 1 {
+        let (slow, fast) = t.steps_per_sec_spread();
+        let _ = write!(
+            s,
+            "\n    median of {} runs; spread {slow:.1} to {fast:.1} steps/s",
+            t.runs_secs.len()
+        );
+    }
+    if let Some(d) = t.dispatches {
+        let _ = write!(s, "\n    dispatches per step: {}", format_dispatches(d));
+    }
     if let Some(m) = t.memory_bytes {
         let _ = write!(
             s,
@@ -158,4 +210,55 @@ pub fn format_throughput(t: &Throughput) -> String {
         }
     }
     s
+}
+
+/// "2", or for implicit Euler a dispatch per pass "4 + 6 per Newton iteration + 5 per CG
+/// iteration".
+fn format_dispatches(d: DispatchCount) -> String {
+    let mut s = d.fixed.to_string();
+    if d.per_newton_iteration > 0 {
+        let _ = write!(s, " + {} per Newton iteration", d.per_newton_iteration);
+    }
+    if d.per_cg_iteration > 0 {
+        let _ = write!(s, " + {} per CG iteration", d.per_cg_iteration);
+    }
+    s
+}
+
+/// One configuration's figures as a JSON object on one line: what was run and on what, every
+/// run's time, the median and spread of steps/s and spring updates/s, and the GPU's dispatches,
+/// memory, traffic and kernel times where measured.
+pub fn throughput_json(t: &Throughput) -> String {
+    let (slow, fast) = t.steps_per_sec_spread();
+    let springs = t.springs as f64;
+    let value = serde_json::json!({
+        "scene": t.scene,
+        "backend": t.backend,
+        "integrator": t.integrator.name(),
+        "masses": t.masses,
+        "springs": t.springs,
+        "steps": t.steps,
+        "batch": t.batch,
+        "repeat": t.runs_secs.len(),
+        "runs_secs": t.runs_secs,
+        "steps_per_sec": {"median": t.steps_per_sec(), "min": slow, "max": fast},
+        "spring_updates_per_sec": {
+            "median": t.spring_updates_per_sec(),
+            "min": springs * slow,
+            "max": springs * fast,
+        },
+        "dispatches_per_step": t.dispatches.map(|d| serde_json::json!({
+            "fixed": d.fixed,
+            "per_newton_iteration": d.per_newton_iteration,
+            "per_cg_iteration": d.per_cg_iteration,
+        })),
+        "memory_bytes": t.memory_bytes,
+        "bytes_per_step": t.bytes_per_step,
+        "kernels_ms": t.kernels_ms.as_ref().map(|k| {
+            k.iter()
+                .map(|(name, ms)| (name.clone(), serde_json::json!(ms)))
+                .collect::<serde_json::Map<_, _>>()
+        }),
+    });
+    value.to_string()
 }

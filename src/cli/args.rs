@@ -187,6 +187,12 @@ pub enum BenchCommand {
         /// Also time each scene without each of its effects in turn: what each effect costs.
         #[arg(long)]
         effects: bool,
+        /// Timed runs of --steps steps each, after one warm-up: prints their median and spread.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+        repeat: u32,
+        /// Print one JSON object per line for each scene instead of text (for scripts).
+        #[arg(long, conflicts_with = "effects")]
+        json: bool,
     },
 }
 

@@ -63,14 +63,17 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             steps,
             batch,
             effects,
+            repeat,
+            json,
         } => {
             let opts = bench::ThroughputOptions {
                 device: device.device(),
                 integrator,
                 steps,
                 batch,
+                repeat,
             };
-            throughput(scenes, &opts, effects)?;
+            throughput(scenes, &opts, (effects, json))?;
         }
     }
     Ok(())
@@ -79,7 +82,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
 fn throughput(
     scenes: Vec<String>,
     opts: &bench::ThroughputOptions,
-    effects: bool,
+    (effects, json): (bool, bool),
 ) -> anyhow::Result<()> {
     let scenes = if scenes.is_empty() {
         vec!["cloth-64".to_owned(), "cloth-256".to_owned()]
@@ -92,6 +95,8 @@ fn throughput(
                 "{}",
                 bench::format_effect_costs(&bench::effect_costs(s, opts)?)
             );
+        } else if json {
+            println!("{}", bench::throughput_json(&bench::throughput(s, opts)?));
         } else {
             println!("{}", bench::format_throughput(&bench::throughput(s, opts)?));
         }

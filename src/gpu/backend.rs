@@ -11,7 +11,8 @@ use super::encode::{Dispatcher, in_pass};
 use super::implicit::ImplicitStep;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
-use super::plan::{Dispatch, SLOTS_PER_STEP, step_plan};
+use super::plan::implicit::Path;
+use super::plan::{self, Dispatch, SLOTS_PER_STEP, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
 use super::shaders::constants;
@@ -40,7 +41,9 @@ pub struct GpuBackend {
     pending: VecDeque<Pending>,
     /// Snapshots returned by the recorder, their buffers reused.
     spare: Vec<Snapshot>,
-    /// Implicit Euler: CG iterations to encode before a solve's first status read.
+    /// Implicit Euler: how its steps run, and CG iterations to encode before a solve's first
+    /// status read (the path of a dispatch per pass).
+    implicit_path: Option<Path>,
     cg_chunk: u32,
 }
 
@@ -61,8 +64,21 @@ impl GpuBackend {
     /// [`GpuBackend::new`] with the integrator's options (XPBD's iterations).
     pub fn with_options(
         model: Arc<Model>,
+        step: (Integrator, f64, StepOptions),
+        adapter: Option<&str>,
+    ) -> Result<Self, BackendError> {
+        let path = plan::implicit::path(&model);
+        Self::with_implicit_path(model, step, adapter, path)
+    }
+
+    /// As `with_options`, with implicit Euler's steps taken by `path` whatever the system's size
+    /// (the tests compare the two paths on one scene).
+    #[doc(hidden)]
+    pub fn with_implicit_path(
+        model: Arc<Model>,
         (integrator, dt_secs, options): (Integrator, f64, StepOptions),
         adapter: Option<&str>,
+        path: Path,
     ) -> Result<Self, BackendError> {
         let implicit = integrator == Integrator::Implicit;
         if implicit && model.effects.self_collision.is_some() {
@@ -71,7 +87,13 @@ impl GpuBackend {
         let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
-        let layouts = Layouts::new(device);
+        let needed = Needed {
+            implicit: implicit.then_some(path),
+            springs_change: model.effects.springs_change(),
+            mass_contact: model.effects.self_collision.is_some(),
+            xpbd: integrator == Integrator::Xpbd,
+        };
+        let layouts = Layouts::new(device, needed);
         let resources = Resources::new(
             device,
             &ctx.limits,
@@ -79,12 +101,6 @@ impl GpuBackend {
             &model,
             (integrator, dt_secs, options),
         );
-        let needed = Needed {
-            implicit,
-            springs_change: model.effects.springs_change(),
-            mass_contact: model.effects.self_collision.is_some(),
-            xpbd: integrator == Integrator::Xpbd,
-        };
         let pipelines = Pipelines::new(device, &layouts, &constants(&model, integrator), needed);
         let stages = StageSlots::new(
             device,
@@ -106,6 +122,7 @@ impl GpuBackend {
             advance_started: None,
             pending: VecDeque::new(),
             spare: Vec::new(),
+            implicit_path: needed.implicit,
             cg_chunk: 16,
         };
         backend.ctx.check()?;
@@ -177,22 +194,22 @@ impl GpuBackend {
             solver,
             post: &post,
         };
-        let (mut iterations, mut residual) = (0u32, 0.0f64);
-        let mut chunk = self.cg_chunk;
-        for k in 0..substeps {
-            // Every dispatch of step k reads slot 4k + 3, the step's end.
-            let status = step.run(SLOTS_PER_STEP * k + 3, &mut chunk)?;
-            iterations = iterations.max(status.total_iterations);
-            residual = residual.max(f64::from(status.max_residual));
+        // The solve's iterations and residual reach the snapshot, read back with the frame.
+        if self.implicit_path == Some(Path::InGroup) {
+            step.run_in_group(substeps)?;
+        } else {
+            let mut chunk = self.cg_chunk;
+            for k in 0..substeps {
+                // Every dispatch of step k reads slot 4k + 3, the step's end.
+                step.run(SLOTS_PER_STEP * k + 3, &mut chunk)?;
+            }
+            self.cg_chunk = chunk;
         }
-        self.cg_chunk = chunk;
         self.clock.advance(substeps);
         self.ctx.check()?;
         Ok(StepStats {
             substeps,
             dt_secs: f64::from(self.clock.dt),
-            solver_iterations: iterations,
-            solver_residual: residual,
             ..StepStats::default()
         })
     }
@@ -291,6 +308,19 @@ impl GpuBackend {
         })
     }
 
+    /// Implicit Euler's CG iterations and residual, the largest of any step of the frame, as the
+    /// device booked them.
+    fn with_solve(&self, stats: StepStats, (iterations, residual): (u32, f32)) -> StepStats {
+        if self.integrator != Integrator::Implicit {
+            return stats;
+        }
+        StepStats {
+            solver_iterations: iterations,
+            solver_residual: f64::from(residual),
+            ..stats
+        }
+    }
+
     fn snapshot_of(&self, p: &Pending, rb: ReadBack, spare: Option<Snapshot>) -> Snapshot {
         let mut collider_positions = spare.map(|s| s.collider_positions).unwrap_or_default();
         collider_positions.clear();
@@ -317,7 +347,7 @@ impl GpuBackend {
             stats: StepStats {
                 step_ms: p.started.map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3),
                 projections: rb.projections,
-                ..p.stats
+                ..self.with_solve(p.stats, rb.solve)
             },
             collider_positions,
         }

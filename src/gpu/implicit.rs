@@ -1,14 +1,20 @@
 //! Implicit Euler on the GPU, the host's side of `shaders/implicit.wgsl`: the same Newton
 //! iterations and conjugate-gradient solves as `crate::cpu`'s `implicit_step`, with the same
-//! stopping rules. Each Newton iteration is encoded with a chunk of CG iterations (as many as the
-//! last solve took) and the solver's status is read back after it; a solve that needs more gets
-//! further chunks, each twice as long. Kernels of a solve that has stopped do nothing, so a chunk
-//! longer than needed costs only empty dispatches.
+//! stopping rules, taken one of two ways (`plan::implicit::path`):
+//! - a small system's step is one dispatch of `implicit_step`, one workgroup deciding every
+//!   stopping rule on the device: a frame's steps go in one submission and nothing waits;
+//! - a larger one's Newton iteration is encoded with a chunk of CG iterations (as many as the last
+//!   solve took) and the solver's status is read back after it; a solve that needs more gets
+//!   further chunks, each twice as long. Kernels of a solve that has stopped do nothing, so a
+//!   chunk longer than needed costs only empty dispatches.
+//!
+//! Either way each step books its CG iterations and residual on the device, and the frame's
+//! snapshot reads them back (`readback.rs`).
 
 use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
 use super::layout::SolverStatus;
-use super::plan::{Dispatch, implicit::*};
+use super::plan::{Dispatch, SLOTS_PER_STEP, implicit::*};
 use super::resources::SolverBuffers;
 use crate::backend::BackendError;
 use crate::cpu::NEWTON_MAX_ITERATIONS;
@@ -26,24 +32,47 @@ pub struct ImplicitStep<'a> {
 }
 
 impl ImplicitStep<'_> {
+    /// `steps` steps of a small system, one dispatch each (with the post-step passes), in one
+    /// submission; nothing waits. Step k reads stage slot 4k + 3, its end.
+    pub fn run_in_group(&self, steps: u32) -> Result<(), BackendError> {
+        let label = "implicit steps";
+        let mut enc = self.ctx.encoder(label);
+        in_pass(&mut enc, label, |pass| {
+            (0..steps).try_for_each(|k| {
+                let slot = SLOTS_PER_STEP * k + 3;
+                self.kernels.dispatch_all(pass, &IN_GROUP, slot)?;
+                self.post_step(pass, slot)
+            })
+        })?;
+        self.ctx.queue.submit([enc.finish()]);
+        Ok(())
+    }
+
+    /// The passes every integrator runs after its step; they read the step's slot too.
+    fn post_step(&self, pass: &mut wgpu::ComputePass<'_>, slot: u32) -> Result<(), BackendError> {
+        self.post.iter().try_for_each(|d| {
+            self.kernels
+                .dispatch(pass, Dispatch { slot: 0, ..*d }, slot)
+        })
+    }
+
     /// One backward Euler step whose every dispatch reads stage slot `slot`: the step's end time
     /// (backward Euler evaluates forces there), its dt and its index (for the divergence check).
     /// `chunk`: CG iterations to encode before the first status read, the last solve's count;
-    /// updated. Returns the solver's status at the step's end.
-    pub fn run(&self, slot: u32, chunk: &mut u32) -> Result<SolverStatus, BackendError> {
+    /// updated.
+    pub fn run(&self, slot: u32, chunk: &mut u32) -> Result<(), BackendError> {
         let label = "implicit step";
         let mut enc = self.ctx.encoder(label);
         in_pass(&mut enc, label, |pass| {
             self.kernels.dispatch_all(pass, &BEGIN, slot)
         })?;
-        let mut status = SolverStatus::default();
         for _ in 0..NEWTON_MAX_ITERATIONS {
             let mut cg = *chunk;
             in_pass(&mut enc, label, |pass| {
                 self.kernels.dispatch_all(pass, &NEWTON_BEGIN, slot)?;
                 self.encode_cg(pass, cg, slot)
             })?;
-            status = self.submit_and_read_status(enc)?;
+            let mut status = self.submit_and_read_status(enc)?;
             while status.cg_active != 0 {
                 cg *= 2;
                 enc = self.ctx.encoder(label);
@@ -58,15 +87,10 @@ impl ImplicitStep<'_> {
         }
         in_pass(&mut enc, label, |pass| {
             self.kernels.dispatch_all(pass, &END, slot)?;
-            // The post-step passes read this step's slot too.
-            for d in self.post {
-                self.kernels
-                    .dispatch(pass, Dispatch { slot: 0, ..*d }, slot)?;
-            }
-            Ok(())
+            self.post_step(pass, slot)
         })?;
         self.ctx.queue.submit([enc.finish()]);
-        Ok(status)
+        Ok(())
     }
 
     /// `iterations` CG iterations, then the Newton update (which waits for the solve to stop).

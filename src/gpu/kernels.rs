@@ -62,9 +62,12 @@ impl Group {
             Group::Reduce => &[
                 Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
             ],
-            // params, springs, offsets, neighbours, mass, xt, deriv, work, scratch.
+            // params, springs, offsets, neighbours, colliders, mass, deriv, x, v, xt, vt, work,
+            // ledger, counters, scratch, each CSR entry's spring terms: implicit_step does the
+            // whole step in one dispatch.
             Group::Solve => &[
-                Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
+                Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
+                ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
             ],
             // params, springs, limits, x, released, partials.
             Group::Springs => &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
@@ -103,8 +106,10 @@ pub enum Threads {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Needs {
     Always,
-    /// The implicit integrator.
-    Implicit,
+    /// The implicit integrator, a dispatch per pass (larger systems).
+    ImplicitPasses,
+    /// The implicit integrator, the whole step in one workgroup (small systems).
+    ImplicitInGroup,
     /// Plasticity or tearing.
     SpringsChange,
     /// Mass–mass contact.
@@ -255,14 +260,9 @@ kernels! {
         group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
         bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
     }
-    ImplicitBegin = implicit_begin in Integrate {
-        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
-    }
-    ImplicitIterate = implicit_iterate in Integrate {
-        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
-    }
-    ImplicitFinal = implicit_final in Integrate {
-        group: Integrate, threads: Masses, needs: Implicit, cpu: (implicit),
+    // ---- implicit.wgsl: implicit Euler, a whole step in one workgroup (small systems) ----
+    ImplicitStep = implicit_step in Implicit {
+        group: Solve, threads: OneGroup, needs: ImplicitInGroup, cpu: (implicit),
     }
 
     XpbdPredict = xpbd_predict in Integrate {
@@ -284,40 +284,49 @@ kernels! {
         bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
     }
 
-    // ---- implicit.wgsl: implicit Euler's linear solves ----
+    // ---- implicit.wgsl: the same step a dispatch per pass (larger systems) ----
+    ImplicitBegin = implicit_begin in Implicit {
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    }
+    ImplicitIterate = implicit_iterate in Implicit {
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    }
+    ImplicitFinal = implicit_final in Implicit {
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    }
     SolverBegin = solver_begin in Implicit {
-        group: Solve, threads: OneGroup, needs: Implicit,
+        group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "resets the solver's status, which the CPU keeps in locals of its solve",
     }
     ImplicitRhs = implicit_rhs in Implicit {
-        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
     }
     CgBegin = cg_begin in Implicit {
-        group: Solve, threads: OneGroup, needs: Implicit,
+        group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "sums the per-workgroup partials of implicit_rhs; the CPU takes the dot products whole",
     }
     ApplySystem = apply_system in Implicit {
-        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
     }
     CgAlpha = cg_alpha in Implicit {
-        group: Solve, threads: OneGroup, needs: Implicit,
+        group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "sums the per-workgroup partials of apply_system; the CPU takes the dot product whole",
     }
     CgUpdate = cg_update in Implicit {
-        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
     }
     CgBeta = cg_beta in Implicit {
-        group: Solve, threads: OneGroup, needs: Implicit,
+        group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "sums the per-workgroup partials of cg_update; the CPU takes the dot products whole",
     }
     CgDirection = cg_direction in Implicit {
-        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
     }
     NewtonUpdate = newton_update in Implicit {
-        group: Solve, threads: Masses, needs: Implicit, cpu: (implicit),
+        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
     }
     NewtonEnd = newton_end in Implicit {
-        group: Solve, threads: OneGroup, needs: Implicit,
+        group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
     }
 

@@ -12,6 +12,8 @@ const IMPLICIT_VECTORS: u64 = 7;
 
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
 const STORAGE_BUFFERS_NEEDED: u32 = 8;
+/// Implicit Euler's: implicit_step reads and writes everything a step touches (implicit.wgsl).
+const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
@@ -52,6 +54,14 @@ pub fn check_fits(
         ("springs", 20 * ns),
         ("adjacency", 16 * ns),
         (
+            "implicit spring terms",
+            if integrator == Integrator::Implicit {
+                64 * ns
+            } else {
+                0
+            },
+        ),
+        (
             "mass-contact hash grid",
             model.effects.self_collision.map_or(0, |_| {
                 4 * (u64::from(crate::cpu::table_size(n as usize)) + 1)
@@ -78,11 +88,16 @@ pub fn check_fits(
         });
     }
     let allowed = ctx.limits.max_storage_buffers_per_shader_stage;
-    if allowed < STORAGE_BUFFERS_NEEDED {
+    let needed = if integrator == Integrator::Implicit {
+        IMPLICIT_STORAGE_BUFFERS_NEEDED
+    } else {
+        STORAGE_BUFFERS_NEEDED
+    };
+    if allowed < needed {
         return Err(AdapterError::TooFewStorageBuffers {
             adapter: ctx.describe(),
             allowed,
-            needed: STORAGE_BUFFERS_NEEDED,
+            needed,
         });
     }
     Ok(())

@@ -38,5 +38,6 @@ pub use context::{
 };
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
-pub use plan::step_passes;
+pub use plan::implicit::{Path as ImplicitPath, path as implicit_path};
+pub use plan::{DispatchCount, dispatches_per_step, step_passes};
 pub use shaders::programs;

@@ -2,12 +2,14 @@
 //! kernel the run needs, each WGSL file compiled once, only if one of its kernels is needed.
 
 use super::kernels::{Group, Kernel, Needs, Slot};
+use super::plan::implicit::Path;
 use super::shaders::Program;
 
-/// Bind group 0 of every kernel group; 1, the state a force evaluation reads (x and v); 2, the
-/// stage slot (a dynamic uniform offset).
+/// Bind group 0 of every kernel group the run needs (implicit Euler's binds more storage buffers
+/// than other runs may have); 1, the state a force evaluation reads (x and v); 2, the stage slot
+/// (a dynamic uniform offset).
 pub struct Layouts {
-    groups: Vec<wgpu::BindGroupLayout>,
+    groups: Vec<Option<wgpu::BindGroupLayout>>,
     pub state: wgpu::BindGroupLayout,
     pub stage: wgpu::BindGroupLayout,
 }
@@ -50,7 +52,7 @@ fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroup
 }
 
 impl Layouts {
-    pub fn new(device: &wgpu::Device) -> Self {
+    pub fn new(device: &wgpu::Device, needed: Needed) -> Self {
         let stage = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stage"),
             entries: &[entry(0, buffer(wgpu::BufferBindingType::Uniform, true))],
@@ -58,32 +60,40 @@ impl Layouts {
         Self {
             groups: Group::ALL
                 .iter()
-                .map(|g| layout(device, &format!("{g:?}"), g.slots()))
+                .map(|&g| {
+                    let used = Kernel::ALL
+                        .iter()
+                        .any(|k| k.spec().group == g && needed.has(k.spec().needs));
+                    used.then(|| layout(device, &format!("{g:?}"), g.slots()))
+                })
                 .collect(),
             state: layout(device, "forces state", &[Slot::Read, Slot::Read]),
             stage,
         }
     }
 
-    pub fn group(&self, g: Group) -> &wgpu::BindGroupLayout {
-        &self.groups[g as usize]
+    /// `None` for a group no kernel of the run uses.
+    pub fn group(&self, g: Group) -> Option<&wgpu::BindGroupLayout> {
+        self.groups[g as usize].as_ref()
     }
 }
 
 /// What a run needs compiled.
 #[derive(Debug, Clone, Copy)]
 pub struct Needed {
-    pub implicit: bool,
+    /// Implicit Euler, and how its step runs.
+    pub implicit: Option<Path>,
     pub springs_change: bool,
     pub mass_contact: bool,
     pub xpbd: bool,
 }
 
 impl Needed {
-    fn has(self, needs: Needs) -> bool {
+    pub fn has(self, needs: Needs) -> bool {
         match needs {
             Needs::Always => true,
-            Needs::Implicit => self.implicit,
+            Needs::ImplicitPasses => self.implicit == Some(Path::Passes),
+            Needs::ImplicitInGroup => self.implicit == Some(Path::InGroup),
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
             Needs::Xpbd => self.xpbd,
@@ -124,7 +134,7 @@ impl Pipelines {
                 let module = modules[k.spec().program as usize].as_ref();
                 module
                     .filter(|_| wanted(k))
-                    .map(|m| pipeline(device, layouts, constants, *k, m))
+                    .and_then(|m| pipeline(device, layouts, constants, *k, m))
             })
             .collect();
         Self { by_kernel }
@@ -142,23 +152,29 @@ fn pipeline(
     constants: &[(&str, f64)],
     k: Kernel,
     module: &wgpu::ShaderModule,
-) -> wgpu::ComputePipeline {
+) -> Option<wgpu::ComputePipeline> {
     let spec = k.spec();
     let state = spec.reads_state.then_some(&layouts.state);
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(spec.entry),
-        bind_group_layouts: &[Some(layouts.group(spec.group)), state, Some(&layouts.stage)],
+        bind_group_layouts: &[
+            Some(layouts.group(spec.group)?),
+            state,
+            Some(&layouts.stage),
+        ],
         immediate_size: 0,
     });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(spec.entry),
-        layout: Some(&layout),
-        module,
-        entry_point: Some(spec.entry),
-        compilation_options: wgpu::PipelineCompilationOptions {
-            constants,
-            zero_initialize_workgroup_memory: false,
-        },
-        cache: None,
-    })
+    Some(
+        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(spec.entry),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(spec.entry),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        }),
+    )
 }

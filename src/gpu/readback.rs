@@ -38,6 +38,9 @@ pub struct ReadBack {
     pub projections: u32,
     /// Index, within the last submission of steps, of the first step whose state went bad.
     pub first_bad_step: Option<u32>,
+    /// Implicit Euler: the most CG iterations of a step since the last read-back, and the
+    /// largest residual.
+    pub solve: (u32, f32),
 }
 
 /// Where each part of a snapshot lies in a staging buffer, in bytes.
@@ -183,5 +186,6 @@ pub fn decode(
         non_finite: bad > 0.0 || !max_speed.is_finite(),
         projections: counters[0],
         first_bad_step: (counters[1] != 0).then(|| u32::MAX - counters[1]),
+        solve: (counters[2], f32::from_bits(counters[3])),
     }
 }

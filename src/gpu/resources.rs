@@ -115,8 +115,11 @@ impl GroupSet<'_> {
     fn set(&mut self, g: Group, buffers: &[&wgpu::Buffer]) {
         debug_assert_eq!(buffers.len(), g.slots().len(), "{g:?}");
         let label = format!("{g:?}");
-        let bg = bind_group(self.device, self.layouts.group(g), &label, buffers);
-        self.groups[g as usize] = Some(bg);
+        // A group no kernel of the run uses has no layout, and is never bound.
+        self.groups[g as usize] = self
+            .layouts
+            .group(g)
+            .map(|layout| bind_group(self.device, layout, &label, buffers));
     }
 
     /// The groups every run binds.
@@ -220,17 +223,20 @@ impl Resources {
             groups.springs(&mut a, &b, model, dt_secs);
         }
         let solver = (integrator == Integrator::Implicit)
-            .then(|| SolverBuffers::new(&mut a, &b, &mut groups, workgroups.masses));
-        let xpbd = (integrator == Integrator::Xpbd).then(|| {
-            let setup = XpbdSetup {
-                layout: layouts.group(Group::XpbdSolve),
-                dt_secs,
-                iterations: options.xpbd_iterations,
-                uniform_align: limits.min_uniform_buffer_offset_alignment,
-                max_per_dim: max_dim,
-            };
-            XpbdBuffers::new(&mut a, &b, model, &setup)
-        });
+            .then(|| SolverBuffers::new(&mut a, (&b, model), &mut groups, workgroups.masses));
+        let xpbd_layout = layouts.group(Group::XpbdSolve);
+        let xpbd = xpbd_layout
+            .filter(|_| integrator == Integrator::Xpbd)
+            .map(|layout| {
+                let setup = XpbdSetup {
+                    layout,
+                    dt_secs,
+                    iterations: options.xpbd_iterations,
+                    uniform_align: limits.min_uniform_buffer_offset_alignment,
+                    max_per_dim: max_dim,
+                };
+                XpbdBuffers::new(&mut a, &b, model, &setup)
+            });
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
             workgroups.buckets = groups_for(grid.table_size, max_dim);
@@ -287,10 +293,17 @@ impl Resources {
 
 impl SolverBuffers {
     /// The solver's status, then one partial sum per mass workgroup.
-    fn new(a: &mut Alloc<'_>, b: &Bufs, groups: &mut GroupSet<'_>, masses: (u32, u32)) -> Self {
+    fn new(
+        a: &mut Alloc<'_>,
+        (b, model): (&Bufs, &Model),
+        groups: &mut GroupSet<'_>,
+        masses: (u32, u32),
+    ) -> Self {
         let status_bytes = std::mem::size_of::<SolverStatus>();
         let scratch = a.zeros("solver", status_bytes + 16 * (masses.0 * masses.1) as usize);
         let status = a.read_back("solver status", status_bytes as u64);
+        // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
+        let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
         groups.set(
             Group::Solve,
             &[
@@ -298,11 +311,18 @@ impl SolverBuffers {
                 &b.springs,
                 &b.offsets,
                 &b.neighbors,
+                &b.colliders,
                 &b.mass,
-                &b.xt,
                 &b.deriv,
+                &b.x,
+                &b.v,
+                &b.xt,
+                &b.vt,
                 &b.sums,
+                &b.ledger,
+                &b.counters,
                 &scratch,
+                &terms,
             ],
         );
         Self { scratch, status }

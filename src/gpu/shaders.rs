@@ -1,11 +1,15 @@
 //! The WGSL programs and the override constants they are compiled with. Each file is compiled
-//! after `common.wgsl`; the effects a scene lacks are specialised away through `override`
-//! constants.
+//! after `common.wgsl` and the function libraries it calls; the effects a scene lacks are
+//! specialised away through `override` constants.
 
 use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
 const COMMON: &str = include_str!("../../shaders/common.wgsl");
+/// Libraries: functions over bindings that each file calling them declares.
+const MASS_FORCE: &str = include_str!("../../shaders/mass_force.wgsl");
+const STATE_CHECK: &str = include_str!("../../shaders/state_check.wgsl");
+const IMPLICIT_TERMS: &str = include_str!("../../shaders/implicit_terms.wgsl");
 
 /// A WGSL file of kernels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,9 +42,19 @@ impl Program {
         self.file_and_source().0
     }
 
-    /// `common.wgsl`, then the file.
+    /// `common.wgsl`, the libraries the file calls, then the file.
     pub fn source(self) -> String {
-        format!("{COMMON}\n{}", self.file_and_source().1)
+        let libraries: &[&str] = match self {
+            Program::Forces => &[MASS_FORCE],
+            Program::Integrate => &[STATE_CHECK],
+            Program::Implicit => &[MASS_FORCE, STATE_CHECK, IMPLICIT_TERMS],
+            _ => &[],
+        };
+        format!(
+            "{COMMON}\n{}\n{}",
+            libraries.join("\n"),
+            self.file_and_source().1
+        )
     }
 
     fn file_and_source(self) -> (&'static str, &'static str) {
@@ -88,7 +102,7 @@ const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
 /// Every override constant of a pipeline: the effects, and the implicit solver's switch and
 /// stopping rules (the CPU's, so both backends stop alike).
 pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
-    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_TOLERANCE};
+    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
     c.extend([
@@ -98,6 +112,7 @@ pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f6
         ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
+        ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
     ]);
     c
 }

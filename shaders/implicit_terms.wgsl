@@ -1,0 +1,173 @@
+// Implicit Euler's arithmetic, written once for both ways implicit.wgsl runs a step: the stopping
+// rules of src/cpu/implicit.rs, and each pass over the masses as a function of one mass (the *_at
+// functions, named for the CPU functions they mirror). implicit.wgsl declares the bindings.
+
+// ---- the stopping rules, as src/cpu/implicit.rs's ----
+
+// Whether CG goes on at relative residual `residual` after `iterations` iterations.
+fn cg_goes_on(residual: f32, iterations: u32) -> bool {
+    return residual > CG_TOLERANCE && iterations < CG_MAX_ITERATIONS;
+}
+
+// A solve whose p·Ap is not positive and finite stops where it is.
+fn usable_curvature(pap: f32) -> bool {
+    return pap > 0.0 && pap <= 3.4028235e38;
+}
+
+// Newton stops when its update is small against Δv (or Δv is below 1e-7 m/s).
+fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
+    return step_norm <= NEWTON_TOLERANCE * size_norm || step_norm < 1e-7;
+}
+
+// A finished step's CG iterations and residual, kept for the frame's snapshot.
+fn book_solve(iterations: u32, residual: f32) {
+    atomicMax(&counters[2], iterations);
+    atomicMax(&counters[3], bitcast<u32>(residual));
+}
+
+// ---- the system, per mass ----
+
+struct SpringTerms {
+    n: vec3<f32>,
+    // h²k along n, h²k·max(0, 1 − L/l) across it, h c along it.
+    stiff_along: f32,
+    stiff_across: f32,
+    damp_along: f32,
+}
+
+// One spring's share of the system at the iterate, seen from mass i (src/cpu/implicit.rs's
+// linearise; the sign of n does not matter, the terms are in n nᵀ).
+fn spring_terms(i: u32, nb: Neighbor) -> SpringTerms {
+    let s = springs[nb.spring];
+    let d = x_in[i].xyz - x_in[nb.other].xyz;
+    let len = length(d);
+    var t = SpringTerms(vec3<f32>(0.0), 0.0, 0.0, 0.0);
+    if (len > MIN_SPRING_LENGTH) {
+        let h = stage.dt;
+        let k = h * h * s.stiffness;
+        t.n = d * (1.0 / len);
+        t.stiff_along = k;
+        t.stiff_across = k * max(1.0 - s.rest / len, 0.0);
+        if (HAS_DAMPING) {
+            t.damp_along = h * s.damping;
+        }
+    }
+    return t;
+}
+
+fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
+    let n2 = 2u * params.mass_count;
+    let d = deriv[n2 + 2u * i].xyz;
+    let o = deriv[n2 + 2u * i + 1u].xyz;
+    return vec3<f32>(
+        d.x * p.x + o.x * p.y + o.y * p.z,
+        o.x * p.x + d.y * p.y + o.z * p.z,
+        o.y * p.x + o.z * p.y + d.z * p.z,
+    );
+}
+
+fn own_mass_term(i: u32) -> f32 {
+    var drag = 0.0;
+    if (HAS_DRAG) {
+        drag = params.drag_per_s;
+    }
+    return mass[i].x * (1.0 + stage.dt * drag);
+}
+
+// ---- the passes, per mass: src/cpu/implicit.rs's functions of the same names ----
+
+fn implicit_begin_at(i: u32) {
+    work[block(DV_TOTAL, i)] = vec4<f32>(0.0);
+}
+
+fn implicit_iterate_at(i: u32) {
+    let vk = v[i].xyz + work[block(DV_TOTAL, i)].xyz;
+    v_in[i] = vec4<f32>(vk, 0.0);
+    x_in[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
+}
+
+// The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU).
+fn implicit_final_at(i: u32) {
+    let vn = v[i].xyz + work[block(DV_TOTAL, i)].xyz;
+    v[i] = vec4<f32>(vn, 0.0);
+    x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
+    ledger[i] += stage.dt * deriv[2u * i + 1u];
+    check_state(x[i].xyz, vn);
+}
+
+// Newton's right-hand side h f − M Δv, the Jacobi diagonal, and the solve's start from δ = 0:
+// r = b, z = r / diag, p = z. Returns (r·z, b·b).
+fn implicit_rhs_at(i: u32) -> vec4<f32> {
+    var b = vec3<f32>(0.0);
+    var diag = vec3<f32>(1.0);
+    if (mass[i].y != 0.0) {
+        let m = mass[i].x;
+        b = stage.dt * m * deriv[2u * i].xyz - m * work[block(DV_TOTAL, i)].xyz;
+        diag = vec3<f32>(own_mass_term(i));
+        if (has_contact_terms()) {
+            diag += deriv[2u * params.mass_count + 2u * i].xyz;
+        }
+        let end = offsets[i + 1u];
+        for (var e = offsets[i]; e < end; e++) {
+            let t = spring_terms(i, neighbors[e]);
+            let along = t.stiff_along + t.damp_along;
+            terms[2u * e] = vec4<f32>(t.n, along);
+            terms[2u * e + 1u] = vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0);
+            diag += along * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
+        }
+    }
+    let z = b / diag;
+    work[block(DV, i)] = vec4<f32>(0.0);
+    work[block(RESIDUAL, i)] = vec4<f32>(b, 0.0);
+    work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
+    work[block(DIRECTION, i)] = vec4<f32>(z, 0.0);
+    work[block(DIAGONAL, i)] = vec4<f32>(diag, 0.0);
+    return vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
+}
+
+// Ap = (M − h D − h² K) p, pinned rows and columns filtered out. Returns (p·Ap).
+fn apply_system_at(i: u32) -> vec4<f32> {
+    var out = vec3<f32>(0.0);
+    let pi = work[block(DIRECTION, i)].xyz;
+    if (mass[i].y != 0.0) {
+        out = own_mass_term(i) * pi;
+        let end = offsets[i + 1u];
+        for (var e = offsets[i]; e < end; e++) {
+            // The terms implicit_rhs_at stored. A pinned neighbour's p is always 0 (its b is 0 and
+            // its row is filtered), so its column drops out without reading its mass.
+            let t = terms[2u * e];
+            let stiff_across = terms[2u * e + 1u].x;
+            let dp = pi - work[block(DIRECTION, neighbors[e].other)].xyz;
+            let dn = dot(t.xyz, dp);
+            out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
+        }
+        if (has_contact_terms()) {
+            out += contact_times(i, pi);
+        }
+    }
+    work[block(PRODUCT, i)] = vec4<f32>(out, 0.0);
+    return vec4<f32>(dot(pi, out), 0.0, 0.0, 0.0);
+}
+
+// δ += α p, r −= α Ap, z = r / diag. Returns (r·z, r·r).
+fn cg_update_at(i: u32, alpha: f32) -> vec4<f32> {
+    work[block(DV, i)] += alpha * work[block(DIRECTION, i)];
+    let r = work[block(RESIDUAL, i)].xyz - alpha * work[block(PRODUCT, i)].xyz;
+    let z = r / work[block(DIAGONAL, i)].xyz;
+    work[block(RESIDUAL, i)] = vec4<f32>(r, 0.0);
+    work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
+    return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
+}
+
+// p = z + β p.
+fn cg_direction_at(i: u32, beta: f32) {
+    work[block(DIRECTION, i)] = work[block(PRECONDITIONED, i)] + beta * work[block(DIRECTION, i)];
+}
+
+// Δv += δ. Returns (|δ|, |Δv|), to be maxed.
+fn newton_update_at(i: u32) -> vec4<f32> {
+    let dv = work[block(DV, i)].xyz;
+    let total = work[block(DV_TOTAL, i)].xyz + dv;
+    work[block(DV_TOTAL, i)] = vec4<f32>(total, 0.0);
+    return vec4<f32>(length(dv), length(total), 0.0, 0.0);
+}

@@ -1,0 +1,152 @@
+//! `hooke bench throughput --json --repeat N` end to end: one JSON object per scene that a script
+//! can parse, as many timed runs as asked, their median and spread consistent with the run times,
+//! and on the GPU the dispatches one step records.
+
+mod common;
+
+use common::{gpu_available, hooke, text};
+use serde_json::Value;
+
+fn json_lines(args: &[&str]) -> Vec<Value> {
+    let out = hooke(args);
+    assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
+    text(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: not JSON: {l}")))
+        .collect()
+}
+
+fn num(v: &Value, path: &[&str]) -> f64 {
+    let mut at = v;
+    for key in path {
+        at = &at[*key];
+    }
+    at.as_f64()
+        .unwrap_or_else(|| panic!("{path:?} is not a number in {v}"))
+}
+
+#[test]
+fn json_has_one_object_per_scene_with_every_run_and_its_median_and_spread() {
+    let args = [
+        "bench",
+        "throughput",
+        "hair",
+        "jello",
+        "--backend",
+        "cpu",
+        "--steps",
+        "30",
+        "--repeat",
+        "3",
+        "--json",
+    ];
+    let objects = json_lines(&args);
+    assert_eq!(objects.len(), 2, "{objects:?}");
+    for (o, (scene, masses, springs)) in objects
+        .iter()
+        .zip([("hair", 100, 185), ("jello", 1000, 12876)])
+    {
+        assert_eq!(o["scene"], scene);
+        assert_eq!(o["masses"], masses);
+        assert_eq!(o["springs"], springs);
+        assert_eq!(o["steps"], 30);
+        assert_eq!(o["repeat"], 3);
+        assert!(
+            o["dispatches_per_step"].is_null(),
+            "the CPU dispatches nothing: {o}"
+        );
+        let runs: Vec<f64> = o["runs_secs"]
+            .as_array()
+            .unwrap_or_else(|| panic!("no runs_secs in {o}"))
+            .iter()
+            .filter_map(Value::as_f64)
+            .collect();
+        assert_eq!(runs.len(), 3, "{o}");
+        assert!(runs.iter().all(|s| *s > 0.0), "{o}");
+        // The median run and the extremes, as steps/s and spring updates/s.
+        let mut sorted = runs.clone();
+        sorted.sort_by(f64::total_cmp);
+        let per_sec = |secs: f64| 30.0 / secs;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        for (key, expect) in [
+            ("median", per_sec(sorted[1])),
+            ("min", per_sec(sorted[2])),
+            ("max", per_sec(sorted[0])),
+        ] {
+            let got = num(o, &["steps_per_sec", key]);
+            assert!(close(got, expect), "{scene} {key}: {got} vs {expect}");
+            let updates = num(o, &["spring_updates_per_sec", key]);
+            assert!(
+                close(updates, springs as f64 * expect),
+                "{scene} {key}: {updates}"
+            );
+        }
+    }
+}
+
+#[test]
+fn text_says_the_median_of_the_runs_and_the_gpu_dispatches_per_step() {
+    let out = hooke(&[
+        "bench",
+        "throughput",
+        "hair",
+        "--backend",
+        "cpu",
+        "--steps",
+        "20",
+        "--repeat",
+        "2",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    assert!(s.contains("median of 2 runs; spread "), "{s}");
+    assert!(!s.contains("dispatches per step"), "{s}");
+    if !gpu_available() {
+        return;
+    }
+    // Semi-implicit Euler: the forces, then the update. Implicit Euler on hair: the whole step in
+    // one workgroup's dispatch; on jello (contacts) a dispatch per pass, as `hooke check` lists.
+    for (scene, integrator, fixed, per_newton, per_cg) in [
+        ("hair", "semi-implicit", 2, 0, 0),
+        ("hair", "implicit", 1, 0, 0),
+        ("jello", "implicit", 3, 6, 5),
+    ] {
+        let o = &json_lines(&[
+            "bench",
+            "throughput",
+            scene,
+            "--integrator",
+            integrator,
+            "--steps",
+            "2",
+            "--batch",
+            "1",
+            "--json",
+        ])[0];
+        let d = &o["dispatches_per_step"];
+        assert_eq!(
+            (
+                &d["fixed"],
+                &d["per_newton_iteration"],
+                &d["per_cg_iteration"]
+            ),
+            (&fixed.into(), &per_newton.into(), &per_cg.into()),
+            "{scene} {integrator}: {o}"
+        );
+    }
+}
+
+#[test]
+fn json_is_refused_with_effects_and_repeat_must_be_positive() {
+    for args in [
+        ["--json", "--effects"].as_slice(),
+        ["--repeat", "0"].as_slice(),
+    ] {
+        let mut all = vec!["bench", "throughput", "hair", "--backend", "cpu"];
+        all.extend_from_slice(args);
+        let out = hooke(&all);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        let err = text(&out.stderr);
+        assert!(err.contains(args[0]), "{args:?}: {err}");
+    }
+}

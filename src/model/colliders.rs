@@ -125,9 +125,9 @@ impl Shape {
     /// in the precision of the vectors given (f32 for the backends, f64 for the reference).
     /// Mirrors `penetration` in shaders/common.wgsl, operation for operation.
     #[inline(always)]
-    pub fn penetration<V: Vector>(&self, center: V, x: V) -> Option<(V::Real, V)>
+    pub fn penetration<V>(&self, center: V, x: V) -> Option<(V::Real, V)>
     where
-        V: Sub<Output = V> + Mul<V::Real, Output = V> + Div<V::Real, Output = V>,
+        V: Vector + Sub<Output = V> + Mul<V::Real, Output = V> + Div<V::Real, Output = V>,
     {
         let zero = <V::Real as Real>::ZERO;
         let one = <V::Real as Real>::ONE;

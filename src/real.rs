@@ -44,95 +44,68 @@ pub trait Real:
     fn of_vec(v: Vec3) -> Self::V;
 }
 
-/// The backends' precision. `MIN_SPRING_LENGTH` is `MIN_SPRING_LENGTH` in shaders/common.wgsl.
-impl Real for f32 {
-    type V = Vec3;
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const V_ZERO: Vec3 = Vec3::ZERO;
-    const MIN_SPRING_LENGTH: Self = f32::MIN_POSITIVE * 1e6;
-    #[inline(always)]
-    fn of(x: f32) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f32::sqrt(self)
-    }
-    #[inline(always)]
-    fn max(self, other: Self) -> Self {
-        f32::max(self, other)
-    }
-    #[inline(always)]
-    fn min(self, other: Self) -> Self {
-        f32::min(self, other)
-    }
-    #[inline(always)]
-    fn dot(a: Vec3, b: Vec3) -> Self {
-        a.dot(b)
-    }
-    #[inline(always)]
-    fn length(v: Vec3) -> Self {
-        v.length()
-    }
-    #[inline(always)]
-    fn abs(v: Vec3) -> Vec3 {
-        v.abs()
-    }
-    #[inline(always)]
-    fn components(v: Vec3) -> [Self; 3] {
-        v.to_array()
-    }
-    #[inline(always)]
-    fn of_vec(v: Vec3) -> Vec3 {
-        v
-    }
+/// `Real` for a float type and its glam vector: the same calls on either, an f32 value or `Vec3`
+/// widened losslessly (`From`; for f32 the identity).
+macro_rules! real {
+    ($(#[$doc:meta])* $t:ident, $v:ident) => {
+        $(#[$doc])*
+        impl Real for $t {
+            type V = $v;
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const V_ZERO: $v = $v::ZERO;
+            const MIN_SPRING_LENGTH: Self = f32::MIN_POSITIVE as $t * 1e6;
+            #[inline(always)]
+            fn of(x: f32) -> Self {
+                <$t>::from(x)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn max(self, other: Self) -> Self {
+                <$t>::max(self, other)
+            }
+            #[inline(always)]
+            fn min(self, other: Self) -> Self {
+                <$t>::min(self, other)
+            }
+            #[inline(always)]
+            fn dot(a: $v, b: $v) -> Self {
+                a.dot(b)
+            }
+            #[inline(always)]
+            fn length(v: $v) -> Self {
+                v.length()
+            }
+            #[inline(always)]
+            fn abs(v: $v) -> $v {
+                v.abs()
+            }
+            #[inline(always)]
+            fn components(v: $v) -> [Self; 3] {
+                v.to_array()
+            }
+            #[inline(always)]
+            fn of_vec(v: Vec3) -> $v {
+                <$v>::from(v)
+            }
+        }
+    };
 }
 
-/// The reference solution's precision.
-impl Real for f64 {
-    type V = DVec3;
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const V_ZERO: DVec3 = DVec3::ZERO;
-    const MIN_SPRING_LENGTH: Self = f32::MIN_POSITIVE as f64 * 1e6;
-    #[inline(always)]
-    fn of(x: f32) -> Self {
-        f64::from(x)
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn max(self, other: Self) -> Self {
-        f64::max(self, other)
-    }
-    #[inline(always)]
-    fn min(self, other: Self) -> Self {
-        f64::min(self, other)
-    }
-    #[inline(always)]
-    fn dot(a: DVec3, b: DVec3) -> Self {
-        a.dot(b)
-    }
-    #[inline(always)]
-    fn length(v: DVec3) -> Self {
-        v.length()
-    }
-    #[inline(always)]
-    fn abs(v: DVec3) -> DVec3 {
-        v.abs()
-    }
-    #[inline(always)]
-    fn components(v: DVec3) -> [Self; 3] {
-        v.to_array()
-    }
-    #[inline(always)]
-    fn of_vec(v: Vec3) -> DVec3 {
-        v.as_dvec3()
-    }
-}
+real!(
+    /// The backends' precision. `MIN_SPRING_LENGTH` is `MIN_SPRING_LENGTH` in
+    /// shaders/common.wgsl.
+    f32,
+    Vec3
+);
+real!(
+    /// The reference solution's precision.
+    f64,
+    DVec3
+);
 
 /// A 3-vector and its float type: lets a function generic over the precision take plain vectors
 /// (`Vec3` or `DVec3`) and still know its [`Real`].

@@ -149,7 +149,8 @@ struct Collider {
 }
 
 // Depth of x inside collider c placed at `center` and the outward normal, as (normal, depth);
-// depth ≤ 0 when outside. Mirrors Shape::penetration in src/model.rs, operation for operation.
+// depth ≤ 0 when outside. Mirrors Shape::penetration in src/model/colliders.rs, operation for
+// operation.
 fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
     let r = x - center;
     if (HAS_SPHERES && c.kind == SPHERE) {

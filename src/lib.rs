@@ -21,6 +21,7 @@ pub mod model;
 pub mod pacing;
 pub mod prepare;
 pub mod progress;
+pub mod real;
 pub mod record;
 pub mod recording_size;
 pub mod reference;

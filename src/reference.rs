@@ -123,7 +123,7 @@ fn force_on_mass(
         }
     }
     for (c, (center, u)) in fx.colliders.iter().zip(poses) {
-        if let Some((depth, n)) = c.shape.penetration_f64(*center, xi) {
+        if let Some((depth, n)) = c.shape.penetration(*center, xi) {
             f += contact_force(&c.contact, depth, n, vi - *u, mass, dt, 1.0).0;
         }
     }

@@ -7,7 +7,7 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use common::{hooke, hooke_command, read_rrd, temp_dir, text};
+use common::{cpu_run, file_size, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text};
 
 #[test]
 fn scenes_lists_every_built_in_with_a_description() {
@@ -71,39 +71,17 @@ fn a_recording_without_its_footer_still_holds_every_frame() {
     // --no-rrd-footer: for long runs, Rerun's file sink keeps no chunk index in memory.
     let dir = temp_dir("nofooter");
     let path = dir.join("hair.rrd");
-    let out = hooke(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--frames",
-        "30",
-        "--save",
-        &path.to_string_lossy(),
-        "--no-rrd-footer",
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    save_cpu_run("hair", 30, &path, &["--no-rrd-footer"]);
     let frames = &read_rrd(&path).frames["/world/strand_0/masses"];
     assert_eq!(frames, &(0..=30).collect::<BTreeSet<i64>>());
     // The same run with its footer is larger by the index.
     let indexed = dir.join("indexed.rrd");
-    let out = hooke(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--frames",
-        "30",
-        "--save",
-        &indexed.to_string_lossy(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+    save_cpu_run("hair", 30, &indexed, &[]);
     assert!(
-        size(&path) < size(&indexed),
+        file_size(&path) < file_size(&indexed),
         "no footer: {} bytes, with footer: {} bytes",
-        size(&path),
-        size(&indexed)
+        file_size(&path),
+        file_size(&indexed)
     );
     let _ = std::fs::remove_dir_all(dir);
 }
@@ -111,22 +89,12 @@ fn a_recording_without_its_footer_still_holds_every_frame() {
 #[test]
 fn recordings_show_the_tear_and_every_collider() {
     let dir = temp_dir("effects");
-    let frames = 70i64;
+    let frames = 70;
     for scene in ["tear", "ramp"] {
         let path = dir.join(format!("{scene}.rrd"));
-        let out = hooke(&[
-            "run",
-            scene,
-            "--backend",
-            "cpu",
-            "--frames",
-            &frames.to_string(),
-            "--save",
-            &path.to_string_lossy(),
-        ]);
-        assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+        save_cpu_run(scene, frames, &path, &[]);
         let e = read_rrd(&path);
-        let every: BTreeSet<i64> = (0..=frames).collect();
+        let every: BTreeSet<i64> = (0..=frames as i64).collect();
         let on_timeline: &[&str] = if scene == "tear" {
             &[
                 "/stats/broken_springs",
@@ -408,16 +376,10 @@ fn a_diverging_run_says_where_and_keeps_its_good_frames() {
     let dir = temp_dir("diverge");
     let path = dir.join("hair.rrd");
     // Forward Euler at the hair scene's dt is 19 times past its stable step.
-    let out = hooke(&[
-        "run",
+    let out = hooke(&cpu_run(
         "hair",
-        "--backend",
-        "cpu",
-        "--integrator",
-        "euler",
-        "--save",
-        &path.to_string_lossy(),
-    ]);
+        &["--integrator", "euler", "--save", &path.to_string_lossy()],
+    ));
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -456,21 +418,12 @@ fn an_interrupted_recording_keeps_every_frame_it_produced() {
     for signal in ["-INT", "-TERM"] {
         let dir = temp_dir(&format!("signal{signal}"));
         let path = dir.join("cloth.rrd");
-        let run = common::Running::start(&[
-            "run",
+        let run = common::Running::start(&cpu_run(
             "cloth",
-            "--backend",
-            "cpu",
-            "--duration",
-            "600",
-            "--save",
-            &path.to_string_lossy(),
-        ]);
+            &["--duration", "600", "--save", &path.to_string_lossy()],
+        ));
         // Wait until frames are being written.
-        common::wait_for(
-            || std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) >= 200_000,
-            "the run to start writing",
-        );
+        common::wait_for(|| file_size(&path) >= 200_000, "the run to start writing");
         run.signal(signal);
         let (code, err) = run.finish();
         assert_eq!(code, Some(130), "{signal}: {err}");

@@ -10,7 +10,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use common::{gpu_available, hooke, hooke_command, read_rrd, temp_dir, text};
+use common::{
+    cpu_run, file_size, gpu_available, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text,
+};
 use hooke::backend::{Backend, BackendError};
 use hooke::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
@@ -263,16 +265,7 @@ fn long_cloth_run(path: &Path) -> Vec<&str> {
     let path = path
         .to_str()
         .unwrap_or_else(|| panic!("{}", path.display()));
-    vec![
-        "run",
-        "cloth",
-        "--backend",
-        "cpu",
-        "--frames",
-        "2000",
-        "--save",
-        path,
-    ]
+    cpu_run("cloth", &["--frames", "2000", "--save", path])
 }
 
 /// Run `args` with the file size limited to `limit` bytes (what `ulimit -f` sets).
@@ -333,7 +326,7 @@ fn a_file_size_limit_mid_recording_keeps_every_frame_written_and_says_so() {
     assert!(!line.contains("viewer"), "blames a viewer: {line}");
     let (after, count) = frames_said(line);
     assert_eq!(count, after + 1, "{line}");
-    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let size = file_size(&path);
     assert!(size <= limit, "{size} bytes");
     let rec = read_rrd(&path);
     assert_eq!(
@@ -371,7 +364,7 @@ fn a_full_disk_warns_first_then_stops_with_the_frames_written() {
     let out = hooke(&long_cloth_run(&path));
     let err = text(&out.stderr);
     let rec = std::panic::catch_unwind(|| read_rrd(&path));
-    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let size = file_size(&path);
     let _ = std::process::Command::new("umount").arg(&dir).status();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(
@@ -457,16 +450,7 @@ fn geometry_below_f32_resolution_is_refused_clearly() {
 #[test]
 fn error_messages_say_each_cause_once() {
     let missing = "/nonexistent-hooke-dir/x.rrd";
-    let out = hooke(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--frames",
-        "2",
-        "--save",
-        missing,
-    ]);
+    let out = hooke(&cpu_run("hair", &["--frames", "2", "--save", missing]));
     let err = text(&out.stderr);
     assert!(!out.status.success());
     let line = err
@@ -509,18 +493,8 @@ fn the_recording_size_estimate_matches_a_real_recording() {
                 .unwrap_or_else(|| panic!("{line}")),
         );
         let path = dir.join(format!("{scene}.rrd"));
-        let out = hooke(&[
-            "run",
-            scene,
-            "--backend",
-            "cpu",
-            "--frames",
-            "60",
-            "--save",
-            &path.to_string_lossy(),
-        ]);
-        assert!(out.status.success(), "{}", text(&out.stderr));
-        let real = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) as f64 / 61.0;
+        save_cpu_run(scene, 60, &path, &[]);
+        let real = file_size(&path) as f64 / 61.0;
         assert!(
             (0.5..=2.0).contains(&(per_frame / real)),
             "{scene}: estimated {per_frame:.0} B per frame, recorded {real:.0}"

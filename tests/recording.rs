@@ -1,85 +1,22 @@
 //! What a recording holds, read back from the .rrd with Rerun's own decoder and compared with the
 //! snapshots it was made from: surfaces (triangles, vertex positions and colours, tearing),
-//! spring lines and their hover values, the strain histogram, `--springs`, and `--realtime`.
+//! spring lines and their hover values, the strain histogram, and the documented vertex strain.
+//! What the recording options give is in tests/recording_options.rs.
 
 mod common;
 
-use std::collections::{BTreeMap, BTreeSet, HashSet};
-use std::path::Path;
+use std::collections::{BTreeMap, HashSet};
 use std::sync::Arc;
 
-use common::{hooke, temp_dir, text};
-
+use common::record::{Rows, at_frame, read_components, record, stepped};
+use common::temp_dir;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::model::Model;
-use hooke::record::{
-    MORE_SERIES, Plot, RecordOptions, Recorder, SERIES, SpringSelection, strain_color, surface,
-};
+use hooke::record::{RecordOptions, SpringSelection, strain_color, surface};
 use hooke::state::Snapshot;
 use rerun::Loggable as _;
-use rerun::external::arrow::array::{
-    Array as _, ArrayRef, BooleanArray, Float32Array, StringArray, UInt32Array,
-};
-use rerun::log::{Chunk, LogMsg};
-
-/// One logged row of a component: its frame (`None`: static) and its values.
-type Rows = Vec<(Option<i64>, ArrayRef)>;
-
-/// Decode an .rrd with Rerun's decoder: per (entity, component), every row logged.
-fn read_components(path: &Path) -> BTreeMap<(String, String), Rows> {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut out: BTreeMap<(String, String), Rows> = BTreeMap::new();
-    for msg in re_log_encoding::DecoderApp::decode_lazy(std::io::BufReader::new(file)) {
-        let msg = msg.unwrap_or_else(|e| panic!("decoding {}: {e}", path.display()));
-        let LogMsg::ArrowMsg(_, arrow) = msg else {
-            continue;
-        };
-        let chunk = Chunk::from_arrow_msg(&arrow).unwrap_or_else(|e| panic!("{e}"));
-        let frames = chunk
-            .timelines()
-            .iter()
-            .find(|(name, _)| name.as_str() == "frame")
-            .map(|(_, col)| col.times_raw().to_vec());
-        for id in chunk.components_identifiers() {
-            let Some(list) = chunk.components().get_array(id) else {
-                continue;
-            };
-            let rows = out
-                .entry((chunk.entity_path().to_string(), id.to_string()))
-                .or_default();
-            for i in 0..list.len() {
-                if list.is_valid(i) {
-                    let frame = frames.as_ref().map(|f| f[i]);
-                    rows.push((frame, list.value(i)));
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The row of `component` on `entity` in force at `frame` (the latest at or before it, or static).
-fn at_frame<'a>(
-    c: &'a BTreeMap<(String, String), Rows>,
-    entity: &str,
-    component: &str,
-    frame: i64,
-) -> &'a ArrayRef {
-    let rows = c
-        .get(&(entity.to_owned(), component.to_owned()))
-        .unwrap_or_else(|| {
-            panic!(
-                "no {component} on {entity}; have {:?}",
-                c.keys().filter(|(e, _)| e == entity).collect::<Vec<_>>()
-            )
-        });
-    rows.iter()
-        .filter(|(f, _)| f.is_none_or(|f| f <= frame))
-        .max_by_key(|(f, _)| f.unwrap_or(i64::MIN))
-        .map(|(_, a)| a)
-        .unwrap_or_else(|| panic!("{entity} {component}: nothing at frame {frame}"))
-}
+use rerun::external::arrow::array::{Array as _, ArrayRef, Float32Array, StringArray};
 
 fn positions(a: &ArrayRef) -> Vec<Vec3> {
     rerun::components::Position3D::from_arrow(a)
@@ -114,54 +51,6 @@ fn floats(a: &ArrayRef) -> Vec<f32> {
         .unwrap_or_else(|| panic!("not f32: {:?}", a.data_type()))
         .values()
         .to_vec()
-}
-
-/// A scene's model, stepped `frames` frames on the CPU, and the snapshots of frame 0 and the last.
-fn stepped(scene: &str, frames: u64) -> (hooke::scene::LoadedScene, Arc<Model>, Vec<Snapshot>) {
-    let loaded = hooke::scene::load(scene).unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
-    let mut be = hooke::cpu::CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
-    let first = be
-        .snapshot(0, Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    for _ in 0..frames {
-        be.advance(settings.substeps)
-            .unwrap_or_else(|e| panic!("{e}"));
-    }
-    let last = be
-        .snapshot(frames, Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    (loaded, model, vec![first, last])
-}
-
-/// Record `snaps` with the hooke recorder into `path`.
-fn record(
-    loaded: &hooke::scene::LoadedScene,
-    model: &Arc<Model>,
-    snaps: &[Snapshot],
-    opts: RecordOptions,
-    path: &Path,
-) {
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let rec = rerun::RecordingStreamBuilder::new("hooke-test")
-        .save(path)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut r = Recorder::new(
-        rec.clone(),
-        model.clone(),
-        loaded.scene.view.strain_range,
-        opts,
-    );
-    r.log_static(&loaded.scene.name, &loaded.text, &settings, "test")
-        .unwrap_or_else(|e| panic!("{e}"));
-    for s in snaps {
-        r.log_snapshot(s).unwrap_or_else(|e| panic!("{e}"));
-    }
-    drop(r);
-    rec.flush_blocking().unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// Grid coordinates of a body's local mass index.
@@ -448,164 +337,6 @@ fn the_strain_histogram_counts_every_spring_in_its_bin() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// Entities of a recording made by `hooke run` with `args`.
-fn run_entities(name: &str, args: &[&str]) -> BTreeSet<String> {
-    let dir = temp_dir(name);
-    let path = dir.join("run.rrd");
-    let path_s = path.to_string_lossy().into_owned();
-    let mut all = vec!["run"];
-    all.extend_from_slice(args);
-    all.extend_from_slice(&["--backend", "cpu", "--save", &path_s]);
-    let out = hooke(&all);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let entities = read_components(&path).into_keys().map(|(e, _)| e).collect();
-    let _ = std::fs::remove_dir_all(dir);
-    entities
-}
-
-#[test]
-fn springs_none_logs_no_lines_and_structural_only_the_structural_springs() {
-    for scene in ["hair", "cloth", "jello"] {
-        let e = run_entities(scene, &[scene, "--frames", "3", "--springs", "none"]);
-        let lines: Vec<&String> = e.iter().filter(|p| p.ends_with("/springs")).collect();
-        assert!(lines.is_empty(), "{scene}: {lines:?}");
-    }
-    // Structural: exactly the structural springs, as hover kinds say.
-    let (loaded, model, snaps) = stepped("cloth", 1);
-    let dir = temp_dir("structural");
-    let path = dir.join("cloth.rrd");
-    let opts = RecordOptions {
-        springs: Some(SpringSelection::Structural),
-        masses: false,
-    };
-    record(&loaded, &model, &snaps, opts, &path);
-    let c = read_components(&path);
-    let kinds = at_frame(&c, "/world/cloth/springs", "kind", 0);
-    let kinds = kinds
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap_or_else(|| panic!("kind is not text"));
-    let structural = model
-        .spring_kind
-        .iter()
-        .filter(|k| **k == hooke::model::SpringKindTag::Structural)
-        .count();
-    assert_eq!(kinds.len(), structural);
-    assert!((0..kinds.len()).all(|i| kinds.value(i) == "structural"));
-    let _ = std::fs::remove_dir_all(dir);
-}
-
-#[test]
-fn a_large_sheet_leaves_its_springs_out_by_default_and_masses_are_on_demand() {
-    let default = run_entities("large", &["cloth-64", "--frames", "1"]);
-    assert!(default.contains("/world/cloth/surface"));
-    assert!(default.contains("/world/cloth/pins"));
-    assert!(!default.contains("/world/cloth/springs"), "{default:?}");
-    assert!(!default.contains("/world/cloth/masses"), "{default:?}");
-    let asked = run_entities(
-        "large-asked",
-        &["cloth-64", "--frames", "1", "--springs", "all", "--masses"],
-    );
-    assert!(asked.contains("/world/cloth/springs"));
-    assert!(asked.contains("/world/cloth/masses"));
-}
-
-#[test]
-fn realtime_never_delivers_a_frame_before_its_time() {
-    let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
-    let be = Box::new(hooke::cpu::CpuBackend::new(
-        model,
-        settings.integrator,
-        settings.dt_secs,
-    ));
-    let pacer = hooke::pacing::Pacer::start(settings.frame_rate_hz);
-    let mut paced = hooke::pacing::Paced::new(be, pacer);
-    let (tx, rx) = crossbeam_channel::bounded(64);
-    let frames = 12;
-    let cancel = std::sync::atomic::AtomicBool::new(false);
-    let received = std::thread::scope(|s| {
-        let receiver = s.spawn(|| {
-            rx.iter()
-                .map(|snap: Snapshot| (snap.frame, pacer.started().elapsed()))
-                .collect::<Vec<_>>()
-        });
-        let out = hooke::sim::simulate(
-            &mut paced,
-            frames,
-            settings.substeps,
-            &tx,
-            hooke::sim::Delivery::Lossless,
-            &cancel,
-            None,
-        );
-        drop(tx);
-        assert_eq!(out.frames_sent, frames + 1);
-        receiver
-            .join()
-            .unwrap_or_else(|_| panic!("receiver panicked"))
-    });
-    assert_eq!(received.len(), frames as usize + 1);
-    for (frame, at) in received {
-        let due = pacer.due(frame);
-        assert!(
-            at >= due,
-            "frame {frame} delivered at {at:?}, due at {due:?}"
-        );
-    }
-}
-
-#[test]
-fn realtime_from_the_command_line_takes_at_least_the_simulated_time() {
-    let dir = temp_dir("realtime");
-    let path = dir.join("hair.rrd");
-    let start = std::time::Instant::now();
-    // 30 frames at 60 Hz: half a second of simulated time.
-    let out = hooke(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--frames",
-        "30",
-        "--realtime",
-        "--save",
-        &path.to_string_lossy(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(start.elapsed() >= std::time::Duration::from_millis(500));
-    let _ = std::fs::remove_dir_all(dir);
-}
-
-#[test]
-fn bad_recording_options_are_one_clear_error() {
-    let out = hooke(&["run", "cloth", "--springs", "some"]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
-    assert!(
-        err.contains("--springs") && err.contains("all") && err.contains("structural"),
-        "{err}"
-    );
-    let out = hooke(&["bench", "record", "cloth", "--frames", "0"]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
-    assert!(err.contains("--frames") && err.contains('0'), "{err}");
-    let out = hooke(&["run", "cloth", "--masses=yes"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("--masses"), "{err}");
-}
-
 #[test]
 fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_structural_spring() {
     let (_, model, snaps) = stepped("jello", 10);
@@ -616,92 +347,4 @@ fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_struct
     let want = strain_at_masses(&model, snap);
     assert_eq!(got, want);
     assert!(got.iter().any(|s| *s < 0.0) && got.iter().any(|s| *s > 0.0));
-}
-
-#[test]
-fn every_plot_hides_its_legend_and_every_series_has_its_own_colour() {
-    let dir = temp_dir("legends");
-    let path = dir.join("run.rrd");
-    let path_s = path.to_string_lossy().into_owned();
-    let out = hooke(&[
-        "run",
-        "cloth",
-        "--frames",
-        "2",
-        "--backend",
-        "cpu",
-        "--integrator",
-        "implicit",
-        "--save",
-        &path_s,
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let c = read_components(&path);
-    let strings = |a: &ArrayRef| -> Vec<String> {
-        let a = a
-            .as_any()
-            .downcast_ref::<StringArray>()
-            .unwrap_or_else(|| panic!("not strings: {a:?}"));
-        (0..a.len()).map(|i| a.value(i).to_owned()).collect()
-    };
-    // Every plot of the layout (time series and bar chart) has a hidden legend.
-    let plots: Vec<&String> = c
-        .iter()
-        .filter(|((_, comp), _)| comp.ends_with("class_identifier"))
-        .filter(|(_, rows)| {
-            rows.iter().any(|(_, a)| {
-                strings(a)
-                    .iter()
-                    .any(|s| s == "TimeSeries" || s == "BarChart")
-            })
-        })
-        .map(|((e, _), _)| e)
-        .collect();
-    assert_eq!(plots.len(), 5, "4 time-series plots and the histogram");
-    for view in plots {
-        let legend = format!("{view}/PlotLegend");
-        let rows = c
-            .iter()
-            .find(|((e, comp), _)| *e == legend && comp.ends_with("visible"))
-            .map(|(_, rows)| rows)
-            .unwrap_or_else(|| panic!("{legend} has no visibility"));
-        let (_, a) = &rows[0];
-        let b = a
-            .as_any()
-            .downcast_ref::<BooleanArray>()
-            .unwrap_or_else(|| panic!("not a bool: {a:?}"));
-        assert!(!b.value(0), "{legend} is shown");
-    }
-    // Within each plot, the series the run logs have distinct colours, so that they read
-    // without a legend; the legend document names them.
-    for plot in [Plot::Energy, Plot::Strain, Plot::Millis, Plot::Count] {
-        let mut colours = BTreeSet::new();
-        for s in SERIES.iter().chain(&MORE_SERIES).filter(|s| s.plot == plot) {
-            let Some((_, rows)) = c.iter().find(|((e, comp), _)| {
-                e.trim_start_matches('/') == s.path && comp.ends_with("colors")
-            }) else {
-                continue;
-            };
-            let a = rows[0]
-                .1
-                .as_any()
-                .downcast_ref::<UInt32Array>()
-                .unwrap_or_else(|| panic!("{}: colours not u32", s.path));
-            assert!(colours.insert(a.value(0)), "{} shares a colour", s.path);
-        }
-        assert!(!colours.is_empty(), "{plot:?} has no series");
-    }
-    let legend = c
-        .iter()
-        .find(|((e, comp), _)| e == "/legend" && comp.ends_with("text"))
-        .map(|(_, rows)| strings(&rows[0].1).concat())
-        .unwrap_or_default();
-    for s in [
-        "CG iterations **cyan**",
-        "kinetic **orange**",
-        "stepping **blue**",
-    ] {
-        assert!(legend.contains(s), "legend lacks {s:?}: {legend}");
-    }
-    let _ = std::fs::remove_dir_all(dir);
 }

@@ -12,7 +12,7 @@ use std::io::{Read as _, Write as _};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use common::{Running, free_port, read_rrd, wait_for};
+use common::{Running, cpu_run, file_size, free_port, read_rrd, wait_for};
 
 const STUB_PORT_ENV: &str = "HOOKE_TEST_STUB_VIEWER_PORT";
 
@@ -59,22 +59,18 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let path = dir.join("hair.rrd");
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let mut run = Running::start(&[
-        "run",
+    let mut run = Running::start(&cpu_run(
         "hair",
-        "--backend",
-        "cpu",
-        "--duration",
-        "3600",
-        "--connect",
-        &url,
-        "--save",
-        &path.to_string_lossy(),
-    ]);
-    wait_for(
-        || std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) > 200_000,
-        "frames in the file",
-    );
+        &[
+            "--duration",
+            "3600",
+            "--connect",
+            &url,
+            "--save",
+            &path.to_string_lossy(),
+        ],
+    ));
+    wait_for(|| file_size(&path) > 200_000, "frames in the file");
     viewer.kill().unwrap_or_else(|e| panic!("{e}"));
     let _ = viewer.wait();
     let said = run.expect("went away");
@@ -83,9 +79,9 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
         "{said}"
     );
     // Still recording: the file keeps growing after the viewer left.
-    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    let size = file_size(&path);
     wait_for(
-        || std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) > size + 100_000,
+        || file_size(&path) > size + 100_000,
         "the file to grow after the viewer went away",
     );
     run.signal("-INT");
@@ -110,16 +106,7 @@ fn a_viewer_that_goes_away_stops_a_run_that_records_nowhere_else() {
     let port = free_port();
     let mut viewer = start_stub_viewer(port);
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let mut run = Running::start(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--duration",
-        "3600",
-        "--connect",
-        &url,
-    ]);
+    let mut run = Running::start(&cpu_run("hair", &["--duration", "3600", "--connect", &url]));
     run.expect("hooke: 'hair'");
     std::thread::sleep(Duration::from_secs(2));
     viewer.kill().unwrap_or_else(|e| panic!("{e}"));
@@ -139,16 +126,7 @@ fn a_viewer_that_goes_away_stops_a_run_that_records_nowhere_else() {
 fn connecting_to_no_viewer_is_a_clear_error() {
     let port = free_port();
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let run = Running::start(&[
-        "run",
-        "hair",
-        "--backend",
-        "cpu",
-        "--duration",
-        "3600",
-        "--connect",
-        &url,
-    ]);
+    let run = Running::start(&cpu_run("hair", &["--duration", "3600", "--connect", &url]));
     let (code, err) = run.finish();
     assert_eq!(code, Some(1), "{err}");
     assert!(
@@ -214,21 +192,20 @@ fn dechunk(mut rest: &[u8]) -> Vec<u8> {
 #[test]
 fn serve_hosts_the_web_viewer_and_the_recording() {
     let (grpc, web) = (free_port(), free_port());
-    let mut run = Running::start(&[
-        "run",
+    let mut run = Running::start(&cpu_run(
         "hair",
-        "--backend",
-        "cpu",
-        "--frames",
-        "30",
-        "--serve",
-        "--bind",
-        "127.0.0.1",
-        "--grpc-port",
-        &grpc.to_string(),
-        "--web-viewer-port",
-        &web.to_string(),
-    ]);
+        &[
+            "--frames",
+            "30",
+            "--serve",
+            "--bind",
+            "127.0.0.1",
+            "--grpc-port",
+            &grpc.to_string(),
+            "--web-viewer-port",
+            &web.to_string(),
+        ],
+    ));
     let page = run.expect("serving the web viewer at");
     assert!(
         page.contains(&format!(

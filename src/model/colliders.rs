@@ -1,9 +1,12 @@
 //! What masses collide with: the ground, moving spheres, boxes and planes, other masses, and the
 //! contact response of each, in the form the force evaluation uses.
 
+use std::ops::{Div, Mul, Sub};
+
 use glam::Vec3;
 
 use crate::contact_law::damping_ratio_for_restitution;
+use crate::real::{Real, Vector};
 use crate::scene;
 
 /// Contact response of one collider, in the form the force evaluation uses.
@@ -118,69 +121,46 @@ pub enum Shape {
 }
 
 impl Shape {
-    /// Depth of `x` inside the shape placed at `center`, and the outward unit normal, when inside.
+    /// Depth of `x` inside the shape placed at `center`, and the outward unit normal, when inside;
+    /// in the precision of the vectors given (f32 for the backends, f64 for the reference).
     /// Mirrors `penetration` in shaders/common.wgsl, operation for operation.
     #[inline(always)]
-    pub fn penetration(&self, center: Vec3, x: Vec3) -> Option<(f32, Vec3)> {
+    pub fn penetration<V>(&self, center: V, x: V) -> Option<(V::Real, V)>
+    where
+        V: Vector + Sub<Output = V> + Mul<V::Real, Output = V> + Div<V::Real, Output = V>,
+    {
+        let zero = <V::Real as Real>::ZERO;
+        let one = <V::Real as Real>::ONE;
+        let of_vec = <V::Real as Real>::of_vec;
         let r = x - center;
         match *self {
             Shape::Sphere { radius_m } => {
-                let dist = r.length();
-                let depth = radius_m - dist;
-                (depth > 0.0 && dist > 0.0).then(|| (depth, r / dist))
+                let dist = <V::Real as Real>::length(r);
+                let depth = <V::Real as Real>::of(radius_m) - dist;
+                (depth > zero && dist > zero).then(|| (depth, r / dist))
             }
             Shape::Box { half_extents_m } => {
-                let q = r.abs() - half_extents_m;
+                let q = <V::Real as Real>::abs(r) - of_vec(half_extents_m);
+                let [qx, qy, qz] = <V::Real as Real>::components(q);
                 // The face nearest the point: the axis where it is least deep (first on ties).
-                let (axis, gap) = if q.x >= q.y && q.x >= q.z {
-                    (Vec3::X, q.x)
-                } else if q.y >= q.z {
-                    (Vec3::Y, q.y)
+                let (axis, gap) = if qx >= qy && qx >= qz {
+                    (of_vec(Vec3::X), qx)
+                } else if qy >= qz {
+                    (of_vec(Vec3::Y), qy)
                 } else {
-                    (Vec3::Z, q.z)
+                    (of_vec(Vec3::Z), qz)
                 };
-                let side = if r.dot(axis) < 0.0 { -1.0 } else { 1.0 };
-                (gap < 0.0).then(|| (-gap, axis * side))
+                let side = if <V::Real as Real>::dot(r, axis) < zero {
+                    -one
+                } else {
+                    one
+                };
+                (gap < zero).then(|| (-gap, axis * side))
             }
             Shape::Plane { normal } => {
-                let depth = -r.dot(normal);
-                (depth > 0.0).then_some((depth, normal))
-            }
-        }
-    }
-}
-
-impl Shape {
-    /// [`Shape::penetration`] in f64, for the reference solution.
-    pub fn penetration_f64(
-        &self,
-        center: glam::DVec3,
-        x: glam::DVec3,
-    ) -> Option<(f64, glam::DVec3)> {
-        use glam::DVec3;
-        let r = x - center;
-        match *self {
-            Shape::Sphere { radius_m } => {
-                let dist = r.length();
-                let depth = f64::from(radius_m) - dist;
-                (depth > 0.0 && dist > 0.0).then(|| (depth, r / dist))
-            }
-            Shape::Box { half_extents_m } => {
-                let q = r.abs() - half_extents_m.as_dvec3();
-                let (axis, gap) = if q.x >= q.y && q.x >= q.z {
-                    (DVec3::X, q.x)
-                } else if q.y >= q.z {
-                    (DVec3::Y, q.y)
-                } else {
-                    (DVec3::Z, q.z)
-                };
-                let side = if r.dot(axis) < 0.0 { -1.0 } else { 1.0 };
-                (gap < 0.0).then(|| (-gap, axis * side))
-            }
-            Shape::Plane { normal } => {
-                let n = normal.as_dvec3();
-                let depth = -r.dot(n);
-                (depth > 0.0).then_some((depth, n))
+                let n = of_vec(normal);
+                let depth = -<V::Real as Real>::dot(r, n);
+                (depth > zero).then_some((depth, n))
             }
         }
     }
@@ -306,5 +286,43 @@ mod tests {
             Some((0.5, Vec3::Y))
         );
         assert_eq!(floor.penetration(Vec3::Y, Vec3::new(0.0, 1.5, 0.0)), None);
+    }
+
+    #[test]
+    fn the_reference_precision_finds_the_same_contact() {
+        // One formula for both precisions: in f64 the same face and normal, and a depth that
+        // differs from the f32 one by rounding only.
+        let shapes = [
+            Shape::Sphere { radius_m: 0.7 },
+            Shape::Box {
+                half_extents_m: Vec3::new(0.4, 0.3, 0.9),
+            },
+            Shape::Plane {
+                normal: Vec3::new(0.6, 0.8, 0.0),
+            },
+        ];
+        let center = Vec3::new(0.1, -0.2, 0.3);
+        let points = [
+            Vec3::new(0.2, 0.0, 0.35),
+            Vec3::new(-0.15, -0.3, 0.0),
+            Vec3::new(0.1, 0.6, 0.3),
+        ];
+        let mut contacts = 0;
+        for shape in shapes {
+            for x in points {
+                let single = shape.penetration(center, x);
+                let double = shape.penetration(center.as_dvec3(), x.as_dvec3());
+                match (single, double) {
+                    (Some((d32, n32)), Some((d64, n64))) => {
+                        contacts += 1;
+                        assert!((f64::from(d32) - d64).abs() < 1e-6, "{shape:?} {x}");
+                        assert!((n32.as_dvec3() - n64).length() < 1e-6, "{shape:?} {x}");
+                    }
+                    (None, None) => {}
+                    other => panic!("{shape:?} at {x}: {other:?}"),
+                }
+            }
+        }
+        assert!(contacts >= 5, "only {contacts} of the points were inside");
     }
 }

@@ -119,7 +119,7 @@ impl SpringLines {
         snap: &Snapshot,
         model: &Model,
         color: impl Fn(f32) -> rerun::Color,
-    ) -> Result<Vec<SerializedComponentBatch>, super::RecordError> {
+    ) -> Result<Vec<SerializedComponentBatch>, super::error::RecordError> {
         let n = self.springs.len();
         let mut coords: Vec<f32> = Vec::with_capacity(6 * n);
         let mut offsets: Vec<i32> = Vec::with_capacity(n + 1);
@@ -160,8 +160,9 @@ impl SpringLines {
 fn strips_array(
     coords: Vec<f32>,
     offsets: Vec<i32>,
-) -> Result<arrow::array::ArrayRef, super::RecordError> {
-    let unexpected = |what: String| super::RecordError::Layout(format!("line strips: {what}"));
+) -> Result<arrow::array::ArrayRef, super::error::RecordError> {
+    let unexpected =
+        |what: String| super::error::RecordError::Layout(format!("line strips: {what}"));
     let arrow::datatypes::DataType::List(list_field) =
         rerun::components::LineStrip3D::arrow_datatype()
     else {

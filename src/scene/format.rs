@@ -106,43 +106,72 @@ fn default_restitution() -> f32 {
     0.5
 }
 
-/// The plane `y = height_m`, solid below.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Ground {
-    #[serde(default)]
-    pub height_m: f32,
-    /// Penalty stiffness per mass point in contact.
-    #[serde(default = "default_contact_stiffness")]
-    pub stiffness_n_per_m: f32,
-    /// Coulomb friction coefficient (0 = frictionless).
-    #[serde(default)]
-    pub friction: f32,
-    /// Coefficient of restitution of a single mass hitting the ground (0.05 = barely bounces, 1 = elastic).
-    #[serde(default = "default_restitution")]
-    pub restitution: f32,
+/// Declares a collider's table: its own fields, then the contact fields every collider shares
+/// (so that each collider spells them, their defaults and their order the same way), and
+/// `contact()`, the one form the model reads them in. `moving` adds the fields of a scripted
+/// path: `center_m` first, `velocity_m_per_s` and `keyframes` after the collider's own.
+macro_rules! collider {
+    (moving $(#[$doc:meta])* $name:ident { $($fields:tt)* }) => {
+        collider! {
+            $(#[$doc])*
+            $name {
+                #[serde(default)]
+                pub center_m: Option<[f32; 3]>,
+                $($fields)*
+                #[serde(default)]
+                pub velocity_m_per_s: [f32; 3],
+                /// Positions at given times, passed through in straight lines; held before the
+                /// first and after the last.
+                #[serde(default)]
+                pub keyframes: Vec<Keyframe>,
+            }
+        }
+    };
+    ($(#[$doc:meta])* $name:ident { $($fields:tt)* }) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct $name {
+            $($fields)*
+            /// Penalty stiffness per mass point in contact.
+            #[serde(default = "default_contact_stiffness")]
+            pub stiffness_n_per_m: f32,
+            /// Coulomb friction coefficient (0 = frictionless).
+            #[serde(default)]
+            pub friction: f32,
+            /// Coefficient of restitution of a single mass hitting the collider (0.05 = barely
+            /// bounces, 1 = elastic).
+            #[serde(default = "default_restitution")]
+            pub restitution: f32,
+        }
+
+        impl $name {
+            pub fn contact(&self) -> Contact {
+                Contact {
+                    stiffness_n_per_m: self.stiffness_n_per_m,
+                    friction: self.friction,
+                    restitution: self.restitution,
+                }
+            }
+        }
+    };
 }
 
-/// A solid sphere. It moves on a path: from `center_m` at t = 0 at constant
-/// `velocity_m_per_s` (zero: fixed), or through `keyframes` (then leave out `center_m`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Sphere {
-    #[serde(default)]
-    pub center_m: Option<[f32; 3]>,
-    pub radius_m: f32,
-    #[serde(default)]
-    pub velocity_m_per_s: [f32; 3],
-    /// Positions at given times, passed through in straight lines; held before the first and
-    /// after the last.
-    #[serde(default)]
-    pub keyframes: Vec<Keyframe>,
-    #[serde(default = "default_contact_stiffness")]
-    pub stiffness_n_per_m: f32,
-    #[serde(default)]
-    pub friction: f32,
-    #[serde(default = "default_restitution")]
-    pub restitution: f32,
+collider! {
+    /// The plane `y = height_m`, solid below.
+    Ground {
+        #[serde(default)]
+        pub height_m: f32,
+    }
+}
+
+collider! {
+    moving
+    /// A solid sphere. It moves on a path: from `center_m` at t = 0 at constant
+    /// `velocity_m_per_s` (zero: fixed), or through `keyframes` (then leave out `center_m`).
+    Sphere {
+        pub radius_m: f32,
+    }
 }
 
 /// One key of a collider's path.
@@ -153,56 +182,23 @@ pub struct Keyframe {
     pub center_m: [f32; 3],
 }
 
-/// A solid axis-aligned box, on a path like a sphere's.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BoxCollider {
-    #[serde(default)]
-    pub center_m: Option<[f32; 3]>,
-    /// Half its size along x, y and z.
-    pub half_extents_m: [f32; 3],
-    #[serde(default)]
-    pub velocity_m_per_s: [f32; 3],
-    #[serde(default)]
-    pub keyframes: Vec<Keyframe>,
-    #[serde(default = "default_contact_stiffness")]
-    pub stiffness_n_per_m: f32,
-    #[serde(default)]
-    pub friction: f32,
-    #[serde(default = "default_restitution")]
-    pub restitution: f32,
+collider! {
+    moving
+    /// A solid axis-aligned box, on a path like a sphere's.
+    BoxCollider {
+        /// Half its size along x, y and z.
+        pub half_extents_m: [f32; 3],
+    }
 }
 
-/// A fixed plane through `point_m`, solid on the side away from `normal` (a wall, a slope).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Plane {
-    pub point_m: [f32; 3],
-    /// Points out of the solid side; need not be unit length.
-    pub normal: [f32; 3],
-    #[serde(default = "default_contact_stiffness")]
-    pub stiffness_n_per_m: f32,
-    #[serde(default)]
-    pub friction: f32,
-    #[serde(default = "default_restitution")]
-    pub restitution: f32,
+collider! {
+    /// A fixed plane through `point_m`, solid on the side away from `normal` (a wall, a slope).
+    Plane {
+        pub point_m: [f32; 3],
+        /// Points out of the solid side; need not be unit length.
+        pub normal: [f32; 3],
+    }
 }
-
-/// Every collider's contact parameters, in the one form the model reads.
-macro_rules! contact_of {
-    ($($t:ty),*) => {$(
-        impl $t {
-            pub fn contact(&self) -> Contact {
-                Contact {
-                    stiffness_n_per_m: self.stiffness_n_per_m,
-                    friction: self.friction,
-                    restitution: self.restitution,
-                }
-            }
-        }
-    )*};
-}
-contact_of!(Ground, Sphere, BoxCollider, Plane, SelfCollision);
 
 /// Mass–mass contact: every mass is a sphere of `radius_m`, and two that overlap are pushed apart
 /// by a penalty spring along the line between them, damped so that a pair's impact keeps the
@@ -227,6 +223,16 @@ pub struct SelfCollision {
 
 fn default_within_bodies() -> bool {
     true
+}
+
+impl SelfCollision {
+    pub fn contact(&self) -> Contact {
+        Contact {
+            stiffness_n_per_m: self.stiffness_n_per_m,
+            friction: self.friction,
+            restitution: self.restitution,
+        }
+    }
 }
 
 /// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).

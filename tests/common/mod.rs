@@ -2,6 +2,8 @@
 //! (Each test file compiles this module on its own, so not every file uses every helper.)
 #![allow(dead_code)]
 
+pub mod record;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
@@ -24,6 +26,40 @@ pub fn hooke(args: &[&str]) -> Output {
     hooke_command(args)
         .output()
         .unwrap_or_else(|e| panic!("cannot run hooke: {e}"))
+}
+
+/// `hooke run SCENE --backend cpu` followed by `rest`: the arguments of a run on the CPU backend.
+pub fn cpu_run<'a>(scene: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["run", scene, "--backend", "cpu"];
+    args.extend_from_slice(rest);
+    args
+}
+
+/// `hooke run SCENE --backend cpu --frames FRAMES --save FILE` followed by `rest`, which must
+/// succeed; returns what it printed.
+pub fn save_cpu_run(scene: &str, frames: u64, file: &Path, rest: &[&str]) -> Output {
+    let (frames, file) = (frames.to_string(), file.to_string_lossy());
+    let mut args = cpu_run(scene, &["--frames", &frames, "--save", &file]);
+    args.extend_from_slice(rest);
+    let out = hooke(&args);
+    assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+    out
+}
+
+/// The size of a file, 0 while there is none.
+pub fn file_size(path: &Path) -> u64 {
+    std::fs::metadata(path).map(|m| m.len()).unwrap_or(0)
+}
+
+/// Standard gravity (m/s²).
+pub const G: f32 = 9.81;
+
+/// Effects with standard gravity along −y, and nothing else.
+pub fn gravity() -> hooke::model::Effects {
+    hooke::model::Effects {
+        gravity_m_per_s2: Some(glam::Vec3::new(0.0, -G, 0.0)),
+        ..hooke::model::Effects::default()
+    }
 }
 
 /// The value, or the test fails with the error's message.

@@ -1,0 +1,132 @@
+//! The default layout a recording opens with, and the legend settings Rerun's Rust blueprint API
+//! cannot express.
+
+use rerun::RecordingStream;
+
+use super::error::RResult;
+use super::series::{Plot, all_series};
+
+/// The application every recording of ours belongs to: the viewer keeps one layout per id.
+pub const APPLICATION_ID: &str = "hooke";
+
+/// The default layout: the 3D view beside one plot per unit, the strain histogram and the
+/// colour legend. Returns the layout and the blueprint paths of its plots (the histogram's
+/// included).
+fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
+    use rerun::blueprint::components::PanelState;
+    use rerun::blueprint::{
+        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, Tabs, TextDocumentView,
+        TimeSeriesView, Vertical,
+    };
+    let mut plots = Vec::new();
+    let mut plot = |p: Plot| {
+        let view: ContainerLike = TimeSeriesView::new(p.title())
+            .with_origin("/")
+            .with_contents(
+                all_series()
+                    .filter(|s| s.plot == p)
+                    .map(|s| format!("+ /{}", s.path)),
+            )
+            .into();
+        if let ContainerLike::View(v) = &view {
+            plots.push(v.blueprint_path());
+        }
+        view
+    };
+    let energy = plot(Plot::Energy);
+    let strain = plot(Plot::Strain);
+    let millis = plot(Plot::Millis);
+    let counts = plot(Plot::Count);
+    let histogram: ContainerLike = BarChartView::new("strain histogram")
+        .with_origin("/stats/strain_histogram")
+        .into();
+    if let ContainerLike::View(v) = &histogram {
+        plots.push(v.blueprint_path());
+    }
+    let blueprint = Blueprint::new(
+        Horizontal::new([
+            Spatial3DView::new("world").with_origin("/world").into(),
+            Vertical::new([
+                energy,
+                Horizontal::new([strain, histogram]).into(),
+                Horizontal::new([millis, counts]).into(),
+                Tabs::new([
+                    TextDocumentView::new("legend")
+                        .with_origin("/legend")
+                        .into(),
+                    TextDocumentView::new("scene").with_origin("/scene").into(),
+                ])
+                .into(),
+            ])
+            .with_row_shares([0.34, 0.22, 0.22, 0.22])
+            .into(),
+        ])
+        .with_column_shares([0.6, 0.4]),
+    )
+    .with_auto_views(false)
+    .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
+        PanelState::Collapsed,
+    ))
+    .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
+        PanelState::Collapsed,
+    ));
+    (blueprint, plots)
+}
+
+/// Sends the default layout to `rec`, made active at once.
+///
+/// Its plots have no legend inside them: a legend is drawn over the plot, and in plots this
+/// size it hides the data. Each series has a fixed colour instead, named in the `legend`
+/// document, and the viewer names a line when it is hovered. Rerun 0.36's Rust blueprint API
+/// cannot set a view's legend, so the legend properties are logged into the blueprint's own
+/// store beside the layout, as the viewer reads them.
+pub fn send_blueprint(rec: &RecordingStream) -> RResult {
+    use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreKind};
+    use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+    let (blueprint, plots) = layout();
+    let activation = rerun::blueprint::BlueprintActivation {
+        make_active: true,
+        make_default: true,
+    };
+    // The layout's messages, as the SDK makes them, caught in memory.
+    let (mem, layout_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID).memory()?;
+    blueprint.send(&mem, activation)?;
+    let mut msgs: Vec<LogMsg> = layout_msgs
+        .take()
+        .into_iter()
+        .filter(|m| {
+            m.store_id().kind() == StoreKind::Blueprint
+                && !matches!(m, LogMsg::BlueprintActivationCommand(_))
+        })
+        .collect();
+    let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) else {
+        return Ok(());
+    };
+    // The legends, logged into that same blueprint store.
+    let (legends, legend_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
+        .recording_id(blueprint_id.recording_id().clone())
+        .blueprint()
+        .memory()?;
+    legends.set_time_sequence("blueprint", 0);
+    for view in &plots {
+        legends.log(
+            format!("{view}/PlotLegend"),
+            &PlotLegend::new().with_visible(false),
+        )?;
+    }
+    msgs.extend(
+        legend_msgs
+            .take()
+            .into_iter()
+            .filter(|m| matches!(m, LogMsg::ArrowMsg(..))),
+    );
+    rec.send_blueprint(
+        msgs,
+        BlueprintActivationCommand {
+            blueprint_id,
+            make_active: activation.make_active,
+            make_default: activation.make_default,
+        },
+    );
+    Ok(())
+}

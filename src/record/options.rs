@@ -1,0 +1,41 @@
+//! What a run asks the recording to hold (`--springs`, `--masses`), and what each body then logs.
+
+use super::springs::{self, SpringSelection};
+use super::surface;
+use crate::model::Model;
+
+/// What a recording holds beyond its defaults (`hooke run --springs … --masses`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RecordOptions {
+    /// Which springs are logged as lines; `None`: each body's default for its size
+    /// ([`springs::DEFAULT_MAX_SPRINGS`]).
+    pub springs: Option<SpringSelection>,
+    /// Log the masses of sheets and blocks as points every frame (their surface's vertices are
+    /// the same positions; strands always log theirs).
+    pub masses: bool,
+}
+
+/// What each body logs under `opts`, for the start of a run: one line per body.
+pub fn describe(model: &Model, opts: &RecordOptions) -> Vec<String> {
+    model
+        .bodies
+        .iter()
+        .map(|b| {
+            let surface = surface::Surface::of_body(model, b);
+            let lines = springs::selected(model, b, opts.springs, surface.is_some()).len();
+            let what = match &surface {
+                Some(s) => format!("surface of {} triangles", s.triangles.len()),
+                None => "masses".to_owned(),
+            };
+            let springs = if lines == 0 && opts.springs.is_none() && !b.springs.is_empty() {
+                format!(
+                    "springs left out (more than {} structural; --springs structural or all shows them)",
+                    springs::DEFAULT_MAX_SPRINGS
+                )
+            } else {
+                format!("{lines} of {} springs as lines", b.springs.len())
+            };
+            format!("{}: {what}, {springs}", b.name)
+        })
+        .collect()
+}

@@ -1,0 +1,247 @@
+//! The `Recorder`: the state a recording keeps between frames, and one frame's logging — each
+//! body's masses and surface, its spring lines, the moving colliders, the scalars and the strain
+//! histogram. What is logged once is in `statics`; the scalars in `scalars`.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rerun::RecordingStream;
+
+use super::error::RResult;
+use super::histogram;
+use super::options::RecordOptions;
+use super::palette::{color, strain_color};
+use super::series::When;
+use super::springs;
+use super::surface;
+use crate::model::{Model, Shape};
+use crate::state::Snapshot;
+
+/// One body as it is recorded.
+pub(super) struct BodyRec {
+    pub(super) name: String,
+    pub(super) masses: std::ops::Range<usize>,
+    pub(super) springs: std::ops::Range<usize>,
+    pub(super) surface: Option<SurfaceRec>,
+    pub(super) lines: Option<springs::SpringLines>,
+    /// Log the masses as points every frame.
+    pub(super) masses_per_frame: bool,
+}
+
+/// A body's surface and the buffers a frame is built in.
+pub(super) struct SurfaceRec {
+    pub(super) path: String,
+    pub(super) surface: surface::Surface,
+    /// The vertices are the body's masses in order: positions are a slice of the snapshot's.
+    whole_body: bool,
+    /// The triangles drawn now, and the broken springs of the body when they were chosen.
+    triangles: Vec<[u32; 3]>,
+    broken: Option<usize>,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    strain: Vec<f32>,
+    colors: Vec<rerun::Color>,
+}
+
+/// Turns snapshots into Rerun entities; keeps what a frame needs from the last (the triangles
+/// drawn, the histogram, the buffers a frame is built in).
+pub struct Recorder {
+    pub(super) rec: RecordingStream,
+    pub(super) model: std::sync::Arc<Model>,
+    pub(super) strain_range: f32,
+    pub(super) bodies: Vec<BodyRec>,
+    /// The implicit integrator's solver statistics are logged too.
+    pub(super) implicit: bool,
+    /// `world/colliders/<kind>_<k>`, k counting colliders of one kind.
+    pub(super) collider_paths: Vec<String>,
+    pub(super) histogram: Vec<u64>,
+    /// `--springs` was not given: each body logs its default.
+    pub(super) default_springs: bool,
+}
+
+impl Recorder {
+    pub fn new(
+        rec: RecordingStream,
+        model: std::sync::Arc<Model>,
+        strain_range: f32,
+        opts: RecordOptions,
+    ) -> Self {
+        let mut counts = std::collections::HashMap::new();
+        let collider_paths = model
+            .effects
+            .colliders
+            .iter()
+            .map(|c| {
+                let k = counts.entry(c.kind()).or_insert(0);
+                *k += 1;
+                format!("world/colliders/{}_{}", c.kind(), *k - 1)
+            })
+            .collect();
+        let bodies = model
+            .bodies
+            .iter()
+            .map(|b| {
+                let surface = surface::Surface::of_body(&model, b).map(|s| SurfaceRec {
+                    path: format!("world/{}/surface", b.name),
+                    whole_body: s.is_whole_body(b),
+                    triangles: Vec::new(),
+                    broken: None,
+                    positions: Vec::with_capacity(s.vertex_mass.len()),
+                    normals: Vec::with_capacity(s.vertex_mass.len()),
+                    strain: Vec::with_capacity(s.vertex_mass.len()),
+                    colors: Vec::with_capacity(s.vertex_mass.len()),
+                    surface: s,
+                });
+                let selected = springs::selected(&model, b, opts.springs, surface.is_some());
+                BodyRec {
+                    name: b.name.clone(),
+                    masses: b.masses.start as usize..b.masses.end as usize,
+                    springs: b.springs.start as usize..b.springs.end as usize,
+                    masses_per_frame: surface.is_none() || opts.masses,
+                    lines: (!selected.is_empty()).then(|| {
+                        springs::SpringLines::new(format!("world/{}/springs", b.name), selected)
+                    }),
+                    surface,
+                }
+            })
+            .collect();
+        Self {
+            rec,
+            model,
+            strain_range,
+            bodies,
+            implicit: false,
+            collider_paths,
+            histogram: Vec::new(),
+            default_springs: opts.springs.is_none(),
+        }
+    }
+
+    pub(super) fn has(&self, when: When) -> bool {
+        match when {
+            When::Always => true,
+            When::SpringsChange => self.model.effects.springs_change(),
+            When::Tearing => self.model.effects.tearing,
+            When::Implicit => self.implicit,
+        }
+    }
+
+    /// One frame on both timelines.
+    pub fn log_snapshot(&mut self, snap: &Snapshot) -> RResult {
+        let started = Instant::now();
+        self.rec.set_time_sequence("frame", snap.frame as i64);
+        self.rec.set_duration_secs("sim_time", snap.time_secs);
+        let range = self.strain_range;
+        let strain_color = |s: f32| color(strain_color(s, range));
+        for bi in 0..self.bodies.len() {
+            self.log_body(bi, snap)?;
+            let (rec, m, b) = (&self.rec, &self.model, &mut self.bodies[bi]);
+            if let Some(lines) = &mut b.lines {
+                let batches = lines.frame_batches(snap, m, strain_color)?;
+                rec.log_serialized_batches(lines.path.as_str(), false, batches)?;
+            }
+        }
+        self.log_colliders(snap)?;
+        self.log_scalars(snap)?;
+        histogram::counts(&snap.strain, range, &mut self.histogram);
+        self.rec.log(
+            "stats/strain_histogram",
+            &rerun::BarChart::update_fields().with_values(self.histogram.clone()),
+        )?;
+        self.rec.log(
+            "stats/record_ms",
+            &rerun::Scalars::single(started.elapsed().as_secs_f64() * 1e3),
+        )?;
+        Ok(())
+    }
+
+    /// A body's masses and surface for one frame.
+    fn log_body(&mut self, bi: usize, snap: &Snapshot) -> RResult {
+        let (rec, m, b) = (&self.rec, &self.model, &mut self.bodies[bi]);
+        let pos = &snap.positions[b.masses.clone()];
+        if b.masses_per_frame {
+            rec.log(
+                format!("world/{}/masses", b.name),
+                &rerun::Points3D::update_fields().with_positions(pos.iter().copied()),
+            )?;
+        }
+        let Some(s) = &mut b.surface else {
+            return Ok(());
+        };
+        if s.surface.can_tear {
+            // The triangles change only when a spring of this body broke since they were chosen.
+            let broken = snap.strain[b.springs.clone()]
+                .iter()
+                .filter(|x| x.is_nan())
+                .count();
+            if s.broken != Some(broken) {
+                s.triangles = s.surface.intact_triangles(&snap.strain);
+                s.broken = Some(broken);
+                rec.log(
+                    s.path.as_str(),
+                    &rerun::Mesh3D::update_fields()
+                        .with_triangle_indices(s.triangles.iter().copied()),
+                )?;
+            }
+        } else if s.triangles.is_empty() {
+            s.triangles = s.surface.triangles.clone();
+        }
+        s.positions.clear();
+        if s.whole_body {
+            s.positions.extend_from_slice(pos);
+        } else {
+            s.positions.extend(
+                s.surface
+                    .vertex_mass
+                    .iter()
+                    .map(|&i| snap.positions[i as usize]),
+            );
+        }
+        surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
+        surface::vertex_strain(m, &snap.strain, &s.surface.vertex_mass, &mut s.strain);
+        let two_sided = s.surface.two_sided;
+        let range = self.strain_range;
+        s.colors.clear();
+        s.colors
+            .extend(s.strain.iter().zip(&s.normals).map(|(&strain, &n)| {
+                color(surface::shaded(
+                    strain_color(strain, range),
+                    surface::shade(n, two_sided),
+                ))
+            }));
+        rec.log(
+            s.path.as_str(),
+            &rerun::Mesh3D::update_fields()
+                .with_vertex_positions(s.positions.iter().copied())
+                .with_vertex_colors(s.colors.iter().copied()),
+        )?;
+        Ok(())
+    }
+
+    fn log_colliders(&self, snap: &Snapshot) -> RResult {
+        let (rec, m) = (&self.rec, &self.model);
+        for ((c, p), path) in m
+            .effects
+            .colliders
+            .iter()
+            .zip(&snap.collider_positions)
+            .zip(&self.collider_paths)
+        {
+            if c.path.is_fixed() {
+                continue;
+            }
+            match c.shape {
+                Shape::Sphere { .. } => rec.log(
+                    path.as_str(),
+                    &rerun::Ellipsoids3D::update_fields().with_centers([*p]),
+                )?,
+                Shape::Box { .. } => rec.log(
+                    path.as_str(),
+                    &rerun::Boxes3D::update_fields().with_centers([*p]),
+                )?,
+                Shape::Plane { .. } => {}
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,89 @@
+//! The scalars of a frame: each series' value, and which spring is the most strained (a value
+//! beside the plotted number and a marker in the 3D view).
+
+use super::error::RResult;
+use super::recorder::Recorder;
+use super::series::all_series;
+use crate::state::Snapshot;
+
+impl Recorder {
+    pub(super) fn log_scalars(&self, snap: &Snapshot) -> RResult {
+        let (rec, m) = (&self.rec, &self.model);
+        let e = &snap.energies;
+        let st = &snap.stats;
+        let most = most_strained(&snap.strain);
+        let value = |path: &str| -> f64 {
+            match path {
+                "energy/kinetic" => e.kinetic_j,
+                "energy/elastic" => e.elastic_j,
+                "energy/gravity" => e.gravity_j,
+                "energy/contact" => e.contact_j,
+                "energy/dissipated" => e.ledger.dissipated_j(),
+                "energy/dissipated_damping" => e.ledger.damping_j,
+                "energy/dissipated_drag" => e.ledger.drag_j,
+                "energy/dissipated_contact" => e.ledger.contact_j,
+                "energy/dissipated_plastic" => e.ledger.plastic_j,
+                "energy/collider_work" => e.ledger.collider_work_j,
+                "energy/total" => e.total_j(),
+                "energy/balance" => e.balance_j(),
+                "stats/max_strain" => most.map_or(0.0, |(_, s)| f64::from(s.abs())),
+                "stats/step_ms" => st.step_ms,
+                "stats/substeps" => f64::from(st.substeps),
+                "stats/projections" => f64::from(st.projections),
+                "stats/broken_springs" => snap.broken_springs() as f64,
+                "stats/cg_iterations" => f64::from(st.solver_iterations),
+                "stats/cg_residual" => st.solver_residual,
+                _ => f64::NAN,
+            }
+        };
+        for series in all_series() {
+            // stats/record_ms is logged last, to time the whole frame.
+            if self.has(series.when) && series.path != "stats/record_ms" {
+                rec.log(series.path, &rerun::Scalars::single(value(series.path)))?;
+            }
+        }
+        // Which spring is the most strained: values beside the plotted number, and a marker in
+        // the 3D view.
+        if let Some((si, strain)) = most {
+            let sp = &m.springs[si];
+            let kind = m.spring_kind[si].name();
+            let body = m
+                .body_of_mass(sp.a)
+                .map_or_else(String::new, |(b, _)| b.name.clone());
+            let label = format!("strain {strain:+.4}: {kind} spring {si} of {body}");
+            rec.log(
+                "stats/max_strain",
+                &rerun::AnyValues::default()
+                    .with_component::<rerun::components::Text>("spring", [label.as_str()])
+                    .with_component_from_data(
+                        "spring_index",
+                        std::sync::Arc::new(rerun::external::arrow::array::UInt32Array::from(
+                            vec![si as u32],
+                        )),
+                    ),
+            )?;
+            let (a, b) = (snap.positions[sp.a as usize], snap.positions[sp.b as usize]);
+            rec.log(
+                "world/most_strained",
+                &rerun::LineStrips3D::update_fields()
+                    .with_strips([[a, b]])
+                    .with_labels([label])
+                    .with_radii([rerun::Radius::new_ui_points(3.0)]),
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The intact spring with the largest |strain|, and its strain.
+pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
+    strain
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, s)| !s.is_nan())
+        .fold(None, |best: Option<(usize, f32)>, (i, s)| match best {
+            Some((_, b)) if b.abs() >= s.abs() => best,
+            _ => Some((i, s)),
+        })
+}

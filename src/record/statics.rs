@@ -1,0 +1,232 @@
+//! What is logged once, static: the view's coordinates, the scene and legend documents, each
+//! series' name and colour, each body's topology (mass colours, pins, triangles, spring kinds),
+//! the ground and the colliders' shapes.
+
+use glam::Vec3;
+use rerun::RecordingStream;
+
+use super::error::RResult;
+use super::histogram;
+use super::palette::{YELLOW, color};
+use super::recorder::{BodyRec, Recorder};
+use super::series::all_series;
+use crate::model::{Collider, GroundCollider, Model, Shape};
+use crate::settings::Settings;
+
+impl Recorder {
+    /// Everything that does not change over the run.
+    pub fn log_static(
+        &mut self,
+        scene_name: &str,
+        scene_text: &str,
+        settings: &Settings,
+        backend: &str,
+    ) -> RResult {
+        self.implicit = settings.integrator == crate::integrator::Integrator::Implicit;
+        let rec = &self.rec;
+        rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
+        rec.log_static(
+            "scene",
+            &rerun::TextDocument::from_markdown(format!(
+                "# {scene_name}\n\nintegrator `{}`, dt = {:.3e} s, {} substeps per frame, {} frames at {} Hz, backend {backend}\n\n```toml\n{scene_text}\n```",
+                settings.integrator, settings.dt_secs, settings.substeps, settings.frames, settings.frame_rate_hz
+            )),
+        )?;
+        rec.log_static("legend", &rerun::TextDocument::from_markdown(self.legend()))?;
+        for series in all_series() {
+            if self.has(series.when) {
+                rec.log_static(
+                    series.path,
+                    &rerun::SeriesLines::new()
+                        .with_names([series.name])
+                        .with_colors([rerun::Color::from(series.color.rgb)]),
+                )?;
+            }
+        }
+        let r = self.strain_range;
+        rec.log_static(
+            "stats/strain_histogram",
+            &rerun::BarChart::update_fields()
+                .with_abscissa(histogram::centres(r))
+                .with_widths(histogram::widths(r))
+                .with_color(rerun::Color::from_rgb(120, 130, 150)),
+        )?;
+        rec.log_static(
+            "world/most_strained",
+            &rerun::LineStrips3D::update_fields()
+                .with_colors([color(YELLOW.rgb)])
+                .with_show_labels(true),
+        )?;
+        for b in &self.bodies {
+            log_body_static(rec, &self.model, b)?;
+        }
+        let m = &self.model;
+        if let Some(g) = &m.effects.ground {
+            log_ground(rec, g, &m.initial.x)?;
+        }
+        for (c, path) in m.effects.colliders.iter().zip(&self.collider_paths) {
+            log_collider_shape(rec, c, path, &m.initial.x)?;
+        }
+        Ok(())
+    }
+}
+
+/// A body's masses (pins black), pins, triangles and the static values of its spring lines.
+fn log_body_static(rec: &RecordingStream, m: &Model, b: &BodyRec) -> RResult {
+    let spacing = b
+        .springs
+        .clone()
+        .map(|s| m.springs[s].rest_m)
+        .fold(f32::INFINITY, f32::min);
+    let radius = if spacing.is_finite() {
+        0.12 * spacing
+    } else {
+        0.02
+    };
+    let inv_mass = &m.inv_mass[b.masses.clone()];
+    if b.masses_per_frame {
+        let colors: Vec<rerun::Color> = inv_mass
+            .iter()
+            .map(|&w| {
+                if w == 0.0 {
+                    rerun::Color::from_rgb(0, 0, 0)
+                } else {
+                    rerun::Color::from_rgb(230, 170, 40)
+                }
+            })
+            .collect();
+        rec.log_static(
+            format!("world/{}/masses", b.name),
+            &rerun::Points3D::update_fields()
+                .with_colors(colors)
+                .with_radii([radius]),
+        )?;
+    }
+    if b.surface.is_some() {
+        // Pins never move: shown once, whatever else is logged.
+        let pins: Vec<Vec3> = inv_mass
+            .iter()
+            .zip(&m.initial.x[b.masses.clone()])
+            .filter(|(w, _)| **w == 0.0)
+            .map(|(_, x)| *x)
+            .collect();
+        if !pins.is_empty() {
+            rec.log_static(
+                format!("world/{}/pins", b.name),
+                &rerun::Points3D::new(pins)
+                    .with_colors([rerun::Color::from_rgb(0, 0, 0)])
+                    .with_radii([2.0 * radius]),
+            )?;
+        }
+    }
+    if let Some(s) = &b.surface
+        && !s.surface.can_tear
+    {
+        rec.log_static(
+            s.path.as_str(),
+            &rerun::Mesh3D::update_fields()
+                .with_triangle_indices(s.surface.triangles.iter().copied()),
+        )?;
+    }
+    if let Some(lines) = &b.lines {
+        // Thinner over a surface, where they draw its edges.
+        let width = if b.surface.is_some() { 0.15 } else { 0.25 };
+        rec.log_serialized_batches(
+            lines.path.as_str(),
+            true,
+            lines.static_batches(m, width * radius),
+        )?;
+    }
+    Ok(())
+}
+
+/// Lowest and highest corner of a set of points.
+fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
+    x.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    )
+}
+
+/// A grid of lines at the ground height, half a metre beyond the bodies' starting extent `x`, so
+/// that the viewer frames the scene rather than the floor.
+fn log_ground(rec: &RecordingStream, g: &GroundCollider, x: &[Vec3]) -> RResult {
+    let (lo, hi) = extent(x);
+    let step = 0.25f32;
+    let x0 = ((lo.x - 0.5) / step).floor() as i32;
+    let x1 = ((hi.x + 0.5) / step).ceil() as i32;
+    let z0 = ((lo.z - 0.5) / step).floor() as i32;
+    let z1 = ((hi.z + 0.5) / step).ceil() as i32;
+    let h = g.height_m;
+    let (xa, xb, za, zb) = (
+        x0 as f32 * step,
+        x1 as f32 * step,
+        z0 as f32 * step,
+        z1 as f32 * step,
+    );
+    let lines: Vec<[Vec3; 2]> = (x0..=x1)
+        .map(|i| {
+            [
+                Vec3::new(i as f32 * step, h, za),
+                Vec3::new(i as f32 * step, h, zb),
+            ]
+        })
+        .chain((z0..=z1).map(|k| {
+            [
+                Vec3::new(xa, h, k as f32 * step),
+                Vec3::new(xb, h, k as f32 * step),
+            ]
+        }))
+        .collect();
+    rec.log_static(
+        "world/ground",
+        &rerun::LineStrips3D::new(lines)
+            .with_colors([rerun::Color::from_rgb(120, 120, 120)])
+            .with_radii([0.002]),
+    )?;
+    Ok(())
+}
+
+/// A collider's shape, once, where it starts; a moving collider's position goes on the timelines
+/// (`log_snapshot`). A plane is drawn as a square of lines about its point, as wide as the
+/// scene's starting extent `x`.
+fn log_collider_shape(rec: &RecordingStream, c: &Collider, path: &str, x: &[Vec3]) -> RResult {
+    let blue = rerun::Color::from_rgb(90, 140, 200);
+    let start = c.path.pose_at(0.0).position_m;
+    match c.shape {
+        Shape::Sphere { radius_m } => rec.log_static(
+            path,
+            &rerun::Ellipsoids3D::from_centers_and_radii([start], [radius_m])
+                .with_colors([blue])
+                .with_fill_mode(rerun::FillMode::Solid),
+        )?,
+        Shape::Box { half_extents_m } => rec.log_static(
+            path,
+            &rerun::Boxes3D::from_centers_and_half_sizes([start], [half_extents_m])
+                .with_colors([blue])
+                .with_fill_mode(rerun::FillMode::Solid),
+        )?,
+        Shape::Plane { normal } => {
+            let (lo, hi) = extent(x);
+            let half = (0.5 * (hi - lo).length() + 0.5).min(10.0);
+            let u = normal.any_orthonormal_vector();
+            let w = normal.cross(u);
+            let lines: Vec<[Vec3; 2]> = (-4..=4)
+                .flat_map(|k| {
+                    let s = half * k as f32 / 4.0;
+                    [
+                        [start + s * u - half * w, start + s * u + half * w],
+                        [start + s * w - half * u, start + s * w + half * u],
+                    ]
+                })
+                .collect();
+            rec.log_static(
+                path,
+                &rerun::LineStrips3D::new(lines)
+                    .with_colors([blue])
+                    .with_radii([0.003]),
+            )?
+        }
+    }
+    Ok(())
+}

@@ -460,9 +460,19 @@ fn finish<L: Lanes>(g: Gathered<L>, input: &Input, out: &mut Output, at: usize) 
     let w = L::load(input.inv_mass, at);
     let zero = L::splat(0.0);
     let pinned = w.eq(zero);
-    let a = [0, 1, 2].map(|k| L::select(pinned, zero, f[k] * w));
-    let neg = |p: L| L::select(pinned, zero, -p);
-    let rates = [neg(damping_w), neg(drag_w), zero, zero];
+    // Written out, not through closures or `map`: whatever is not inlined into the AVX2 chunk
+    // is compiled without AVX, and its intrinsics become calls.
+    let a = [
+        L::select(pinned, zero, f[0] * w),
+        L::select(pinned, zero, f[1] * w),
+        L::select(pinned, zero, f[2] * w),
+    ];
+    let rates = [
+        L::select(pinned, zero, -damping_w),
+        L::select(pinned, zero, -drag_w),
+        zero,
+        zero,
+    ];
     let dt = L::splat(input.dt);
     let (mut nx, mut nv) = (x, v);
     for k in 0..3 {

@@ -333,13 +333,13 @@ fn spring_end<L: Lanes>(g: &mut Gathered<L>, xj: [L; 3], vj: [L; 3], rest: L, ne
     // the scalar code).
     let skip = len.le(L::splat(<f32 as super::law::Real>::MIN_SPRING_LENGTH));
     if L::no(skip) {
-        for k in 0..3 {
-            g.f[k] = g.f[k] + fs[k];
+        for (f, q) in g.f.iter_mut().zip(fs) {
+            *f = *f + q;
         }
         g.damping_w = g.damping_w + pw;
     } else {
-        for k in 0..3 {
-            g.f[k] = L::select(skip, g.f[k], g.f[k] + fs[k]);
+        for (f, q) in g.f.iter_mut().zip(fs) {
+            *f = L::select(skip, *f, *f + q);
         }
         g.damping_w = L::select(skip, g.damping_w, g.damping_w + pw);
     }
@@ -489,13 +489,13 @@ fn finish<L: Lanes>(g: Gathered<L>, input: &Input, out: &mut Output, at: usize) 
         nx[k].store(out.s[k], local);
         nv[k].store(out.s[3 + k], local);
     }
-    // Finite positions (x − x = 0) and a speed within the runaway bound pass; anything else is
-    // for `find_divergence` to judge exactly.
+    // Finite positions (x · 0 = 0; NaN for an infinity or a NaN) and a speed within the
+    // runaway bound pass; anything else is for `find_divergence` to judge exactly.
     let speed2 = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
     let bound = RUNAWAY_SPEED_M_PER_S * RUNAWAY_SPEED_M_PER_S;
     let mut fine = speed2.le(L::splat(bound));
     for p in nx {
-        fine = L::and(fine, (p - p).eq(zero));
+        fine = L::and(fine, (p * zero).eq(zero));
     }
     (rates, L::all(fine))
 }

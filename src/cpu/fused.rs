@@ -283,11 +283,7 @@ fn chunk<L: Lanes>(stencils: &Stencils, input: &Input, out: &mut Output, c: usiz
                     );
                     let (rates, fine) = finish::<L>(f, input, out, at);
                     ok &= fine;
-                    for k in booked - at..L::WIDTH {
-                        for (s, r) in sum.iter_mut().zip(&rates) {
-                            *s += f64::from(r.lane(k));
-                        }
-                    }
+                    book(&mut sum, rates, booked - at, input.drag.is_some());
                     booked = at + L::WIDTH;
                 }
             }
@@ -296,14 +292,31 @@ fn chunk<L: Lanes>(stencils: &Stencils, input: &Input, out: &mut Output, c: usiz
                     let f = gather_one(stencils, seg, input, i);
                     let (rates, fine) = finish::<f32>(f, input, out, i);
                     ok &= fine;
-                    for (s, r) in sum.iter_mut().zip(rates) {
-                        *s += f64::from(r);
-                    }
+                    book(&mut sum, rates, 0, input.drag.is_some());
                 }
             }
         }
     }
     (sum, !ok)
+}
+
+/// Add lanes `from..` of the (damping, drag) rates into the chunk's sums, in mass order, as
+/// `compute_forces` adds each mass's. Its contact and collider rates are zero here, and so is
+/// drag's without drag: adding a zero to a sum that started at +0 changes no bit, so only what
+/// can be nonzero is added.
+#[inline(always)]
+fn book<L: Lanes>(sum: &mut [f64; 4], rates: [L; 2], from: usize, drag: bool) {
+    let mut lanes = [[0.0f32; 8]; 2];
+    rates[0].store(&mut lanes[0], 0);
+    rates[1].store(&mut lanes[1], 0);
+    for k in from..L::WIDTH {
+        sum[0] += f64::from(lanes[0][k]);
+    }
+    if drag {
+        for k in from..L::WIDTH {
+            sum[1] += f64::from(lanes[1][k]);
+        }
+    }
 }
 
 /// The springs' force on masses `at..at + WIDTH` and their dashpots' power, with their state.
@@ -434,7 +447,7 @@ fn gather_one(stencils: &Stencils, seg: &Segment, input: &Input, i: usize) -> Ga
 /// `at..at + WIDTH`: the rest of `force_on_mass` (src/cpu/forces.rs) and `euler_update` /
 /// `semi_implicit_update` (src/cpu/integrate.rs), in their order.
 #[inline(always)]
-fn finish<L: Lanes>(g: Gathered<L>, input: &Input, out: &mut Output, at: usize) -> ([L; 4], bool) {
+fn finish<L: Lanes>(g: Gathered<L>, input: &Input, out: &mut Output, at: usize) -> ([L; 2], bool) {
     let Gathered {
         x,
         v,
@@ -470,8 +483,6 @@ fn finish<L: Lanes>(g: Gathered<L>, input: &Input, out: &mut Output, at: usize) 
     let rates = [
         L::select(pinned, zero, -damping_w),
         L::select(pinned, zero, -drag_w),
-        zero,
-        zero,
     ];
     let dt = L::splat(input.dt);
     let (mut nx, mut nv) = (x, v);

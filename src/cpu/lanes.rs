@@ -29,8 +29,6 @@ pub(super) trait Lanes:
     fn all(m: Self::Mask) -> bool;
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// Lane `k`.
-    fn lane(self, k: usize) -> f32;
 }
 
 /// Width 1: the masses outside any stencil run, with the same code as the lanes.
@@ -80,10 +78,6 @@ impl Lanes for f32 {
     #[inline(always)]
     fn select(m: bool, a: Self, b: Self) -> Self {
         if m { a } else { b }
-    }
-    #[inline(always)]
-    fn lane(self, _k: usize) -> f32 {
-        self
     }
 }
 
@@ -163,10 +157,6 @@ impl Lanes for Portable {
     #[inline(always)]
     fn select(m: [bool; 4], a: Self, b: Self) -> Self {
         Portable(std::array::from_fn(|k| if m[k] { a.0[k] } else { b.0[k] }))
-    }
-    #[inline(always)]
-    fn lane(self, k: usize) -> f32 {
-        self.0[k]
     }
 }
 
@@ -278,12 +268,6 @@ mod x86 {
             // SSE2 has no blend: (m & a) | (!m & b).
             Sse2(unsafe { _mm_or_ps(_mm_and_ps(m, a.0), _mm_andnot_ps(m, b.0)) })
         }
-        #[inline(always)]
-        fn lane(self, k: usize) -> f32 {
-            let mut a = [0.0f32; 4];
-            unsafe { _mm_storeu_ps(a.as_mut_ptr(), self.0) };
-            a[k]
-        }
     }
 
     impl Lanes for Avx {
@@ -334,12 +318,6 @@ mod x86 {
         #[inline(always)]
         fn select(m: __m256, a: Self, b: Self) -> Self {
             Avx(unsafe { _mm256_blendv_ps(b.0, a.0, m) })
-        }
-        #[inline(always)]
-        fn lane(self, k: usize) -> f32 {
-            let mut a = [0.0f32; 8];
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
-            a[k]
         }
     }
 }

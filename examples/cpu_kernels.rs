@@ -2,10 +2,11 @@
 //! the general path (`compute_forces`, then the update) and the fused step with each of its
 //! lanes (src/cpu/fused.rs), interleaved so that a noisy machine slows them alike.
 //!
-//! `cargo run --release --example cpu_kernels -- SCENE [STEPS] [ROUNDS]`
+//! `cargo run --release --example cpu_kernels -- SCENE [STEPS] [ROUNDS] [ONLY]`
 //!
 //! SCENE is a built-in name or a file; STEPS per timing (default 200), ROUNDS of every kernel
-//! (default 3). Prints each kernel's best steps/s and spring updates/s. See BENCHMARKS.md.
+//! (default 3); ONLY keeps the kernels whose name contains it (`avx2`). Prints each kernel's
+//! best steps/s and spring updates/s. See BENCHMARKS.md.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -18,7 +19,7 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(scene) = args.first() else {
         anyhow::bail!(
-            "usage: cpu_kernels SCENE [STEPS] [ROUNDS] (SCENE: a built-in name or a file)"
+            "usage: cpu_kernels SCENE [STEPS] [ROUNDS] [ONLY] (SCENE: a built-in name or a file)"
         );
     };
     let steps: u64 = args.get(1).map_or(Ok(200), |s| s.parse())?;
@@ -27,13 +28,17 @@ fn main() -> anyhow::Result<()> {
     let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())?;
     let model = Arc::new(hooke::model::build(&loaded.scene));
     let integrator = Integrator::SemiImplicit;
-    let kernels = [
+    let only = args.get(3).map_or("", String::as_str);
+    let kernels: Vec<_> = [
         ("general", None),
         ("fused scalar", Some(Kernel::Scalar)),
         ("fused portable", Some(Kernel::Portable)),
         ("fused sse2", Some(Kernel::Sse2)),
         ("fused avx2", Some(Kernel::Avx2)),
-    ];
+    ]
+    .into_iter()
+    .filter(|(name, _)| name.contains(only))
+    .collect();
     let mut best = vec![0.0f64; kernels.len()];
     for _ in 0..rounds {
         for (k, (_, kernel)) in kernels.iter().enumerate() {

@@ -184,3 +184,76 @@ impl Stencils {
         run as f64 / all.max(1) as f64
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ModelBuilder;
+    use glam::Vec3;
+
+    /// A chain of `n` masses, springs to the next and the one after (bending), the last spring
+    /// of mass `stiff` stiffer than the others.
+    fn chain(n: u32, stiff: u32) -> Model {
+        let mut mb = ModelBuilder::new();
+        for i in 0..n {
+            mb.mass(Vec3::new(i as f32, 0.0, 0.0), Vec3::ZERO, 1.0, false);
+        }
+        for i in 0..n - 1 {
+            mb.spring(i, i + 1, if i == stiff { 9.0 } else { 1.0 }, 0.1);
+            if i + 2 < n {
+                mb.spring(i, i + 2, 0.5, 0.0);
+            }
+        }
+        mb.build()
+    }
+
+    #[test]
+    fn segments_cover_every_mass_once_in_order_and_runs_share_their_stencil() {
+        // Mass 1500 has a stiffer spring to 1501: both leave the run there.
+        let model = chain(3000, 1500);
+        let st = Stencils::new(&model);
+        let mut next = 0;
+        for c in 0..st.chunk_segments.len() - 1 {
+            for seg in st.of_chunk(c) {
+                let (start, end) = match *seg {
+                    Segment::Run {
+                        start,
+                        end,
+                        stencil,
+                        rest_at,
+                    } => {
+                        assert!(end - start >= MIN_RUN);
+                        for i in start..end {
+                            let nbs = model.adjacency.of(i);
+                            assert_eq!(nbs.len(), st.stencils[stencil].len());
+                            for (s, (nb, slot)) in nbs.iter().zip(&st.stencils[stencil]).enumerate()
+                            {
+                                let spring = &model.springs[nb.spring as usize];
+                                assert_eq!(nb.other as isize - i as isize, slot.delta);
+                                assert_eq!(-spring.stiffness_n_per_m, slot.neg_stiffness);
+                                assert_eq!(-spring.damping_n_s_per_m, slot.neg_damping);
+                                let rest = st.rest[rest_at + s * (end - start) + i - start];
+                                assert_eq!(spring.rest_m, rest);
+                            }
+                        }
+                        (start, end)
+                    }
+                    Segment::Single { start, end, .. } => (start, end),
+                };
+                assert_eq!(start, next, "segments in order, none missing");
+                assert!(
+                    start / CHUNK == c && (end - 1) / CHUNK == c,
+                    "within chunk {c}"
+                );
+                next = end;
+            }
+        }
+        assert_eq!(next, 3000);
+        // Alone: the two masses at each end, and 1500 and 1501 (the ends of the stiff spring);
+        // the chunk edges at 1024 and 2048 split runs without taking masses out of them.
+        let alone = (3000.0 * (1.0 - st.run_share())).round();
+        assert_eq!(alone, 6.0, "masses outside the runs");
+        // 0..2 2..1024 | 1024..1500 1500..1502 1502..2048 | 2048..2998 2998..3000
+        assert_eq!(st.segments.len(), 7);
+    }
+}

@@ -309,12 +309,12 @@ fn book<L: Lanes>(sum: &mut [f64; 4], rates: [L; 2], from: usize, drag: bool) {
     let mut lanes = [[0.0f32; 8]; 2];
     rates[0].store(&mut lanes[0], 0);
     rates[1].store(&mut lanes[1], 0);
-    for k in from..L::WIDTH {
-        sum[0] += f64::from(lanes[0][k]);
+    for &r in &lanes[0][from..L::WIDTH] {
+        sum[0] += f64::from(r);
     }
     if drag {
-        for k in from..L::WIDTH {
-            sum[1] += f64::from(lanes[1][k]);
+        for &r in &lanes[1][from..L::WIDTH] {
+            sum[1] += f64::from(r);
         }
     }
 }

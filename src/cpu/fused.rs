@@ -106,7 +106,7 @@ impl FusedStep {
             && e.self_collision.is_none()
     }
 
-    pub fn new(model: &Model, integrator: Integrator, kernel: Kernel) -> Self {
+    pub(crate) fn new(model: &Model, integrator: Integrator, kernel: Kernel) -> Self {
         Self {
             stencils: Stencils::new(model),
             kernel: kernel.resolve(),
@@ -127,7 +127,7 @@ impl FusedStep {
     }
 
     /// Take the state to step from.
-    pub fn load(&mut self, x: &[glam::Vec3], v: &[glam::Vec3]) {
+    pub(crate) fn load(&mut self, x: &[glam::Vec3], v: &[glam::Vec3]) {
         self.now.load(x, v);
         for a in &mut self.next.0 {
             a.resize(x.len(), 0.0);
@@ -135,13 +135,13 @@ impl FusedStep {
     }
 
     /// Write the current state back.
-    pub fn unload(&self, x: &mut [glam::Vec3], v: &mut [glam::Vec3]) {
+    pub(crate) fn unload(&self, x: &mut [glam::Vec3], v: &mut [glam::Vec3]) {
         self.now.unload(x, v);
     }
 
     /// One step of `dt`; returns the ledger's rates at the step's start and whether a mass may
     /// have diverged (then `unload` and ask `find_divergence`).
-    pub fn fused_step(&mut self, model: &Model, dt: f32) -> (Power, bool) {
+    pub(crate) fn fused_step(&mut self, model: &Model, dt: f32) -> (Power, bool) {
         let e = &model.effects;
         let input = Input {
             s: &self.now.0,

@@ -8,18 +8,22 @@ pub(crate) mod chunks;
 pub(crate) mod collide;
 pub(crate) mod collide_masses;
 pub(crate) mod forces;
+pub(crate) mod fused;
 pub(crate) mod grid;
 pub(crate) mod implicit;
 pub(crate) mod integrate;
+mod lanes;
 pub(crate) mod law;
 pub(crate) mod reduce;
 pub(crate) mod springs;
+mod stencil;
 pub(crate) mod xpbd;
 
 pub use chunks::PARALLEL_MIN_MASSES;
 pub use collide::project_contacts;
 pub use collide_masses::{PAIR_STICK_SHARE, collide_masses, mass_contact_energy, pair_contact};
 pub use forces::{Gather, compute_external_forces, compute_forces};
+pub use fused::{FusedStep, Kernel};
 pub use grid::{MassGrid, SCAN_BLOCK, grid_cell, grid_hash, inv_cell_per_m, table_size};
 pub use implicit::{
     CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
@@ -43,6 +47,8 @@ pub struct CpuBackend {
     pending: std::collections::VecDeque<Snapshot>,
     /// Snapshots returned by the recorder, their buffers reused.
     spare: Vec<Snapshot>,
+    /// The one-pass step, for the models and integrators it serves.
+    fused: Option<FusedStep>,
 }
 
 impl CpuBackend {
@@ -56,7 +62,10 @@ impl CpuBackend {
         dt_secs: f64,
         options: StepOptions,
     ) -> Self {
+        let fused = FusedStep::serves(&model, integrator)
+            .then(|| FusedStep::new(&model, integrator, Kernel::Best));
         Self {
+            fused,
             state: model.initial.clone(),
             scratch: integrate::Scratch::new(&model, dt_secs, options),
             pending: std::collections::VecDeque::new(),
@@ -66,6 +75,56 @@ impl CpuBackend {
             dt: dt_secs as f32,
         }
     }
+
+    /// Step with `kernel`'s lanes where the fused step serves this model, or through the
+    /// general path (`compute_forces`, then the update) with `None`. Both give the same bits;
+    /// this is for the tests that say so and for measuring what each kernel is worth.
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) {
+        self.fused = kernel
+            .filter(|_| FusedStep::serves(&self.model, self.integrator))
+            .map(|k| FusedStep::new(&self.model, self.integrator, k));
+    }
+
+    /// The fused step's kernel, `None` when the general path steps this model.
+    pub fn kernel(&self) -> Option<Kernel> {
+        self.fused.as_ref().map(FusedStep::kernel)
+    }
+
+    /// Share of the masses the fused step computes in lanes, `None` without it.
+    pub fn lane_share(&self) -> Option<f64> {
+        self.fused.as_ref().map(FusedStep::run_share)
+    }
+
+    /// `advance` through the fused step: the state stays in its arrays for all `substeps`.
+    fn advance_fused(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        let start = std::time::Instant::now();
+        let Some(fused) = self.fused.as_mut() else {
+            return Err(BackendError::Device(
+                "internal: the fused step is missing".to_owned(),
+            ));
+        };
+        let dt = f64::from(self.dt);
+        fused.load(&self.state.x, &self.state.v);
+        for _ in 0..substeps {
+            let (power, suspect) = fused.fused_step(&self.model, self.dt);
+            self.state.ledger.accumulate(&power, dt);
+            self.state.time_secs += dt;
+            self.state.steps += 1;
+            if suspect {
+                fused.unload(&mut self.state.x, &mut self.state.v);
+                if let Some(d) = find_divergence(&self.model, &self.state, self.integrator, dt) {
+                    return Err(BackendError::Diverged(d));
+                }
+            }
+        }
+        fused.unload(&mut self.state.x, &mut self.state.v);
+        Ok(StepStats {
+            substeps,
+            dt_secs: dt,
+            step_ms: start.elapsed().as_secs_f64() * 1e3,
+            ..StepStats::default()
+        })
+    }
 }
 
 impl Backend for CpuBackend {
@@ -74,6 +133,9 @@ impl Backend for CpuBackend {
     }
 
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        if self.fused.is_some() {
+            return self.advance_fused(substeps);
+        }
         let start = std::time::Instant::now();
         let mut projections = 0;
         let (mut iterations, mut residual) = (0u32, 0.0f64);

@@ -3,26 +3,17 @@
 //! (`compute_forces`, then the update): the same bits for every kernel, every integrator it
 //! serves, serial and threaded, through a collapsed spring and up to divergence.
 
+mod common;
+
 use std::sync::Arc;
 
+use common::{model_of, ok};
 use glam::Vec3;
 use hooke::backend::{Backend as _, BackendError};
 use hooke::cpu::{CpuBackend, Kernel};
 use hooke::integrator::Integrator;
 use hooke::model::{Model, ModelBuilder};
 use hooke::state::State;
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn model_of(toml: &str) -> Arc<Model> {
-    let scene = ok(hooke::scene::from_toml(
-        toml,
-        hooke::scene::SceneOrigin::Text,
-    ));
-    Arc::new(hooke::model::build(&scene))
-}
 
 /// A cloth of `nx` × `nz` masses with all three kinds of spring (different constants), two pins,
 /// gravity and air drag, released with a velocity so that the dashpots work from the start.

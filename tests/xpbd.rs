@@ -6,24 +6,12 @@ mod common;
 
 use std::sync::Arc;
 
-use common::{hooke, temp_dir, text};
+use common::{hooke, model_of, ok, temp_dir, text};
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::integrator::{Integrator, StepOptions};
 use hooke::model::Model;
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn model_of(toml: &str) -> Arc<Model> {
-    let scene = ok(hooke::scene::from_toml(
-        toml,
-        hooke::scene::SceneOrigin::Text,
-    ));
-    Arc::new(hooke::model::build(&scene))
-}
 
 fn positions_after(model: &Arc<Model>, dt: f64, duration: f64, iterations: u32) -> Vec<Vec3> {
     let options = StepOptions {

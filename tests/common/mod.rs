@@ -67,6 +67,15 @@ pub fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
     r.unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The model of scene text, built as a scene file is.
+pub fn model_of(toml: &str) -> std::sync::Arc<hooke::model::Model> {
+    let scene = ok(hooke::scene::from_toml(
+        toml,
+        hooke::scene::SceneOrigin::Text,
+    ));
+    std::sync::Arc::new(hooke::model::build(&scene))
+}
+
 /// A built-in scene's model and its own dt, prepared as `hooke run` prepares it.
 pub fn scene_model(name: &str) -> (std::sync::Arc<hooke::model::Model>, f64) {
     let request = hooke::prepare::Request::named(name, hooke::select::Device::cpu());

@@ -6,8 +6,10 @@ use crate::integrator::Integrator;
 
 use super::results::Accuracy;
 
-const COLORS: [&str; 6] = [
-    "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf",
+/// One colour per integrator, in `Integrator::ALL`'s order (a new integrator fails the build
+/// until it has its own).
+const COLORS: [&str; Integrator::ALL.len()] = [
+    "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#e377c2",
 ];
 
 /// The work-precision chart: RMS error against wall time per simulated second, log–log.
@@ -144,7 +146,7 @@ fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
     let px = |v: f64| plot.px(v);
     let py = |v: f64| plot.py(v);
     for (k, integrator) in Integrator::ALL.iter().enumerate() {
-        let c = COLORS[k % COLORS.len()];
+        let c = COLORS[k];
         let line: Vec<(f64, f64)> = r
             .rows
             .iter()

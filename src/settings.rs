@@ -35,6 +35,33 @@ pub struct Settings {
     pub notes: Vec<String>,
 }
 
+/// The command-line values that are wrong whatever the scene's solver section says.
+fn check_overrides(scene: &Scene, o: &Overrides) -> Result<()> {
+    if let Some(dt) = o.dt_secs
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        return Err(SettingsError(format!(
+            "--dt must be a positive number of seconds, got {dt}"
+        )));
+    }
+    if o.integrator == Some(Integrator::Implicit) && scene.effects.self_collision.is_some() {
+        return Err(SettingsError(
+            "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
+             use semi-implicit, verlet or rk4"
+                .into(),
+        ));
+    }
+    if o.xpbd_iterations == Some(0) {
+        return Err(SettingsError(
+            "--xpbd-iterations must be at least 1 (each substep projects every spring that many times)".into(),
+        ));
+    }
+    if o.substeps == Some(0) {
+        return Err(SettingsError("--substeps must be at least 1".into()));
+    }
+    Ok(())
+}
+
 /// Simulated time when neither the scene nor the command line says.
 pub const DEFAULT_DURATION_SECS: f64 = 5.0;
 
@@ -44,28 +71,7 @@ impl Settings {
         let fps = s.frame_rate_hz;
         let frame_secs = 1.0 / fps;
         let mut notes = Vec::new();
-        if let Some(dt) = o.dt_secs
-            && !(dt.is_finite() && dt > 0.0)
-        {
-            return Err(SettingsError(format!(
-                "--dt must be a positive number of seconds, got {dt}"
-            )));
-        }
-        if o.integrator == Some(Integrator::Implicit) && scene.effects.self_collision.is_some() {
-            return Err(SettingsError(
-                "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
-                 use semi-implicit, verlet or rk4"
-                    .into(),
-            ));
-        }
-        if o.xpbd_iterations == Some(0) {
-            return Err(SettingsError(
-                "--xpbd-iterations must be at least 1 (each substep projects every spring that many times)".into(),
-            ));
-        }
-        if o.substeps == Some(0) {
-            return Err(SettingsError("--substeps must be at least 1".into()));
-        }
+        check_overrides(scene, o)?;
         // The command line wins; within one source, dt and substeps are two views of one value.
         let (dt_req, sub_req) = match (o.dt_secs, o.substeps) {
             (None, None) => (s.dt_secs, s.substeps),

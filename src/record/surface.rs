@@ -56,6 +56,29 @@ fn grid_axes(grid: &[u32]) -> Vec<(usize, u32)> {
         .collect()
 }
 
+/// A body's surface as quads of four grid corners, counter-clockwise seen from the side they
+/// face, and whether it is two-sided (a sheet); `None` for a strand.
+fn surface_quads(n: [u32; 3], axes: &[(usize, u32)]) -> Option<(Vec<[[u32; 3]; 4]>, bool)> {
+    let mut quads: Vec<[[u32; 3]; 4]> = Vec::new();
+    let two_sided = match axes.len() {
+        2 => {
+            let (u, w) = (axes[0].0, axes[1].0);
+            push_face(&mut quads, n, u, w, None);
+            true
+        }
+        3 => {
+            // Six faces: for each axis d, the layer at index 0 and at n[d] − 1.
+            for (d, u, w) in [(2, 0, 1), (0, 1, 2), (1, 2, 0)] {
+                push_face(&mut quads, n, u, w, Some((d, 0)));
+                push_face(&mut quads, n, u, w, Some((d, n[d] - 1)));
+            }
+            false
+        }
+        _ => return None,
+    };
+    Some((quads, two_sided))
+}
+
 impl Surface {
     /// The body's surface, or `None` for a strand (fewer than two grid axes with extent).
     pub fn of_body(model: &Model, body: &BodyInfo) -> Option<Self> {
@@ -64,24 +87,7 @@ impl Surface {
         let stride = [1, n[0], n[0] * n[1]];
         let base = body.masses.start;
         let mass_at = |c: [u32; 3]| base + c[0] * stride[0] + c[1] * stride[1] + c[2] * stride[2];
-        // Quads as four grid corners, counter-clockwise seen from the side they face.
-        let mut quads: Vec<[[u32; 3]; 4]> = Vec::new();
-        let two_sided = match axes.len() {
-            2 => {
-                let (u, w) = (axes[0].0, axes[1].0);
-                push_face(&mut quads, n, u, w, None);
-                true
-            }
-            3 => {
-                // Six faces: for each axis d, the layer at index 0 and at n[d] − 1.
-                for (d, u, w) in [(2, 0, 1), (0, 1, 2), (1, 2, 0)] {
-                    push_face(&mut quads, n, u, w, Some((d, 0)));
-                    push_face(&mut quads, n, u, w, Some((d, n[d] - 1)));
-                }
-                false
-            }
-            _ => return None,
-        };
+        let (quads, two_sided) = surface_quads(n, &axes)?;
         // Vertices: every mass that a quad touches, in mass order.
         let mut used: Vec<u32> = quads.iter().flatten().map(|c| mass_at(*c)).collect();
         used.sort_unstable();

@@ -28,8 +28,11 @@ impl Reference {
         }
     }
 
-    /// Accelerations at (x, v, t). `dt` bounds friction as the backends do, with the step the
-    /// reference is judged against, not its own.
+    /// Accelerations at (x, v, t). `dt` bounds friction's stick as the backends do, with the
+    /// reference's own step: sticking then happens within a reference step, which is Coulomb
+    /// friction as the step goes to zero. (Bounding it with a judged run's coarser step instead
+    /// would turn sticking into a viscous drag of time constant dt, a different law: on jello that
+    /// moved the reference by 11 cm at dt = 1/1200 s.)
     fn acceleration(&self, x: &[DVec3], v: &[DVec3], t: f64, dt: f64) -> Vec<DVec3> {
         let m = &*self.model;
         let poses: Vec<(DVec3, DVec3)> = m
@@ -43,26 +46,29 @@ impl Reference {
             g.build_f64(x);
             (c, g)
         });
-        let one = |i: usize| {
+        let mut f = spring_forces(m, x, v);
+        let one = |(i, f): (usize, &mut DVec3)| {
             if m.inv_mass[i] == 0.0 {
-                return DVec3::ZERO;
+                *f = DVec3::ZERO;
+                return;
             }
-            let mut f = force_on_mass(m, &poses, x, v, i, dt);
+            *f += force_on_mass(m, &poses, x, v, i, dt);
             if let Some((c, g)) = &grid {
-                f += pair_contacts(m, c, g, x, v, i, dt);
+                *f += pair_contacts(m, c, g, x, v, i, dt);
             }
-            f / f64::from(m.mass_kg[i])
+            *f /= f64::from(m.mass_kg[i]);
         };
         if x.len() >= PARALLEL_MIN_MASSES {
-            (0..x.len()).into_par_iter().map(one).collect()
+            f.par_iter_mut().enumerate().for_each(one);
         } else {
-            (0..x.len()).map(one).collect()
+            f.iter_mut().enumerate().for_each(one);
         }
+        f
     }
 
     /// Advance to `until` with RK4 steps of at most `h` (the last one shortened to land on it).
-    /// `judged_dt` is the step of the runs being judged (it scales friction's stick limit).
-    pub fn advance_to(&mut self, until: f64, h: f64, judged_dt: f64) {
+    pub fn advance_to(&mut self, until: f64, h: f64) {
+        let stick_dt = h;
         while self.time_secs < until - 1e-12 {
             let h = h.min(until - self.time_secs);
             let t = self.time_secs;
@@ -73,13 +79,13 @@ impl Reference {
                     .map(|(p, q)| *p + s * *q)
                     .collect::<Vec<_>>()
             };
-            let a1 = self.acceleration(x, v, t, judged_dt);
+            let a1 = self.acceleration(x, v, t, stick_dt);
             let (x2, v2) = (axpy(x, 0.5 * h, v), axpy(v, 0.5 * h, &a1));
-            let a2 = self.acceleration(&x2, &v2, t + 0.5 * h, judged_dt);
+            let a2 = self.acceleration(&x2, &v2, t + 0.5 * h, stick_dt);
             let (x3, v3) = (axpy(x, 0.5 * h, &v2), axpy(v, 0.5 * h, &a2));
-            let a3 = self.acceleration(&x3, &v3, t + 0.5 * h, judged_dt);
+            let a3 = self.acceleration(&x3, &v3, t + 0.5 * h, stick_dt);
             let (x4, v4) = (axpy(x, h, &v3), axpy(v, h, &a3));
-            let a4 = self.acceleration(&x4, &v4, t + h, judged_dt);
+            let a4 = self.acceleration(&x4, &v4, t + h, stick_dt);
             let x_next: Vec<DVec3> = (0..x.len())
                 .map(|i| x[i] + h / 6.0 * (v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i]))
                 .collect();
@@ -93,8 +99,37 @@ impl Reference {
     }
 }
 
-/// The force on mass `i` from its springs, gravity, drag, the ground and the colliders (at
-/// `poses`, each a position and velocity).
+/// Springs in this many parts, each summed into its own buffer and the buffers added in order:
+/// the same sums whatever the thread count (determinism), at most this many copies of the force.
+const SPRING_PARTS: usize = 8;
+
+/// The spring forces on every mass. Springs once each, both ends at a time: half the work of
+/// gathering per mass (the accuracy benchmark spends much of its time here).
+fn spring_forces(m: &Model, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
+    let part = m.springs.len().div_ceil(SPRING_PARTS).max(1);
+    let sum_part = |springs: &[crate::model::Spring]| {
+        let mut f = vec![DVec3::ZERO; x.len()];
+        for s in springs {
+            let (a, b) = (s.a as usize, s.b as usize);
+            let fa = spring_force::<f64>(s, x[a], x[b], v[a], v[b]).0;
+            f[a] += fa;
+            f[b] -= fa;
+        }
+        f
+    };
+    let parts: Vec<Vec<DVec3>> = m.springs.par_chunks(part).map(sum_part).collect();
+    let mut parts = parts.into_iter();
+    let mut f = parts.next().unwrap_or_else(|| vec![DVec3::ZERO; x.len()]);
+    for p in parts {
+        for (f, p) in f.iter_mut().zip(p) {
+            *f += p;
+        }
+    }
+    f
+}
+
+/// The force on mass `i` from gravity, drag, the ground and the colliders (at `poses`, each a
+/// position and velocity); its springs are summed apart.
 fn force_on_mass(
     m: &Model,
     poses: &[(DVec3, DVec3)],
@@ -106,10 +141,6 @@ fn force_on_mass(
     let fx = &m.effects;
     let (xi, vi, mass) = (x[i], v[i], f64::from(m.mass_kg[i]));
     let mut f = DVec3::ZERO;
-    for nb in m.adjacency.of(i) {
-        let j = nb.other as usize;
-        f += spring_force::<f64>(&m.springs[nb.spring as usize], xi, x[j], vi, v[j]).0;
-    }
     if let Some(g) = fx.gravity_m_per_s2 {
         f += mass * g.as_dvec3();
     }

@@ -41,3 +41,26 @@ fn damping_is_not_divergence() {
     let found = search_stable_dt(&model, Integrator::Implicit, (dt, coarse), 0.2);
     assert_eq!(found, Found::AtLeast(coarse));
 }
+
+/// A search ends on a stable step with an unstable one within 0.5% above it, starting from the
+/// estimate `hooke check` gives.
+#[test]
+fn the_search_brackets_the_limit_tightly() {
+    let (model, dt) = scene_model("hair");
+    let estimate = hooke::stability::stable_dts(&model)
+        .into_iter()
+        .find(|(i, _)| *i == Integrator::SemiImplicit)
+        .and_then(|(_, e)| e);
+    let range = search_range(Integrator::SemiImplicit, estimate, dt);
+    let Found::Largest(found) = search_stable_dt(&model, Integrator::SemiImplicit, range, 0.5)
+    else {
+        panic!("no limit found within {range:?}");
+    };
+    assert!(is_stable(&model, Integrator::SemiImplicit, found, 0.5));
+    assert!(!is_stable(
+        &model,
+        Integrator::SemiImplicit,
+        found * 1.005,
+        0.5
+    ));
+}

@@ -389,7 +389,7 @@ fn auto_dt_meets_the_requested_accuracy() {
         let steps = (auto.probe_secs / auto.dt_secs).round() as u64;
         let s = run(&model, integrator, auto.dt_secs, steps);
         let mut reference = hooke::reference::Reference::new(model.clone());
-        reference.advance_to(s.time_secs, auto.dt_secs / 8.0, auto.dt_secs);
+        reference.advance_to(s.time_secs, auto.dt_secs / 8.0);
         let sq: f64 =
             s.x.iter()
                 .zip(&reference.x)

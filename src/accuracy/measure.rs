@@ -66,7 +66,12 @@ fn run(
     ))
 }
 
-pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
+/// Measure `scene_arg`, telling `progress` what each stage finished (the whole takes minutes).
+pub fn accuracy(
+    scene_arg: &str,
+    opts: &AccuracyOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Accuracy> {
     let planned = prepare::plan(&Request::named(scene_arg, opts.device.clone()), &mut |_| {})?;
     let (model, scene_dt) = (&planned.model, planned.settings.dt_secs);
     let duration = opts.duration_secs;
@@ -84,21 +89,19 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
         .collect();
     let finest = ladder.iter().copied().fold(f64::INFINITY, f64::min);
     let reference_dt = finest / 4.0;
-    // One reference per step size: friction's stick limit depends on the dt being judged.
-    let references: Vec<Vec<glam::DVec3>> = ladder
-        .iter()
-        .map(|&dt| {
-            let mut reference = Reference::new(model.clone());
-            reference.advance_to(duration, reference_dt, dt);
-            reference.x
-        })
-        .collect();
+    let reference_x = {
+        let mut reference = Reference::new(model.clone());
+        reference.advance_to(duration, reference_dt);
+        reference.x
+    };
+    progress(&format!("reference: f64 RK4 at dt = {reference_dt:.3e} s"));
     let mut rows = Vec::new();
     let supported = |i| supported(model, i);
     for integrator in Integrator::ALL.into_iter().filter(|&i| supported(i)) {
-        for (&dt, reference_x) in ladder.iter().zip(&references) {
-            rows.push(row(model, opts, integrator, dt, reference_x)?);
+        for &dt in &ladder {
+            rows.push(row(model, opts, integrator, dt, &reference_x)?);
         }
+        progress(&format!("{integrator}: {} time steps", ladder.len()));
     }
     let search_time = duration.min(0.5);
     let stable = crate::stability::stable_dts(model)
@@ -106,10 +109,12 @@ pub fn accuracy(scene_arg: &str, opts: &AccuracyOptions) -> Result<Accuracy> {
         .filter(|(i, _)| supported(*i))
         .map(|(integrator, estimate)| {
             let searched = search_range(integrator, estimate, scene_dt);
+            let found = search_stable_dt(model, integrator, searched, search_time);
+            progress(&format!("{integrator}: largest stable dt searched"));
             StableDt {
                 integrator,
                 estimate,
-                found: search_stable_dt(model, integrator, searched, search_time),
+                found,
                 searched,
             }
         })

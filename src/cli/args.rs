@@ -142,7 +142,7 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
         duration: f64,
         /// How many time steps: the scene's dt × 2^k, k = coarsest, coarsest − 1, …
-        #[arg(long, default_value_t = 7)]
+        #[arg(long, default_value_t = 6)]
         points: u32,
         /// The largest step is the scene's dt × 2^coarsest.
         #[arg(long, default_value_t = 1, allow_negative_numbers = true)]

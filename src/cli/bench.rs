@@ -33,7 +33,10 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                 out_dir: out.clone(),
                 rrd: save.clone(),
             };
-            let report = accuracy::accuracy(&scene, &opts)?;
+            let start = std::time::Instant::now();
+            let report = accuracy::accuracy(&scene, &opts, &mut |done| {
+                eprintln!("[{:>5.0} s] {done}", start.elapsed().as_secs_f64());
+            })?;
             println!("{}", accuracy::markdown(&report));
             println!(
                 "wrote {0}/accuracy-{1}.md, .csv and .svg (the work-precision chart){2}",

@@ -47,7 +47,7 @@ fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f
     let n = d * (1.0 / dist);
     // The pair's relative motion obeys the one-mass contact with the reduced mass.
     let mu = 1.0 / (wa + wb);
-    let c = contact_force(contact.stiffness, contact.friction, contact.damping_ratio, depth, n, va - vb, mu, dt, PAIR_STICK_SHARE);
+    let c = contact_force(contact.stiffness, contact.friction, contact.damping_ratio, depth, n, va - vb, vec3<f32>(0.0), mu, dt, PAIR_STICK_SHARE);
     out.touching = true;
     out.force = c.force;
     out.dissipated = c.dissipated;

@@ -218,8 +218,10 @@ struct Contact {
 }
 
 // Penalty contact along unit normal n at depth > 0 (src/cpu/law.rs): force and the power its
-// damping and friction dissipate; friction stops at most stick_share of the sliding in a step.
-fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
+// damping and friction take out. Friction opposes the tangential velocity the step would end with
+// under `load` (the mass's other forces) alone, stopping at most stick_share of it in a step, so
+// that sticking holds against a load instead of creeping.
+fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, load: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
     let vn = dot(v_rel, n);
     let spring = stiffness * depth;
     let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
@@ -228,11 +230,14 @@ fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, 
     var out = Contact(n * fn_total, -damper_part * vn);
     if (friction > 0.0) {
         let vt = v_rel - vn * n;
-        let speed = length(vt);
-        if (speed > 0.0) {
-            let ft = min(friction * fn_total, stick_share * m * speed / dt);
-            out.force -= vt * (ft / speed);
-            out.dissipated += ft * speed;
+        let load_t = load - n * dot(load, n);
+        let wt = vt + load_t * (dt / m);
+        let trial = length(wt);
+        if (trial > 0.0) {
+            let ft = min(friction * fn_total, stick_share * m * trial / dt);
+            let scale = ft / trial;
+            out.force -= wt * scale;
+            out.dissipated += scale * dot(wt, vt);
         }
     }
     return out;

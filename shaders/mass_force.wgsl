@@ -54,7 +54,7 @@ fn forces_on(i: u32) {
     if (HAS_GROUND) {
         let depth = params.ground_height - xi.y;
         if (depth > 0.0) {
-            let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, m, stage.dt, 1.0);
+            let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, f, m, stage.dt, 1.0);
             f += c.force;
             contact_w += c.dissipated;
             if (IMPLICIT) {
@@ -71,7 +71,7 @@ fn forces_on(i: u32) {
             if (p.w > 0.0) {
                 let n = p.xyz;
                 let u = pose.velocity.xyz;
-                let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, m, stage.dt, 1.0);
+                let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, f, m, stage.dt, 1.0);
                 f += c.force;
                 contact_w += c.dissipated;
                 collider_w += dot(c.force, u);

@@ -52,7 +52,7 @@ impl Reference {
                 *f = DVec3::ZERO;
                 return;
             }
-            *f += force_on_mass(m, &poses, x, v, i, dt);
+            *f = force_on_mass(m, &poses, x, v, i, dt, *f);
             if let Some((c, g)) = &grid {
                 *f += pair_contacts(m, c, g, x, v, i, dt);
             }
@@ -128,8 +128,9 @@ fn spring_forces(m: &Model, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
     f
 }
 
-/// The force on mass `i` from gravity, drag, the ground and the colliders (at `poses`, each a
-/// position and velocity); its springs are summed apart.
+/// The force on mass `i`: `springs` (its springs' force, summed apart) plus gravity, drag, the
+/// ground and the colliders (at `poses`, each a position and velocity), in the backends' order:
+/// each contact's friction holds against the forces before it.
 fn force_on_mass(
     m: &Model,
     poses: &[(DVec3, DVec3)],
@@ -137,10 +138,11 @@ fn force_on_mass(
     v: &[DVec3],
     i: usize,
     dt: f64,
+    springs: DVec3,
 ) -> DVec3 {
     let fx = &m.effects;
     let (xi, vi, mass) = (x[i], v[i], f64::from(m.mass_kg[i]));
-    let mut f = DVec3::ZERO;
+    let mut f = springs;
     if let Some(g) = fx.gravity_m_per_s2 {
         f += mass * g.as_dvec3();
     }
@@ -150,12 +152,12 @@ fn force_on_mass(
     if let Some(g) = &fx.ground {
         let depth = f64::from(g.height_m) - xi.y;
         if depth > 0.0 {
-            f += contact_force(&g.contact, depth, DVec3::Y, vi, mass, dt, 1.0).0;
+            f += contact_force(&g.contact, depth, DVec3::Y, (vi, f), mass, dt, 1.0).0;
         }
     }
     for (c, (center, u)) in fx.colliders.iter().zip(poses) {
         if let Some((depth, n)) = c.shape.penetration(*center, xi) {
-            f += contact_force(&c.contact, depth, n, vi - *u, mass, dt, 1.0).0;
+            f += contact_force(&c.contact, depth, n, (vi - *u, f), mass, dt, 1.0).0;
         }
     }
     f
@@ -191,7 +193,7 @@ fn pair_contacts(
             &c.contact,
             diameter - dist,
             d / dist,
-            v[i] - v[j],
+            (v[i] - v[j], DVec3::ZERO),
             mu,
             dt,
             stick,

@@ -266,6 +266,58 @@ fn sliding_block_stops_at_the_coulomb_distance() {
     }
 }
 
+/// One 1 kg mass resting on a ground of friction 0.5 (at its resting depth), under gravity
+/// with a sideways part `gx`.
+fn on_rough_ground(gx: f32) -> Arc<Model> {
+    let k = 1.0e4f32;
+    let mut mb = ModelBuilder::new();
+    mb.mass(Vec3::new(0.0, -G / k, 0.0), Vec3::ZERO, 1.0, false);
+    mb.effects(Effects {
+        gravity_m_per_s2: Some(Vec3::new(gx, -G, 0.0)),
+        ground: Some(GroundCollider {
+            height_m: 0.0,
+            contact: ContactModel {
+                stiffness_n_per_m: k,
+                friction: 0.5,
+                damping_ratio: 1.0,
+            },
+            max_depth_m: 0.1,
+        }),
+        ..Effects::default()
+    });
+    Arc::new(mb.build())
+}
+
+/// Static friction holds: a sideways load below μ m g leaves a resting mass where it is. (A
+/// friction that only opposes the velocity lets it creep at load·dt/m: 2 mm in this second.)
+/// Above the limit it slides at (g_x − μ g), as Coulomb says.
+#[test]
+fn static_friction_holds_below_the_limit_and_slides_above_it() {
+    let (held, sliding) = (on_rough_ground(2.0), on_rough_ground(8.0));
+    for integrator in [
+        Integrator::Euler,
+        Integrator::SemiImplicit,
+        Integrator::Verlet,
+        Integrator::Rk4,
+        Integrator::Implicit,
+    ] {
+        let s = run(&held, integrator, 1e-3, 1000);
+        assert!(
+            s.x[0].x.abs() < 1e-6,
+            "{integrator}: a load of 2 N under a friction limit of 4.9 N moved the mass {} m",
+            s.x[0].x
+        );
+        let s = run(&sliding, integrator, 1e-3, 1000);
+        let expected = 0.5 * f64::from(8.0 - 0.5 * G) * s.time_secs * s.time_secs;
+        let x = f64::from(s.x[0].x);
+        assert!(
+            (x / expected - 1.0).abs() < 0.01,
+            "{integrator}: slid {x} m in {} s, expected {expected} m",
+            s.time_secs
+        );
+    }
+}
+
 #[test]
 fn cpu_backend_is_deterministic_whatever_the_thread_count() {
     // Large enough (64 × 64 = 4096 masses) that the force pass runs on the thread pool.

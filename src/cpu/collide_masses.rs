@@ -54,7 +54,8 @@ pub fn pair_contact(
         &c.contact,
         depth,
         n,
-        va - vb,
+        // No load: each pair sees only the relative motion (the pass runs apart from the rest).
+        (va - vb, Vec3::ZERO),
         mu,
         dt,
         PAIR_STICK_SHARE,

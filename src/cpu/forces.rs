@@ -58,7 +58,7 @@ fn force_on_mass<const SPRINGS: bool>(
     if let Some(g) = &e.ground {
         let depth = g.height_m - xi.y;
         if depth > 0.0 {
-            let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, vi, m, dt, 1.0);
+            let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, (vi, f), m, dt, 1.0);
             f += fc;
             contact_w += diss;
         }
@@ -66,7 +66,7 @@ fn force_on_mass<const SPRINGS: bool>(
     for (c, pose) in e.colliders.iter().zip(poses) {
         if let Some((depth, n)) = c.shape.penetration(pose.position_m, xi) {
             let u = pose.velocity_m_per_s;
-            let (fc, diss) = contact_force(&c.contact, depth, n, vi - u, m, dt, 1.0);
+            let (fc, diss) = contact_force(&c.contact, depth, n, (vi - u, f), m, dt, 1.0);
             f += fc;
             contact_w += diss;
             collider_w += fc.dot(u);

@@ -103,6 +103,10 @@ impl Reference {
 /// the same sums whatever the thread count (determinism), at most this many copies of the force.
 const SPRING_PARTS: usize = 8;
 
+/// Below this many springs the parts are summed on this thread: the pool's start-up per force
+/// evaluation would cost more than the sums.
+const PARALLEL_MIN_SPRINGS: usize = 4096;
+
 /// The spring forces on every mass. Springs once each, both ends at a time: half the work of
 /// gathering per mass (the accuracy benchmark spends much of its time here).
 fn spring_forces(m: &Model, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
@@ -117,7 +121,12 @@ fn spring_forces(m: &Model, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
         }
         f
     };
-    let parts: Vec<Vec<DVec3>> = m.springs.par_chunks(part).map(sum_part).collect();
+    // The same parts either way, so the same sums: threads only where they pay.
+    let parts: Vec<Vec<DVec3>> = if m.springs.len() >= PARALLEL_MIN_SPRINGS {
+        m.springs.par_chunks(part).map(sum_part).collect()
+    } else {
+        m.springs.chunks(part).map(sum_part).collect()
+    };
     let mut parts = parts.into_iter();
     let mut f = parts.next().unwrap_or_else(|| vec![DVec3::ZERO; x.len()]);
     for p in parts {

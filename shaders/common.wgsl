@@ -33,6 +33,10 @@ override XPBD: bool = false;
 fn has_contact_terms() -> bool {
     return IMPLICIT && (HAS_GROUND || HAS_COLLIDERS);
 }
+// The fused steps (fused.wgsl): Euler's update or semi-implicit Euler's, and where a compact
+// link's spring kind starts (the bits below are the other mass's index).
+override SEMI_IMPLICIT: bool = false;
+override KIND_SHIFT: u32 = 31u;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/cpu/collide_masses.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
@@ -128,6 +132,23 @@ struct SpringLimits {
 struct Neighbor {
     spring: u32,
     other: u32,
+}
+
+// The fused steps' spring kinds: each distinct (stiffness, damping) of a run's springs, as
+// (stiffness, damping, 0, 0) (SpringKinds in src/gpu/layout.rs).
+const MAX_SPRING_KINDS: u32 = 256u;
+struct SpringKinds {
+    kind: array<vec4<f32>, MAX_SPRING_KINDS>,
+}
+
+// What mass_force reads of the spring at one CSR entry: the mass at its other end and its
+// constants, from whichever layout the program binds (spring_end in spring_records.wgsl or
+// fused.wgsl).
+struct SpringEnd {
+    other: u32,
+    rest: f32,
+    stiffness: f32,
+    damping: f32,
 }
 
 const SPHERE: u32 = 0u;

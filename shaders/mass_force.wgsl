@@ -1,9 +1,20 @@
-// forces_on: the full force on one mass (springs, gravity, drag, contact), gathered through the
-// CSR adjacency, at the state x_in, v_in; written to deriv as compute_forces' output. Mirrors
-// src/cpu/forces.rs. Shared by compute_forces (forces.wgsl) and implicit_step (implicit.wgsl),
-// which declare the bindings it reads.
+// mass_force: the full force on one mass (springs, gravity, drag, contact) at the state x_in,
+// v_in, as its acceleration and the ledger's rates; forces_on writes it to deriv as
+// compute_forces' output. Mirrors src/cpu/forces.rs. Shared by compute_forces (forces.wgsl),
+// implicit_step (implicit.wgsl) and the fused steps (fused.wgsl), which declare the bindings it
+// reads and define spring_end(e), the spring of CSR entry e in their own layout of the springs.
 
-fn forces_on(i: u32) {
+struct MassForce {
+    acc: vec3<f32>,
+    // Ledger rates: damping, drag, contact, collider work.
+    rates: vec4<f32>,
+    // Implicit Euler: Σ over contacts of (h²k + h·2ζ√(km)) n nᵀ, as src/cpu/implicit.rs's
+    // linearise, stored as (xx, yy, zz) and (xy, xz, yz).
+    jac_diag: vec3<f32>,
+    jac_off: vec3<f32>,
+}
+
+fn mass_force(i: u32) -> MassForce {
     let xi = x_in[i].xyz;
     let vi = v_in[i].xyz;
     let m = mass[i].x;
@@ -12,13 +23,12 @@ fn forces_on(i: u32) {
     // XPBD without dashpots needs nothing of the springs here.
     let end = select(offsets[i + 1u], offsets[i], XPBD && !HAS_DAMPING);
     for (var e = offsets[i]; e < end; e++) {
-        let nb = neighbors[e];
-        let s = springs[nb.spring];
+        let s = spring_end(e);
         // A broken spring exerts nothing; skipping it saves reading the other end.
-        if (HAS_TEARING && is_broken(s)) {
+        if (HAS_TEARING && s.stiffness == 0.0 && s.damping == 0.0) {
             continue;
         }
-        let d = xi - x_in[nb.other].xyz;
+        let d = xi - x_in[s.other].xyz;
         let len = length(d);
         if (len <= MIN_SPRING_LENGTH) {
             continue;
@@ -26,7 +36,7 @@ fn forces_on(i: u32) {
         let n = d * (1.0 / len);
         let elastic = -s.stiffness * (len - s.rest);
         if (HAS_DAMPING) {
-            let damping = -s.damping * dot(vi - v_in[nb.other].xyz, n);
+            let damping = -s.damping * dot(vi - v_in[s.other].xyz, n);
             if (!XPBD) {
                 f += n * (elastic + damping);
             }
@@ -46,8 +56,6 @@ fn forces_on(i: u32) {
     }
     var contact_w = 0.0;
     var collider_w = 0.0;
-    // Implicit Euler: Σ over contacts of (h²k + h·2ζ√(km)) n nᵀ, as src/cpu/implicit.rs's
-    // linearise, stored as (xx, yy, zz, xy) and (xz, yz).
     var jac_diag = vec3<f32>(0.0);
     var jac_off = vec3<f32>(0.0);
     let h = stage.dt;
@@ -83,21 +91,23 @@ fn forces_on(i: u32) {
             }
         }
     }
+    // A pinned mass moves with nothing and books nothing.
     let w = mass[i].y;
+    if (w == 0.0) {
+        return MassForce(vec3<f32>(0.0), vec4<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    return MassForce(f * w, vec4<f32>(-damping_w, -drag_w, contact_w, collider_w), jac_diag, jac_off);
+}
+
+// compute_forces' output for mass i: [2i] acceleration, [2i+1] ledger rates, and with implicit
+// Euler's contacts their linearisation after them.
+fn forces_on(i: u32) {
+    let mf = mass_force(i);
     if (has_contact_terms()) {
         let n2 = 2u * params.mass_count;
-        if (w == 0.0) {
-            jac_diag = vec3<f32>(0.0);
-            jac_off = vec3<f32>(0.0);
-        }
-        deriv[n2 + 2u * i] = vec4<f32>(jac_diag, 0.0);
-        deriv[n2 + 2u * i + 1u] = vec4<f32>(jac_off, 0.0);
+        deriv[n2 + 2u * i] = vec4<f32>(mf.jac_diag, 0.0);
+        deriv[n2 + 2u * i + 1u] = vec4<f32>(mf.jac_off, 0.0);
     }
-    if (w == 0.0) {
-        deriv[2u * i] = vec4<f32>(0.0);
-        deriv[2u * i + 1u] = vec4<f32>(0.0);
-        return;
-    }
-    deriv[2u * i] = vec4<f32>(f * w, 0.0);
-    deriv[2u * i + 1u] = vec4<f32>(-damping_w, -drag_w, contact_w, collider_w);
+    deriv[2u * i] = vec4<f32>(mf.acc, 0.0);
+    deriv[2u * i + 1u] = mf.rates;
 }

@@ -233,8 +233,11 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
 
 /// The passes one GPU step runs, and the effects compiled into its kernels.
 fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
-    let (passes, effects) = crate::gpu::step_passes(model, settings.integrator);
+    let (passes, why_unfused, effects) = crate::gpu::step_passes(model, settings.integrator);
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
+    if let Some(why) = why_unfused {
+        let _ = writeln!(s, "  not the fused step: {why}");
+    }
     if settings.integrator == crate::integrator::Integrator::Xpbd {
         let colours = crate::cpu::colour_springs(&model.springs, &model.inv_mass).colours();
         let _ = writeln!(

@@ -193,26 +193,23 @@ fn with_no_viewer_the_run_records_to_a_file_and_says_so() {
 }
 
 /// Each built-in scene's GPU step, as `hooke check` prints it: exactly the passes and compiled-in
-/// effects its scene file asks for. A new built-in scene must be added here.
+/// effects its scene file asks for (one fused pass where the springs never change and no masses
+/// collide with each other). A new built-in scene must be added here.
 const SCENE_PASSES: &[(&str, &str, &str)] = &[
-    (
-        "hair",
-        "compute_forces → semi_implicit_update",
-        "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING",
-    ),
+    ("hair", "fused_step", "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING"),
     (
         "cloth",
-        "compute_forces → semi_implicit_update → project_contacts",
+        "fused_step",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING",
     ),
     (
         "jello",
-        "compute_forces → semi_implicit_update → project_contacts",
+        "fused_step",
         "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
     ),
     (
         "jello-sphere",
-        "compute_forces → semi_implicit_update → project_contacts",
+        "fused_step",
         "HAS_GRAVITY, HAS_GROUND, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING",
     ),
     (
@@ -235,21 +232,9 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
         "grid_count → grid_scan_blocks → grid_scan_sums → grid_scan_add → grid_scatter → grid_sort_cells → compute_forces → collide_masses → semi_implicit_update → project_contacts",
         "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
     ),
-    (
-        "cloth-64",
-        "compute_forces → semi_implicit_update",
-        "HAS_GRAVITY, HAS_DAMPING",
-    ),
-    (
-        "cloth-256",
-        "compute_forces → semi_implicit_update",
-        "HAS_GRAVITY, HAS_DAMPING",
-    ),
-    (
-        "cloth-1024",
-        "compute_forces → semi_implicit_update",
-        "HAS_GRAVITY, HAS_DAMPING",
-    ),
+    ("cloth-64", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
+    ("cloth-256", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
+    ("cloth-1024", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
 ];
 
 #[test]
@@ -289,9 +274,36 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     );
     // A scene's integrator changes the force and update passes, not the effects' passes.
     let out = hooke(&["check", "tear", "--integrator", "rk2", "--backend", "cpu"]);
-    assert!(text(&out.stdout).contains(
+    let s = text(&out.stdout);
+    assert!(s.contains(
         "GPU step passes: compute_forces → rk2_stage → compute_forces → rk2_final → project_contacts → update_springs\n"
     ));
+    assert!(
+        s.contains("not the fused step: rk2 has no fused step\n"),
+        "{s}"
+    );
+    // Fused: Verlet in two passes, RK4 in one per stage.
+    for (integrator, passes) in [
+        ("verlet", "fused_verlet_drift → fused_verlet_kick"),
+        (
+            "rk4",
+            "fused_rk4_begin → fused_rk4_mid → fused_rk4_mid → fused_rk4_final",
+        ),
+    ] {
+        let out = hooke(&[
+            "check",
+            "jello",
+            "--integrator",
+            integrator,
+            "--backend",
+            "cpu",
+        ]);
+        let s = text(&out.stdout);
+        assert!(
+            s.contains(&format!("GPU step passes: {passes}\n")) && !s.contains("not the fused"),
+            "jello {integrator}:\n{s}"
+        );
+    }
     // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update; a small
     // system's whole step in one workgroup's dispatch, a larger one's a dispatch per pass.
     for (scene, passes) in [

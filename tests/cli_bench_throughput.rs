@@ -104,10 +104,15 @@ fn text_says_the_median_of_the_runs_and_the_gpu_dispatches_per_step() {
     if !gpu_available() {
         return;
     }
-    // Semi-implicit Euler: the forces, then the update. Implicit Euler on hair: the whole step in
-    // one workgroup's dispatch; on jello (contacts) a dispatch per pass, as `hooke check` lists.
+    // Fused: semi-implicit Euler in one dispatch (the forces, update, contacts and ledger),
+    // Verlet in two, RK4 in four; the general passes where springs tear. Implicit Euler on hair:
+    // the whole step in one workgroup's dispatch; on jello (contacts) a dispatch per pass, as
+    // `hooke check` lists.
     for (scene, integrator, fixed, per_newton, per_cg) in [
-        ("hair", "semi-implicit", 2, 0, 0),
+        ("hair", "semi-implicit", 1, 0, 0),
+        ("jello", "verlet", 2, 0, 0),
+        ("jello", "rk4", 4, 0, 0),
+        ("tear", "semi-implicit", 4, 0, 0),
         ("hair", "implicit", 1, 0, 0),
         ("jello", "implicit", 3, 6, 5),
     ] {

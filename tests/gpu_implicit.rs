@@ -57,11 +57,11 @@ fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
     let (model, _) = scene_model(name);
     let dt = 1.0 / 60.0;
     let mut cpu = CpuBackend::new(model.clone(), Integrator::Implicit, dt);
-    let mut gpu = ok(GpuBackend::with_implicit_path(
+    let mut gpu = ok(GpuBackend::with_paths(
         model.clone(),
         (Integrator::Implicit, dt, StepOptions::default()),
         None,
-        path,
+        (path, hooke::gpu::ExplicitPath::Fused),
     ));
     let (mut worst_x, mut worst_v) = (0.0f64, 0.0f64);
     for frame in 1..=frames {

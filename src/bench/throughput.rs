@@ -103,15 +103,9 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
     let wall_secs = median(&runs_secs);
     // The final state must still be sound, or the figure means nothing.
     be.snapshot(0, Default::default())?;
-    // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
-    let gpu = opts.device.kind == BackendKind::Gpu;
-    let dispatches =
-        gpu.then(|| crate::gpu::dispatches_per_step(&model, settings.integrator, settings.options));
-    let (kernels_ms, bytes_per_step) = match opts.device.kind {
-        BackendKind::Gpu if settings.integrator != Integrator::Implicit => {
-            profile(&model, &settings, opts)?
-        }
-        _ => (None, None),
+    let (kernels_ms, bytes_per_step, dispatches) = match opts.device.kind {
+        BackendKind::Gpu => profile(&model, &settings, opts)?,
+        _ => (None, None, None),
     };
     Ok(Throughput {
         scene: loaded.scene.name,
@@ -143,8 +137,12 @@ fn median(xs: &[f64]) -> f64 {
 }
 
 /// Per-kernel GPU times from a separate, profiled run (timestamps around every dispatch would
-/// slow the timed run).
-type Profile = (Option<Vec<(String, f64)>>, Option<u64>);
+/// slow the timed run), the step's memory traffic, and its dispatches on the path the run took.
+type Profile = (
+    Option<Vec<(String, f64)>>,
+    Option<u64>,
+    Option<DispatchCount>,
+);
 
 fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) -> Result<Profile> {
     let mut gpu = crate::gpu::GpuBackend::with_options(
@@ -152,10 +150,24 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         (settings.integrator, settings.dt_secs, settings.options),
         opts.device.adapter.as_deref(),
     )?;
+    let dispatches = crate::gpu::dispatches_per_step(
+        model,
+        settings.integrator,
+        settings.options,
+        gpu.explicit_path(),
+    );
+    // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
+    if settings.integrator == Integrator::Implicit {
+        return Ok((None, None, Some(dispatches)));
+    }
     let steps = opts.steps.clamp(1, 20);
     // The first profiled steps include Verlet's priming evaluation; warm up first.
     gpu.advance(2)?;
-    Ok((gpu.profile_kernels(steps)?, Some(gpu.bytes_per_step())))
+    Ok((
+        gpu.profile_kernels(steps)?,
+        Some(gpu.bytes_per_step()),
+        Some(dispatches),
+    ))
 }
 
 pub fn format_throughput(t: &Throughput) -> String {

@@ -10,9 +10,10 @@ use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
 use super::implicit::ImplicitStep;
 use super::limits::check_fits;
+use super::links::Links;
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::implicit::Path;
-use super::plan::{self, Dispatch, SLOTS_PER_STEP, step_plan};
+use super::plan::{self, Dispatch, ExplicitPath, SLOTS_PER_STEP, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
 use super::shaders::constants;
@@ -45,6 +46,8 @@ pub struct GpuBackend {
     /// status read (the path of a dispatch per pass).
     implicit_path: Option<Path>,
     cg_chunk: u32,
+    /// Explicit integrators: fused steps or a pass per stage (`plan::why_unfused`).
+    explicit_path: ExplicitPath,
 }
 
 impl GpuBackend {
@@ -68,17 +71,18 @@ impl GpuBackend {
         adapter: Option<&str>,
     ) -> Result<Self, BackendError> {
         let path = plan::implicit::path(&model);
-        Self::with_implicit_path(model, step, adapter, path)
+        Self::with_paths(model, step, adapter, (path, ExplicitPath::Fused))
     }
 
-    /// As `with_options`, with implicit Euler's steps taken by `path` whatever the system's size
-    /// (the tests compare the two paths on one scene).
+    /// As `with_options`, with implicit Euler's steps taken by `implicit` whatever the system's
+    /// size, and explicit steps fused where the run allows it (`ExplicitPath::Fused`) or never
+    /// (`General`): the tests compare the paths on one scene.
     #[doc(hidden)]
-    pub fn with_implicit_path(
+    pub fn with_paths(
         model: Arc<Model>,
         (integrator, dt_secs, options): (Integrator, f64, StepOptions),
         adapter: Option<&str>,
-        path: Path,
+        (path, explicit): (Path, ExplicitPath),
     ) -> Result<Self, BackendError> {
         let implicit = integrator == Integrator::Implicit;
         if implicit && model.effects.self_collision.is_some() {
@@ -87,21 +91,33 @@ impl GpuBackend {
         let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
+        let storage_buffers = ctx.limits.max_storage_buffers_per_shader_stage;
+        let links = match explicit {
+            ExplicitPath::Fused
+                if plan::why_unfused(&model, integrator, storage_buffers).is_none() =>
+            {
+                Links::build(&model).ok()
+            }
+            _ => None,
+        };
         let needed = Needed {
             implicit: implicit.then_some(path),
             springs_change: model.effects.springs_change(),
             mass_contact: model.effects.self_collision.is_some(),
             xpbd: integrator == Integrator::Xpbd,
+            fused: links.is_some(),
         };
         let layouts = Layouts::new(device, needed);
         let resources = Resources::new(
             device,
             &ctx.limits,
-            &layouts,
+            (&layouts, links.as_ref()),
             &model,
             (integrator, dt_secs, options),
         );
-        let pipelines = Pipelines::new(device, &layouts, &constants(&model, integrator), needed);
+        let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
+        let constants = constants(&model, integrator, kind_shift);
+        let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,
             &layouts.stage,
@@ -124,6 +140,11 @@ impl GpuBackend {
             spare: Vec::new(),
             implicit_path: needed.implicit,
             cg_chunk: 16,
+            explicit_path: if needed.fused {
+                ExplicitPath::Fused
+            } else {
+                ExplicitPath::General
+            },
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -150,8 +171,17 @@ impl GpuBackend {
         self.stages.write(&self.ctx.queue, 0, &stages);
     }
 
-    /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0)).
-    pub(super) fn step_plan(&self, prime: bool) -> Vec<Dispatch> {
+    /// How this run's explicit steps are dispatched.
+    pub fn explicit_path(&self) -> ExplicitPath {
+        self.explicit_path
+    }
+
+    /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:
+    /// a fused Euler or semi-implicit step that reads B).
+    pub(super) fn step_plan(&self, prime: bool, odd: bool) -> Vec<Dispatch> {
+        if self.explicit_path == ExplicitPath::Fused {
+            return fused_step_plan(self.integrator, prime, odd);
+        }
         let sweeps = self.resources.xpbd.as_ref().map(|x| x.sweeps);
         step_plan(
             self.integrator,
@@ -161,17 +191,37 @@ impl GpuBackend {
         )
     }
 
+    /// Whether `steps` steps leave the state in B (fused Euler and semi-implicit Euler
+    /// alternate): then [`GpuBackend::copy_back`] returns it to A, where everything else reads it.
+    fn ends_in_b(&self, steps: u32) -> bool {
+        self.explicit_path == ExplicitPath::Fused
+            && matches!(
+                self.integrator,
+                Integrator::Euler | Integrator::SemiImplicit
+            )
+            && steps % 2 == 1
+    }
+
+    /// After `steps` steps, record the copy of B's x and v to A if they ended there.
+    pub(super) fn copy_back(&self, enc: &mut wgpu::CommandEncoder, steps: u32) {
+        if self.ends_in_b(steps) {
+            let r = &self.resources;
+            enc.copy_buffer_to_buffer(&r.xt, 0, &r.x, 0, r.x.size());
+            enc.copy_buffer_to_buffer(&r.vt, 0, &r.v, 0, r.v.size());
+        }
+    }
+
     /// The dispatches of the next `steps` steps, each slot counted from slot 0; Verlet's first
     /// step also evaluates a(x_0).
     pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
-        let warm = self.step_plan(false);
-        let mut all = Vec::with_capacity(warm.len() * steps as usize);
+        let warm = [self.step_plan(false, false), self.step_plan(false, true)];
+        let mut all = Vec::with_capacity(warm[0].len() * steps as usize);
         for k in 0..steps {
             let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
             let plan = if prime {
-                self.step_plan(true)
+                self.step_plan(true, false)
             } else {
-                warm.clone()
+                warm[k as usize % 2].clone()
             };
             all.extend(plan.into_iter().map(|d| Dispatch {
                 slot: SLOTS_PER_STEP * k + d.slot,
@@ -184,7 +234,7 @@ impl GpuBackend {
 
     fn advance_implicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.prepare_stages(substeps);
-        let post = self.step_plan(false);
+        let post = self.step_plan(false, false);
         let Some(solver) = self.resources.solver.as_ref() else {
             return Err(DeviceError::Internal("no implicit solver".to_owned()).into());
         };
@@ -370,6 +420,7 @@ impl Backend for GpuBackend {
         in_pass(&mut enc, "steps", |pass| {
             self.kernels().dispatch_all(pass, &plan, 0)
         })?;
+        self.copy_back(&mut enc, substeps);
         self.ctx.queue.submit([enc.finish()]);
         self.clock.advance(substeps);
         self.ctx.check()?;

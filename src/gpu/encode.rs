@@ -3,7 +3,7 @@
 
 use super::context::DeviceError;
 use super::pipelines::Pipelines;
-use super::plan::Dispatch;
+use super::plan::{Dispatch, SLOTS_PER_STEP};
 use super::resources::Resources;
 use super::stages::StageSlots;
 use crate::backend::BackendError;
@@ -52,12 +52,23 @@ impl Dispatcher<'_> {
         };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group0, &[]);
-        match (spec.reads_state, d.state) {
-            (true, Some(s)) => pass.set_bind_group(1, self.resources.state(s), &[]),
-            (false, None) => {}
+        let slot = base + d.slot;
+        match (spec.reads_state, spec.flows, d.state, d.flow) {
+            (true, false, Some(s), None) => pass.set_bind_group(1, self.resources.state(s), &[]),
+            (false, true, None, Some(f)) => {
+                let flow = self
+                    .resources
+                    .flow(f)
+                    .ok_or_else(|| internal("planned with a state flow the run lacks"))?;
+                pass.set_bind_group(1, flow, &[]);
+                // The step's end slot, for the projection's collider poses.
+                let end = slot / SLOTS_PER_STEP * SLOTS_PER_STEP + SLOTS_PER_STEP - 1;
+                self.stages.bind_as(pass, 3, end);
+            }
+            (false, false, None, None) => {}
             _ => return Err(internal("planned with the wrong state")),
         }
-        self.stages.bind(pass, base + d.slot);
+        self.stages.bind_as(pass, 2, slot);
         pass.dispatch_workgroups(groups.0, groups.1, 1);
         Ok(())
     }

@@ -19,6 +19,8 @@ pub enum Group {
     Grid,
     CollideMasses,
     XpbdSolve,
+    Fused,
+    FusedMid,
 }
 
 /// Binding kinds, in binding order.
@@ -30,7 +32,7 @@ pub enum Slot {
 }
 
 impl Group {
-    pub const ALL: [Group; 9] = [
+    pub const ALL: [Group; 11] = [
         Group::ForcesModel,
         Group::Integrate,
         Group::Collide,
@@ -40,6 +42,8 @@ impl Group {
         Group::Grid,
         Group::CollideMasses,
         Group::XpbdSolve,
+        Group::Fused,
+        Group::FusedMid,
     ];
 
     /// The group's bindings, as the WGSL declares them (the buffers are bound in this order in
@@ -84,6 +88,17 @@ impl Group {
             Group::XpbdSolve => &[
                 Uniform, Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
             ],
+            // params, spring kinds, offsets, links, colliders, mass, deriv, sums, ledger,
+            // counters; the state flows through bind group 1 (x, v in; x, v out).
+            Group::Fused => &[
+                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite,
+                ReadWrite,
+            ],
+            // The same, and the step's starting x and v (RK4's middle stages).
+            Group::FusedMid => &[
+                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite,
+                ReadWrite, Read, Read,
+            ],
         }
     }
 }
@@ -116,6 +131,8 @@ pub enum Needs {
     MassContact,
     /// The XPBD integrator.
     Xpbd,
+    /// The fused explicit steps (`plan::ExplicitPath::Fused`).
+    Fused,
 }
 
 /// A kernel's CPU namesake, or why it has none.
@@ -134,6 +151,9 @@ pub struct Spec {
     pub group: Group,
     /// Whether it reads a state (x and v) through bind group 1.
     pub reads_state: bool,
+    /// Whether the state flows through it: bind group 1 holds the state it reads and the one
+    /// it writes, and group 3 the step's end slot (a fused step's projection).
+    pub flows: bool,
     pub threads: Threads,
     pub needs: Needs,
     pub twin: Twin,
@@ -173,6 +193,7 @@ macro_rules! kernels {
             program: Program::$program,
             group: Group::$group,
             reads_state: kernels!(@state $($state)?),
+            flows: kernels!(@flow $($state)?),
             threads: Threads::$threads,
             needs: Needs::$needs,
             twin: kernels!(@twin $entry $twin),
@@ -195,6 +216,10 @@ macro_rules! kernels {
     };
     (@state) => { false };
     (@state state) => { true };
+    (@state flow) => { false };
+    (@flow) => { false };
+    (@flow state) => { false };
+    (@flow flow) => { true };
     (@bytes $sizes:ident) => { None };
     (@bytes $sizes:ident |$z:ident| $bytes:expr) => {{
         let $z: &Sizes = $sizes;
@@ -328,6 +353,45 @@ kernels! {
     NewtonEnd = newton_end in Implicit {
         group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
+    }
+
+    // ---- fused.wgsl: the explicit steps with every per-mass pass fused into the force gather ----
+    /// Euler or semi-implicit Euler, the whole step.
+    FusedStep = fused_step in Fused {
+        group: Fused + flow, threads: Masses, needs: Fused, cpu: (fused::FusedStep),
+        // x, v in and out; offsets; mass; ledger read and written; links (8 B an end).
+        bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+    }
+    FusedVerletDrift = fused_verlet_drift in Fused {
+        group: Fused + flow, threads: Masses, needs: Fused,
+        cpu: "verlet_drift writing the drifted state beside the step's start, for the kick to read",
+        // x, v in and out; a(x_n) and rates in; half kick and rates out.
+        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16),
+    }
+    FusedVerletKick = fused_verlet_kick in Fused {
+        group: Fused + flow, threads: Masses, needs: Fused,
+        cpu: "compute_forces, verlet_kick and project_contacts in one pass; the CPU runs them in turn",
+        // x, v in and out; offsets; mass; a and rates out; half kick and rates in; ledger; links.
+        bytes: |z| z.n * (4 * 16 + 4 + 8 + 32 + 2 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+    }
+    FusedRk4Begin = fused_rk4_begin in Fused {
+        group: Fused + flow, threads: Masses, needs: Fused,
+        cpu: "compute_forces and rk4_begin in one pass; the CPU runs them in turn",
+        // x, v in; stage point out; offsets; mass; three sums out; links.
+        bytes: |z| z.n * (4 * 16 + 4 + 8 + 3 * 16) + z.ns * 2 * 8 + z.colliders,
+    }
+    FusedRk4Mid = fused_rk4_mid in Fused {
+        group: FusedMid + flow, threads: Masses, needs: Fused,
+        cpu: "compute_forces and rk4_mid in one pass; the CPU runs them in turn",
+        // Stage state in; the step's start in; next stage point out; offsets; mass; three sums
+        // read and written; links.
+        bytes: |z| z.n * (6 * 16 + 4 + 8 + 2 * 3 * 16) + z.ns * 2 * 8 + z.colliders,
+    }
+    FusedRk4Final = fused_rk4_final in Fused {
+        group: Fused + flow, threads: Masses, needs: Fused,
+        cpu: "compute_forces, rk4_final and project_contacts in one pass; the CPU runs them in turn",
+        // Stage state in; x, v read and written; offsets; mass; three sums in; ledger; links.
+        bytes: |z| z.n * (6 * 16 + 4 + 8 + 3 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
     }
 
     // ---- collide.wgsl ----

@@ -117,8 +117,25 @@ pub struct XpbdColour {
     pub _pad: u32,
 }
 
+/// Spring kinds the fused steps' table holds (`MAX_SPRING_KINDS` in WGSL).
+pub const MAX_SPRING_KINDS: usize = 256;
+
+/// The fused steps' spring kinds (`SpringKinds` in WGSL): (stiffness, damping, 0, 0) each.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct SpringKinds {
+    pub kind: [[f32; 4]; MAX_SPRING_KINDS],
+}
+
+impl Default for SpringKinds {
+    fn default() -> Self {
+        Self::zeroed()
+    }
+}
+
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 11] = [
+pub const SHARED_STRUCTS: [(&str, usize); 12] = [
+    ("SpringKinds", std::mem::size_of::<SpringKinds>()),
     ("XpbdSpring", std::mem::size_of::<XpbdSpring>()),
     ("XpbdColour", std::mem::size_of::<XpbdColour>()),
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),

@@ -12,6 +12,9 @@ const IMPLICIT_VECTORS: u64 = 7;
 
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
 const STORAGE_BUFFERS_NEEDED: u32 = 8;
+/// The fused steps': RK4's middle stages bind ten in group 0 and four in the state flow
+/// (fused.wgsl). An adapter with fewer takes the general passes.
+pub const FUSED_STORAGE_BUFFERS_NEEDED: u32 = 14;
 /// Implicit Euler's: implicit_step reads and writes everything a step touches (implicit.wgsl).
 const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 

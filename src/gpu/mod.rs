@@ -9,7 +9,9 @@
 //! - `pipelines`: bind group layouts and pipelines; `buffers`: the model's and state's buffers;
 //!   `resources`: those and the effects' buffers, bound; `xpbd`: XPBD's colours and multipliers;
 //!   `stages`: the stage slots and the run's clock.
-//! - `plan`: the dispatch sequences of a step; `encode`: recording a dispatch.
+//! - `links`: the fused steps' compact springs.
+//! - `plan`: the dispatch sequences of a step, fused or a pass per stage; `encode`: recording a
+//!   dispatch.
 //! - `implicit`: implicit Euler's solve; `readback`: what a snapshot reads back.
 //! - `backend`: `GpuBackend`; `profile` and `inspect` add to it (bench timings, test hooks).
 
@@ -23,6 +25,7 @@ mod inspect;
 pub mod kernels;
 pub mod layout;
 mod limits;
+mod links;
 mod pipelines;
 mod plan;
 mod profile;
@@ -39,5 +42,5 @@ pub use context::{
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
 pub use plan::implicit::{Path as ImplicitPath, path as implicit_path};
-pub use plan::{DispatchCount, dispatches_per_step, step_passes};
+pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::programs;

@@ -6,11 +6,13 @@ use super::plan::implicit::Path;
 use super::shaders::Program;
 
 /// Bind group 0 of every kernel group the run needs (implicit Euler's binds more storage buffers
-/// than other runs may have); 1, the state a force evaluation reads (x and v); 2, the stage slot
-/// (a dynamic uniform offset).
+/// than other runs may have); 1, the state a force evaluation reads (x and v), or for a fused
+/// step the state it reads and the one it writes; 2, the stage slot (a dynamic uniform offset);
+/// 3, a fused step's end slot (the same buffer).
 pub struct Layouts {
     groups: Vec<Option<wgpu::BindGroupLayout>>,
     pub state: wgpu::BindGroupLayout,
+    pub flow: wgpu::BindGroupLayout,
     pub stage: wgpu::BindGroupLayout,
 }
 
@@ -68,6 +70,11 @@ impl Layouts {
                 })
                 .collect(),
             state: layout(device, "forces state", &[Slot::Read, Slot::Read]),
+            flow: layout(
+                device,
+                "state flow",
+                &[Slot::Read, Slot::Read, Slot::ReadWrite, Slot::ReadWrite],
+            ),
             stage,
         }
     }
@@ -86,6 +93,8 @@ pub struct Needed {
     pub springs_change: bool,
     pub mass_contact: bool,
     pub xpbd: bool,
+    /// The fused explicit steps.
+    pub fused: bool,
 }
 
 impl Needed {
@@ -97,6 +106,7 @@ impl Needed {
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
             Needs::Xpbd => self.xpbd,
+            Needs::Fused => self.fused,
         }
     }
 }
@@ -154,14 +164,13 @@ fn pipeline(
     module: &wgpu::ShaderModule,
 ) -> Option<wgpu::ComputePipeline> {
     let spec = k.spec();
-    let state = spec.reads_state.then_some(&layouts.state);
+    let group0 = Some(layouts.group(spec.group)?);
+    let stage = Some(&layouts.stage);
+    let flow: [Option<&wgpu::BindGroupLayout>; 4] = [group0, Some(&layouts.flow), stage, stage];
+    let other = [group0, spec.reads_state.then_some(&layouts.state), stage];
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(spec.entry),
-        bind_group_layouts: &[
-            Some(layouts.group(spec.group)?),
-            state,
-            Some(&layouts.stage),
-        ],
+        bind_group_layouts: if spec.flows { &flow } else { &other },
         immediate_size: 0,
     });
     Some(

@@ -17,6 +17,80 @@ pub enum StateIn {
     XVt,
 }
 
+/// The state a fused kernel reads and the one it writes (bind group 1): A is the run's x and v,
+/// B its xt and vt, C the second stage point RK4's middle stages alternate with B.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flow {
+    AB,
+    BA,
+    BC,
+    CB,
+}
+
+/// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
+/// folded into its force gathers, the state ping-ponging between A and B) or a pass per stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExplicitPath {
+    Fused,
+    General,
+}
+
+/// Why a run cannot take the fused steps, or `None` when it can (given compact links for its
+/// springs, `links.rs`). `storage_buffers`: what the adapter allows per shader stage.
+pub fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> Option<String> {
+    let e = &model.effects;
+    let why = if !matches!(
+        integrator,
+        Integrator::Euler | Integrator::SemiImplicit | Integrator::Verlet | Integrator::Rk4
+    ) {
+        format!("{} has no fused step", integrator.name())
+    } else if e.springs_change() {
+        "plasticity or tearing changes the springs".to_owned()
+    } else if e.self_collision.is_some() {
+        "mass–mass contact builds its grid between force evaluations".to_owned()
+    } else if storage_buffers < super::limits::FUSED_STORAGE_BUFFERS_NEEDED {
+        format!(
+            "the adapter allows {storage_buffers} storage buffers per stage, the fused step needs {}",
+            super::limits::FUSED_STORAGE_BUFFERS_NEEDED
+        )
+    } else {
+        return None;
+    };
+    Some(why)
+}
+
+/// A fused run's dispatches of one step. Euler and semi-implicit Euler alternate A → B and B → A
+/// (`odd`: the step reads B); the others return to A within the step. `prime`: Verlet's first
+/// step, which also evaluates a(x₀) (with the general kernel, into deriv).
+pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Dispatch> {
+    use Flow::*;
+    use Kernel::*;
+    let flowing = Dispatch::flowing;
+    match integrator {
+        Integrator::Euler | Integrator::SemiImplicit => {
+            vec![flowing(FusedStep, if odd { BA } else { AB }, 0)]
+        }
+        Integrator::Verlet => {
+            let mut p = vec![
+                flowing(FusedVerletDrift, AB, 0),
+                flowing(FusedVerletKick, BA, 3),
+            ];
+            if prime {
+                p.insert(0, Dispatch::reading(ComputeForces, StateIn::XV, 0));
+            }
+            p
+        }
+        Integrator::Rk4 => vec![
+            flowing(FusedRk4Begin, AB, 0),
+            flowing(FusedRk4Mid, BC, 1),
+            flowing(FusedRk4Mid, CB, 2),
+            flowing(FusedRk4Final, BA, 3),
+        ],
+        // why_unfused keeps the others off the fused path.
+        _ => Vec::new(),
+    }
+}
+
 /// One sweep of XPBD's projection over one colour of springs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ColourPass {
@@ -32,12 +106,14 @@ pub struct Sweeps {
     pub iterations: u32,
 }
 
-/// One dispatch: a kernel, the state it reads (for the kernels that read one), its stage slot
-/// relative to its step's first, and for XPBD's projection the colour it solves.
+/// One dispatch: a kernel, the state it reads (for the kernels that read one) or the states it
+/// reads and writes (the fused kernels), its stage slot relative to its step's first, and for
+/// XPBD's projection the colour it solves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Dispatch {
     pub kernel: Kernel,
     pub state: Option<StateIn>,
+    pub flow: Option<Flow>,
     pub slot: u32,
     pub colour: Option<ColourPass>,
 }
@@ -48,6 +124,7 @@ impl Dispatch {
         Self {
             kernel,
             state: None,
+            flow: None,
             slot,
             colour: None,
         }
@@ -56,20 +133,24 @@ impl Dispatch {
     /// A kernel that reads `state`.
     pub const fn reading(kernel: Kernel, state: StateIn, slot: u32) -> Self {
         Self {
-            kernel,
             state: Some(state),
-            slot,
-            colour: None,
+            ..Self::at(kernel, slot)
+        }
+    }
+
+    /// A fused kernel, reading and writing the states of `flow`.
+    pub const fn flowing(kernel: Kernel, flow: Flow, slot: u32) -> Self {
+        Self {
+            flow: Some(flow),
+            ..Self::at(kernel, slot)
         }
     }
 
     /// XPBD's projection of one colour.
     pub const fn colour(pass: ColourPass) -> Self {
         Self {
-            kernel: Kernel::XpbdSolveSpring,
-            state: None,
-            slot: 0,
             colour: Some(pass),
+            ..Self::at(Kernel::XpbdSolveSpring, 0)
         }
     }
 }
@@ -250,38 +331,65 @@ pub mod implicit {
     }
 }
 
-/// For `hooke check`: the kernels one GPU step dispatches, in order, and the effects compiled into
-/// them (absent effects are specialised away and cost nothing).
-pub fn step_passes(model: &Model, integrator: Integrator) -> (Vec<String>, Vec<&'static str>) {
+/// The path a run's explicit steps take on an adapter allowing `storage_buffers` storage buffers
+/// per stage, and why when it is not the fused one.
+pub fn explicit_path(
+    model: &Model,
+    integrator: Integrator,
+    storage_buffers: u32,
+) -> (ExplicitPath, Option<String>) {
+    match why_unfused(model, integrator, storage_buffers) {
+        Some(why) => (ExplicitPath::General, Some(why)),
+        None => match super::links::Links::build(model) {
+            Ok(_) => (ExplicitPath::Fused, None),
+            Err(e) => (ExplicitPath::General, Some(e.to_string())),
+        },
+    }
+}
+
+/// For `hooke check`: the kernels one GPU step dispatches, in order, on an adapter with enough
+/// storage buffers for the fused steps (and why a run does not take them), and the effects
+/// compiled into them (absent effects are specialised away and cost nothing).
+pub fn step_passes(
+    model: &Model,
+    integrator: Integrator,
+) -> (Vec<String>, Option<String>, Vec<&'static str>) {
     let mut passes = if integrator == Integrator::Implicit {
         vec![implicit::passes(implicit::path(model))]
     } else {
         Vec::new()
     };
+    let (path, why) = explicit_path(model, integrator, u32::MAX);
     // XPBD's sweeps are listed once, in brackets: their count is the run's.
     let one_sweep = Sweeps {
         colours: 1,
         iterations: 1,
     };
-    passes.extend(
-        step_plan(integrator, &model.effects, false, one_sweep)
-            .into_iter()
-            .map(|d| match d.colour {
-                Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
-                None => d.kernel.name().to_owned(),
-            }),
-    );
+    let plan = match path {
+        ExplicitPath::Fused => fused_step_plan(integrator, false, false),
+        ExplicitPath::General => step_plan(integrator, &model.effects, false, one_sweep),
+    };
+    passes.extend(plan.into_iter().map(|d| match d.colour {
+        Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
+        None => d.kernel.name().to_owned(),
+    }));
+    let why = match integrator {
+        Integrator::Implicit | Integrator::Xpbd => None,
+        _ => why,
+    };
     let effects = effect_constants(model)
         .into_iter()
         .filter(|(_, on)| *on != 0.0)
         .map(|(name, _)| name)
         .collect();
-    (passes, effects)
+    (passes, why, effects)
 }
 
 /// How many dispatches one GPU step records: `fixed`, plus (implicit Euler a dispatch per pass)
 /// so many per Newton iteration and per CG iteration (at least: a chunk of CG iterations may
-/// encode a few that find the solve stopped and return at once).
+/// encode a few that find the solve stopped and return at once). A fused Euler or semi-implicit
+/// run whose submission has an odd number of steps also copies the state back once (not a
+/// dispatch).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DispatchCount {
     pub fixed: u32,
@@ -290,11 +398,12 @@ pub struct DispatchCount {
 }
 
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
-/// evaluates a(x₀)), as the plans above record them.
+/// evaluates a(x₀)), as the plans above record them on `path`.
 pub fn dispatches_per_step(
     model: &Model,
     integrator: Integrator,
     options: crate::integrator::StepOptions,
+    explicit: ExplicitPath,
 ) -> DispatchCount {
     use implicit::*;
     let count = |n: usize| n as u32;
@@ -307,7 +416,10 @@ pub fn dispatches_per_step(
         },
         iterations: options.xpbd_iterations,
     };
-    let steps = count(step_plan(integrator, &model.effects, false, sweeps).len());
+    let steps = count(match explicit {
+        ExplicitPath::Fused => fused_step_plan(integrator, false, false).len(),
+        ExplicitPath::General => step_plan(integrator, &model.effects, false, sweeps).len(),
+    });
     match (integrator, path(model)) {
         (Integrator::Implicit, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,
@@ -329,6 +441,78 @@ pub fn dispatches_per_step(
 mod tests {
     use super::*;
     use crate::model::{ContactModel, MassContact};
+
+    const FUSED: [Integrator; 4] = [
+        Integrator::Euler,
+        Integrator::SemiImplicit,
+        Integrator::Verlet,
+        Integrator::Rk4,
+    ];
+
+    /// The fused steps keep issue 13's bounds (at most 2 dispatches per step, RK4 5), each
+    /// dispatch reads the state the one before wrote, and a step starts from A and returns to it
+    /// (Euler and semi-implicit Euler every second step).
+    #[test]
+    fn fused_steps_chain_their_states_within_the_dispatch_bounds() {
+        let ends = |f: Flow| match f {
+            Flow::AB => ('A', 'B'),
+            Flow::BA => ('B', 'A'),
+            Flow::BC => ('B', 'C'),
+            Flow::CB => ('C', 'B'),
+        };
+        for integrator in FUSED {
+            let bound = if integrator == Integrator::Rk4 { 5 } else { 2 };
+            let mut at = 'A';
+            for odd in [false, true] {
+                let plan = fused_step_plan(integrator, false, odd);
+                assert!(!plan.is_empty() && plan.len() <= bound, "{integrator}");
+                for d in &plan {
+                    let (from, to) = ends(d.flow.expect("a fused kernel"));
+                    assert_eq!(from, at, "{integrator} {}", d.kernel.name());
+                    at = to;
+                }
+                let single = matches!(integrator, Integrator::Euler | Integrator::SemiImplicit);
+                assert_eq!(at, if single && !odd { 'B' } else { 'A' }, "{integrator}");
+            }
+        }
+    }
+
+    /// The compact links bring a fused semi-implicit step at cloth-256 under 36 B of compulsory
+    /// traffic per spring update (issue 13); the general passes move about twice that.
+    #[test]
+    fn a_fused_cloth_256_step_moves_at_most_36_bytes_per_spring() {
+        let scene = crate::scene::BUILT_IN
+            .iter()
+            .find(|b| b.name == "cloth-256")
+            .map(|b| b.toml)
+            .expect("built-in");
+        let scene = crate::scene::from_toml(scene, crate::scene::SceneOrigin::Text).expect("valid");
+        let model = crate::model::build(&scene);
+        let sizes = crate::gpu::kernels::Sizes {
+            n: model.mass_count() as u64,
+            ns: model.spring_count() as u64,
+            table: 0,
+            blocks: 0,
+            colliders: 48 * model.effects.colliders.len() as u64,
+        };
+        let per_spring = |plan: Vec<Dispatch>| {
+            let bytes: u64 = plan.iter().filter_map(|d| d.kernel.bytes(&sizes)).sum();
+            bytes as f64 / sizes.ns as f64
+        };
+        let integrator = Integrator::SemiImplicit;
+        let fused = per_spring(fused_step_plan(integrator, false, false));
+        let general = per_spring(step_plan(
+            integrator,
+            &model.effects,
+            false,
+            Sweeps::default(),
+        ));
+        assert!(fused <= 36.0, "{fused:.1} B per spring update");
+        assert!(
+            general > 1.9 * fused,
+            "general {general:.1} B, fused {fused:.1} B"
+        );
+    }
 
     /// XPBD's substep: the kick, every colour once per sweep with the multipliers reset on the
     /// first sweep only, then the new state; no colour is skipped or repeated within a sweep.
@@ -387,9 +571,15 @@ mod tests {
             }
         }
         plans.push(grid_build(StateIn::XV, 0).to_vec());
+        for integrator in FUSED {
+            for (prime, odd) in [(false, false), (true, false), (false, true)] {
+                plans.push(fused_step_plan(integrator, prime, odd));
+            }
+        }
         for d in plans.iter().flatten() {
             let spec = d.kernel.spec();
             assert_eq!(spec.reads_state, d.state.is_some(), "{}", spec.entry);
+            assert_eq!(spec.flows, d.flow.is_some(), "{}", spec.entry);
             // Exactly the per-colour kernel names a colour.
             assert_eq!(
                 spec.threads == crate::gpu::kernels::Threads::Colour,

@@ -11,7 +11,7 @@ impl GpuBackend {
     /// this is the achieved bandwidth that BENCHMARKS.md compares with the card's peak.
     pub fn bytes_per_step(&self) -> u64 {
         let sizes = self.resources.sizes(&self.model);
-        self.step_plan(false)
+        self.step_plan(false, false)
             .iter()
             .map(|d| d.kernel.bytes(&sizes).unwrap_or(0))
             .sum()
@@ -42,6 +42,7 @@ impl GpuBackend {
             });
             self.kernels().dispatch(&mut pass, *d, 0)?;
         }
+        self.copy_back(&mut enc, steps);
         timer.resolve(&mut enc, count);
         self.ctx.queue.submit([enc.finish()]);
         self.clock.advance(steps);

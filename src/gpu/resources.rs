@@ -5,8 +5,9 @@
 use super::buffers::{Alloc, Bufs};
 use super::kernels::{Group, Sizes, Threads};
 use super::layout::{MassContact, SolverStatus};
+use super::links::Links;
 use super::pipelines::Layouts;
-use super::plan::StateIn;
+use super::plan::{Flow, StateIn};
 use super::shaders::{WORKGROUP, groups_for};
 use super::xpbd::{XpbdBuffers, XpbdSetup};
 use crate::integrator::{Integrator, StepOptions};
@@ -64,6 +65,9 @@ pub struct SolverBuffers {
 pub struct Resources {
     pub x: wgpu::Buffer,
     pub v: wgpu::Buffer,
+    /// B: RK stage points, Verlet's drift; where a fused step writes.
+    pub xt: wgpu::Buffer,
+    pub vt: wgpu::Buffer,
     pub ledger: wgpu::Buffer,
     pub counters: wgpu::Buffer,
     pub strain: wgpu::Buffer,
@@ -74,6 +78,9 @@ pub struct Resources {
     groups: Vec<Option<wgpu::BindGroup>>,
     /// Bind group 1, by [`StateIn`].
     states: [wgpu::BindGroup; 3],
+    /// Bind group 1 of the fused kernels, by [`Flow`]; empty when the run is not fused (C, RK4's
+    /// second stage point, exists only for RK4).
+    flows: Vec<Option<wgpu::BindGroup>>,
     pub grid: Option<GridBuffers>,
     pub solver: Option<SolverBuffers>,
     pub xpbd: Option<XpbdBuffers>,
@@ -179,6 +186,58 @@ impl GroupSet<'_> {
         );
     }
 
+    /// The fused steps: their model groups (the compact links), and the state flows, by
+    /// [`Flow`]. RK4's middle stages also read the step's start, and alternate B with a third
+    /// state, C.
+    fn fused(
+        &mut self,
+        a: &mut Alloc<'_>,
+        b: &Bufs,
+        (model, integrator): (&Model, Integrator),
+        links: &Links,
+    ) -> Vec<Option<wgpu::BindGroup>> {
+        let kinds = a.uniform("spring kinds", bytemuck::bytes_of(links.kinds.as_ref()));
+        let entries = a.model("links", bytemuck::cast_slice(&links.entries));
+        let model_buffers = [
+            &b.params,
+            &kinds,
+            &b.offsets,
+            &entries,
+            &b.colliders,
+            &b.mass,
+            &b.deriv,
+            &b.sums,
+            &b.ledger,
+            &b.counters,
+        ];
+        self.set(Group::Fused, &model_buffers);
+        let rk4 = integrator == Integrator::Rk4;
+        let c = rk4.then(|| {
+            let n = model.mass_count();
+            (a.zeros("x2", 16 * n), a.zeros("v2", 16 * n))
+        });
+        if c.is_some() {
+            let mut with_base = model_buffers.to_vec();
+            with_base.extend([&b.x, &b.v]);
+            self.set(Group::FusedMid, &with_base);
+        }
+        let flow = |from: (&wgpu::Buffer, &wgpu::Buffer), to: (&wgpu::Buffer, &wgpu::Buffer)| {
+            bind_group(
+                self.device,
+                &self.layouts.flow,
+                "state flow",
+                &[from.0, from.1, to.0, to.1],
+            )
+        };
+        let (pa, pb) = ((&b.x, &b.v), (&b.xt, &b.vt));
+        let mut flows = vec![Some(flow(pa, pb)), Some(flow(pb, pa))];
+        flows.extend(match &c {
+            Some((x2, v2)) => [Some(flow(pb, (x2, v2))), Some(flow((x2, v2), pb))],
+            None => [None, None],
+        });
+        flows
+    }
+
     /// Plasticity and tearing: each spring's limits, and the energy it let go since the last
     /// snapshot.
     fn springs(&mut self, a: &mut Alloc<'_>, b: &Bufs, model: &Model, dt_secs: f64) {
@@ -195,10 +254,11 @@ impl GroupSet<'_> {
 }
 
 impl Resources {
+    /// `links`: the fused steps' compact springs, for a fused run.
     pub fn new(
         device: &wgpu::Device,
         limits: &wgpu::Limits,
-        layouts: &Layouts,
+        (layouts, links): (&Layouts, Option<&Links>),
         model: &Model,
         (integrator, dt_secs, options): (Integrator, f64, StepOptions),
     ) -> Self {
@@ -248,9 +308,14 @@ impl Resources {
         let staging = [0, 1].map(|_| a.read_back("staging", staging_size));
         let states = [(&b.x, &b.v), (&b.xt, &b.vt), (&b.x, &b.vt)]
             .map(|(x, v)| bind_group(device, &layouts.state, "state", &[x, v]));
+        let flows = links
+            .map(|links| groups.fused(&mut a, &b, (model, integrator), links))
+            .unwrap_or_default();
         Self {
             x: b.x,
             v: b.v,
+            xt: b.xt,
+            vt: b.vt,
             ledger: b.ledger,
             counters: b.counters,
             strain: b.strain,
@@ -258,6 +323,7 @@ impl Resources {
             staging,
             groups: groups.groups,
             states,
+            flows,
             grid,
             solver,
             xpbd,
@@ -274,6 +340,11 @@ impl Resources {
     /// Bind group 1 over `s`.
     pub fn state(&self, s: StateIn) -> &wgpu::BindGroup {
         &self.states[s as usize]
+    }
+
+    /// A fused kernel's bind group 1 over `f`; `None` when the run has no such flow.
+    pub fn flow(&self, f: Flow) -> Option<&wgpu::BindGroup> {
+        self.flows.get(f as usize).and_then(Option::as_ref)
     }
 
     /// The sizes a step's memory traffic depends on.

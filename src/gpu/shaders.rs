@@ -10,6 +10,8 @@ const COMMON: &str = include_str!("../../shaders/common.wgsl");
 const MASS_FORCE: &str = include_str!("../../shaders/mass_force.wgsl");
 const STATE_CHECK: &str = include_str!("../../shaders/state_check.wgsl");
 const IMPLICIT_TERMS: &str = include_str!("../../shaders/implicit_terms.wgsl");
+const SPRING_RECORDS: &str = include_str!("../../shaders/spring_records.wgsl");
+const CONTACT_PROJECTION: &str = include_str!("../../shaders/contact_projection.wgsl");
 
 /// A WGSL file of kernels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,10 +25,11 @@ pub enum Program {
     Grid,
     CollideMasses,
     Xpbd,
+    Fused,
 }
 
 impl Program {
-    pub const ALL: [Program; 9] = [
+    pub const ALL: [Program; 10] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -36,6 +39,7 @@ impl Program {
         Program::Grid,
         Program::CollideMasses,
         Program::Xpbd,
+        Program::Fused,
     ];
 
     pub fn file(self) -> &'static str {
@@ -45,9 +49,11 @@ impl Program {
     /// `common.wgsl`, the libraries the file calls, then the file.
     pub fn source(self) -> String {
         let libraries: &[&str] = match self {
-            Program::Forces => &[MASS_FORCE],
+            Program::Forces => &[MASS_FORCE, SPRING_RECORDS],
             Program::Integrate => &[STATE_CHECK],
-            Program::Implicit => &[MASS_FORCE, STATE_CHECK, IMPLICIT_TERMS],
+            Program::Collide => &[CONTACT_PROJECTION],
+            Program::Implicit => &[MASS_FORCE, SPRING_RECORDS, STATE_CHECK, IMPLICIT_TERMS],
+            Program::Fused => &[MASS_FORCE, STATE_CHECK, CONTACT_PROJECTION],
             _ => &[],
         };
         format!(
@@ -73,12 +79,13 @@ impl Program {
             Program::Grid => file!("grid.wgsl"),
             Program::CollideMasses => file!("collide_masses.wgsl"),
             Program::Xpbd => file!("xpbd.wgsl"),
+            Program::Fused => file!("fused.wgsl"),
         }
     }
 }
 
 /// Every shader program as compiled: (file name, common + file).
-pub fn programs() -> [(&'static str, String); 9] {
+pub fn programs() -> [(&'static str, String); 10] {
     Program::ALL.map(|p| (p.file(), p.source()))
 }
 
@@ -99,15 +106,25 @@ pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
 // (`SCAN_BLOCK` in shaders/common.wgsl).
 const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
 
-/// Every override constant of a pipeline: the effects, and the implicit solver's switch and
-/// stopping rules (the CPU's, so both backends stop alike).
-pub fn constants(model: &Model, integrator: Integrator) -> Vec<(&'static str, f64)> {
+/// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
+/// solver's stopping rules (the CPU's, so both backends stop alike), and where the fused steps'
+/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused).
+pub fn constants(
+    model: &Model,
+    integrator: Integrator,
+    kind_shift: u32,
+) -> Vec<(&'static str, f64)> {
     use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
     c.extend([
         ("XPBD", flag(integrator == Integrator::Xpbd)),
         ("IMPLICIT", flag(integrator == Integrator::Implicit)),
+        (
+            "SEMI_IMPLICIT",
+            flag(integrator == Integrator::SemiImplicit),
+        ),
+        ("KIND_SHIFT", f64::from(kind_shift)),
         ("CG_TOLERANCE", CG_TOLERANCE),
         ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),

@@ -160,10 +160,10 @@ impl StageSlots {
         queue.write_buffer(&self.buffer, u64::from(first) * self.stride, &bytes);
     }
 
-    /// Bind slot `slot` as group 2.
-    pub fn bind(&self, pass: &mut wgpu::ComputePass<'_>, slot: u32) {
+    /// Bind slot `slot` as group `index`: 2, a dispatch's stage; 3, a fused step's end.
+    pub fn bind_as(&self, pass: &mut wgpu::ComputePass<'_>, index: u32, slot: u32) {
         pass.set_bind_group(
-            2,
+            index,
             &self.bind_group,
             &[(u64::from(slot) * self.stride) as u32],
         );

@@ -1,0 +1,91 @@
+//! The GPU's fused explicit steps (shaders/fused.wgsl) against its general passes on one scene,
+//! measured in one process and interleaved so that a noisy machine slows both alike; the final
+//! states are compared bit for bit.
+//!
+//! `cargo run --release --example gpu_paths -- SCENE [INTEGRATOR] [STEPS] [ROUNDS] [BATCH]`
+//!
+//! SCENE is a built-in name or a file; INTEGRATOR defaults to the scene's, STEPS per timing to
+//! 200, ROUNDS of each path to 3, BATCH (steps per submission) to 20. Prints each path's best
+//! steps/s and spring updates/s, and its dispatches per step. See BENCHMARKS.md.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use hooke::backend::{Backend, advance_steps};
+use hooke::gpu::{ExplicitPath, GpuBackend, ImplicitPath};
+use hooke::integrator::{Integrator, StepOptions};
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(scene) = args.first() else {
+        anyhow::bail!("usage: gpu_paths SCENE [INTEGRATOR] [STEPS] [ROUNDS] [BATCH]");
+    };
+    let loaded = hooke::scene::load(scene)?;
+    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())?;
+    let integrator = match args.get(1) {
+        Some(name) => Integrator::ALL
+            .into_iter()
+            .find(|i| i.name() == name)
+            .ok_or_else(|| anyhow::anyhow!("no integrator named {name}"))?,
+        None => settings.integrator,
+    };
+    let steps: u64 = args.get(2).map_or(Ok(200), |s| s.parse())?;
+    let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
+    let batch: u32 = args.get(4).map_or(Ok(20), |s| s.parse())?;
+    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let mut backends = Vec::new();
+    for path in [ExplicitPath::General, ExplicitPath::Fused] {
+        let mut be = GpuBackend::with_paths(
+            model.clone(),
+            (integrator, settings.dt_secs, StepOptions::default()),
+            None,
+            (ImplicitPath::Passes, path),
+        )?;
+        // Warm-up: pipelines compiled, Verlet primed.
+        be.advance(batch)?;
+        be.finish()?;
+        backends.push((path, be, f64::INFINITY));
+    }
+    for _ in 0..rounds {
+        for (_, be, best) in &mut backends {
+            let start = Instant::now();
+            advance_steps(be as &mut dyn Backend, steps, batch)?;
+            be.finish()?;
+            *best = best.min(start.elapsed().as_secs_f64());
+        }
+    }
+    println!(
+        "{scene}, {}, {} masses, {} springs, {steps} steps in submissions of {batch}, best of {rounds} on {}:",
+        integrator.name(),
+        model.mass_count(),
+        model.spring_count(),
+        backends[0].1.describe()
+    );
+    let mut finals = Vec::new();
+    for (path, be, best) in &mut backends {
+        let per_sec = steps as f64 / *best;
+        let d = hooke::gpu::dispatches_per_step(
+            &model,
+            integrator,
+            StepOptions::default(),
+            be.explicit_path(),
+        );
+        println!(
+            "  {:<8} {per_sec:>10.1} steps/s  {:>10.3e} spring updates/s  ({} dispatches per step)",
+            format!("{path:?}").to_lowercase(),
+            per_sec * model.spring_count() as f64,
+            d.fixed
+        );
+        finals.push(be.state()?);
+    }
+    let same = finals[0].x == finals[1].x && finals[0].v == finals[1].v;
+    println!(
+        "  final states {}",
+        if same {
+            "bit-identical"
+        } else {
+            "DIFFER"
+        }
+    );
+    Ok(())
+}

@@ -81,11 +81,7 @@ fn main() -> anyhow::Result<()> {
     let same = finals[0].x == finals[1].x && finals[0].v == finals[1].v;
     println!(
         "  final states {}",
-        if same {
-            "bit-identical"
-        } else {
-            "DIFFER"
-        }
+        if same { "bit-identical" } else { "DIFFER" }
     );
     Ok(())
 }

@@ -108,13 +108,13 @@ fn text_says_the_median_of_the_runs_and_the_gpu_dispatches_per_step() {
     // Verlet in two, RK4 in four; the general passes where springs tear. Implicit Euler on hair:
     // the whole step in one workgroup's dispatch; on jello (contacts) a dispatch per pass, as
     // `hooke check` lists.
-    for (scene, integrator, fixed, per_newton, per_cg) in [
-        ("hair", "semi-implicit", 1, 0, 0),
-        ("jello", "verlet", 2, 0, 0),
-        ("jello", "rk4", 4, 0, 0),
-        ("tear", "semi-implicit", 4, 0, 0),
-        ("hair", "implicit", 1, 0, 0),
-        ("jello", "implicit", 3, 6, 5),
+    for (scene, integrator, fused, fixed, per_newton, per_cg) in [
+        ("hair", "semi-implicit", true, 1, 0, 0),
+        ("jello", "verlet", true, 2, 0, 0),
+        ("jello", "rk4", true, 4, 0, 0),
+        ("tear", "semi-implicit", false, 4, 0, 0),
+        ("hair", "implicit", false, 1, 0, 0),
+        ("jello", "implicit", false, 3, 6, 5),
     ] {
         let o = &json_lines(&[
             "bench",
@@ -131,11 +131,17 @@ fn text_says_the_median_of_the_runs_and_the_gpu_dispatches_per_step() {
         let d = &o["dispatches_per_step"];
         assert_eq!(
             (
+                &d["fused"],
                 &d["fixed"],
                 &d["per_newton_iteration"],
                 &d["per_cg_iteration"]
             ),
-            (&fixed.into(), &per_newton.into(), &per_cg.into()),
+            (
+                &fused.into(),
+                &fixed.into(),
+                &per_newton.into(),
+                &per_cg.into()
+            ),
             "{scene} {integrator}: {o}"
         );
     }

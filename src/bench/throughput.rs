@@ -224,10 +224,13 @@ pub fn format_throughput(t: &Throughput) -> String {
     s
 }
 
-/// "2", or for implicit Euler a dispatch per pass "4 + 6 per Newton iteration + 5 per CG
-/// iteration".
+/// "1 (fused step)", "4", or for implicit Euler a dispatch per pass "4 + 6 per Newton iteration
+/// + 5 per CG iteration".
 fn format_dispatches(d: DispatchCount) -> String {
     let mut s = d.fixed.to_string();
+    if d.fused {
+        s.push_str(" (fused step)");
+    }
     if d.per_newton_iteration > 0 {
         let _ = write!(s, " + {} per Newton iteration", d.per_newton_iteration);
     }
@@ -260,6 +263,7 @@ pub fn throughput_json(t: &Throughput) -> String {
             "max": springs * fast,
         },
         "dispatches_per_step": t.dispatches.map(|d| serde_json::json!({
+            "fused": d.fused,
             "fixed": d.fixed,
             "per_newton_iteration": d.per_newton_iteration,
             "per_cg_iteration": d.per_cg_iteration,

@@ -392,6 +392,8 @@ pub fn step_passes(
 /// dispatch).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DispatchCount {
+    /// Whether the steps are the fused ones (`fused.wgsl`).
+    pub fused: bool,
     pub fixed: u32,
     pub per_newton_iteration: u32,
     pub per_cg_iteration: u32,
@@ -429,8 +431,10 @@ pub fn dispatches_per_step(
             fixed: count(BEGIN.len() + END.len()) + steps,
             per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len()),
             per_cg_iteration: count(CG_ITERATION.len()),
+            ..DispatchCount::default()
         },
         _ => DispatchCount {
+            fused: explicit == ExplicitPath::Fused,
             fixed: steps,
             ..DispatchCount::default()
         },

@@ -121,26 +121,24 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
             if scale > 1.0 && integrator == Integrator::Euler {
                 continue;
             }
-            {
-                let what = format!("{name} {integrator} dt {dt:.3e}");
-                let (fused, pf) = run(&model, integrator, dt, ExplicitPath::Fused);
-                let (general, pg) = run(&model, integrator, dt, ExplicitPath::General);
-                assert!(
-                    bits(&fused) == bits(&general),
-                    "{what}: the fused state differs from the general passes'"
-                );
-                assert_eq!(pf, pg, "{what}: masses projected");
-                let (lf, lg) = (fused.ledger, general.ledger);
-                for (f, g, term) in [
-                    (lf.damping_j, lg.damping_j, "damping"),
-                    (lf.drag_j, lg.drag_j, "drag"),
-                    (lf.contact_j, lg.contact_j, "contact"),
-                    (lf.collider_work_j, lg.collider_work_j, "collider work"),
-                ] {
-                    assert_eq!(f.to_bits(), g.to_bits(), "{what}: ledger's {term}");
-                }
-                projected += pf;
+            let what = format!("{name} {integrator} dt {dt:.3e}");
+            let (fused, pf) = run(&model, integrator, dt, ExplicitPath::Fused);
+            let (general, pg) = run(&model, integrator, dt, ExplicitPath::General);
+            assert!(
+                bits(&fused) == bits(&general),
+                "{what}: the fused state differs from the general passes'"
+            );
+            assert_eq!(pf, pg, "{what}: masses projected");
+            let (lf, lg) = (fused.ledger, general.ledger);
+            for (f, g, term) in [
+                (lf.damping_j, lg.damping_j, "damping"),
+                (lf.drag_j, lg.drag_j, "drag"),
+                (lf.contact_j, lg.contact_j, "contact"),
+                (lf.collider_work_j, lg.collider_work_j, "collider work"),
+            ] {
+                assert_eq!(f.to_bits(), g.to_bits(), "{what}: ledger's {term}");
             }
+            projected += pf;
         }
     }
     // Otherwise the projection folded into the fused steps went untested.

@@ -10,7 +10,6 @@ use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
 use super::implicit::ImplicitStep;
 use super::limits::check_fits;
-use super::links::Links;
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::implicit::Path;
 use super::plan::{self, Dispatch, ExplicitPath, SLOTS_PER_STEP, fused_step_plan, step_plan};
@@ -46,7 +45,7 @@ pub struct GpuBackend {
     /// status read (the path of a dispatch per pass).
     implicit_path: Option<Path>,
     cg_chunk: u32,
-    /// Explicit integrators: fused steps or a pass per stage (`plan::why_unfused`).
+    /// Explicit integrators: fused steps or a pass per stage (`plan::fused_links`).
     explicit_path: ExplicitPath,
 }
 
@@ -93,12 +92,8 @@ impl GpuBackend {
         let device = &ctx.device;
         let storage_buffers = ctx.limits.max_storage_buffers_per_shader_stage;
         let links = match explicit {
-            ExplicitPath::Fused
-                if plan::why_unfused(&model, integrator, storage_buffers).is_none() =>
-            {
-                Links::build(&model).ok()
-            }
-            _ => None,
+            ExplicitPath::Fused => plan::fused_links(&model, integrator, storage_buffers).ok(),
+            ExplicitPath::General => None,
         };
         let needed = Needed {
             implicit: implicit.then_some(path),

@@ -171,6 +171,20 @@ pub struct Sizes {
     pub colliders: u64,
 }
 
+impl Sizes {
+    /// The sizes of `model`'s run; `(table, blocks)`: its hash grid's, (0, 0) without one.
+    pub fn of(model: &crate::model::Model, (table, blocks): (u64, u64)) -> Self {
+        Self {
+            n: model.mass_count() as u64,
+            ns: model.spring_count() as u64,
+            table,
+            blocks,
+            colliders: model.effects.colliders.len() as u64
+                * std::mem::size_of::<super::layout::Collider>() as u64,
+        }
+    }
+}
+
 macro_rules! kernels {
     ($(
         $(#[doc = $doc:literal])*

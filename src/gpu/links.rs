@@ -41,26 +41,22 @@ pub struct Links {
 
 impl Links {
     pub fn build(model: &Model) -> Result<Self, NoLinks> {
+        // Kinds numbered in order of first appearance, so the table is the same every run.
+        let mut kind_of_key = std::collections::HashMap::new();
         let mut kinds: Vec<(u32, u32)> = Vec::new();
-        let mut kind_of_spring = Vec::with_capacity(model.springs.len());
-        for s in &model.springs {
-            let key = (s.stiffness_n_per_m.to_bits(), s.damping_n_s_per_m.to_bits());
-            let k = match kinds.iter().position(|&q| q == key) {
-                Some(k) => k,
-                None => {
-                    if kinds.len() == MAX_SPRING_KINDS {
-                        let all: std::collections::HashSet<(u32, u32)> = model
-                            .springs
-                            .iter()
-                            .map(|s| (s.stiffness_n_per_m.to_bits(), s.damping_n_s_per_m.to_bits()))
-                            .collect();
-                        return Err(NoLinks::TooManyKinds(all.len()));
-                    }
+        let kind_of_spring: Vec<u32> = model
+            .springs
+            .iter()
+            .map(|s| {
+                let key = (s.stiffness_n_per_m.to_bits(), s.damping_n_s_per_m.to_bits());
+                *kind_of_key.entry(key).or_insert_with(|| {
                     kinds.push(key);
-                    kinds.len() - 1
-                }
-            };
-            kind_of_spring.push(k as u32);
+                    kinds.len() as u32 - 1
+                })
+            })
+            .collect();
+        if kinds.len() > MAX_SPRING_KINDS {
+            return Err(NoLinks::TooManyKinds(kinds.len()));
         }
         let kind_bits = kinds.len().max(2).next_power_of_two().trailing_zeros();
         let kind_shift = 32 - kind_bits;

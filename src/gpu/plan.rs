@@ -37,7 +37,7 @@ pub enum ExplicitPath {
 
 /// Why a run cannot take the fused steps, or `None` when it can (given compact links for its
 /// springs, `links.rs`). `storage_buffers`: what the adapter allows per shader stage.
-pub fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> Option<String> {
+fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> Option<String> {
     let e = &model.effects;
     let why = if !matches!(
         integrator,
@@ -338,12 +338,22 @@ pub fn explicit_path(
     integrator: Integrator,
     storage_buffers: u32,
 ) -> (ExplicitPath, Option<String>) {
+    match fused_links(model, integrator, storage_buffers) {
+        Ok(_) => (ExplicitPath::Fused, None),
+        Err(why) => (ExplicitPath::General, Some(why)),
+    }
+}
+
+/// The compact links a fused run steps with, or why the run takes the general passes: the one
+/// decision `explicit_path` reports and the backend acts on.
+pub fn fused_links(
+    model: &Model,
+    integrator: Integrator,
+    storage_buffers: u32,
+) -> Result<super::links::Links, String> {
     match why_unfused(model, integrator, storage_buffers) {
-        Some(why) => (ExplicitPath::General, Some(why)),
-        None => match super::links::Links::build(model) {
-            Ok(_) => (ExplicitPath::Fused, None),
-            Err(e) => (ExplicitPath::General, Some(e.to_string())),
-        },
+        Some(why) => Err(why),
+        None => super::links::Links::build(model).map_err(|e| e.to_string()),
     }
 }
 
@@ -492,13 +502,7 @@ mod tests {
             .expect("built-in");
         let scene = crate::scene::from_toml(scene, crate::scene::SceneOrigin::Text).expect("valid");
         let model = crate::model::build(&scene);
-        let sizes = crate::gpu::kernels::Sizes {
-            n: model.mass_count() as u64,
-            ns: model.spring_count() as u64,
-            table: 0,
-            blocks: 0,
-            colliders: 48 * model.effects.colliders.len() as u64,
-        };
+        let sizes = crate::gpu::kernels::Sizes::of(&model, (0, 0));
         let per_spring = |plan: Vec<Dispatch>| {
             let bytes: u64 = plan.iter().filter_map(|d| d.kernel.bytes(&sizes)).sum();
             bytes as f64 / sizes.ns as f64

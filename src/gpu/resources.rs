@@ -349,16 +349,10 @@ impl Resources {
 
     /// The sizes a step's memory traffic depends on.
     pub fn sizes(&self, model: &Model) -> Sizes {
-        let (table, blocks) = self.grid.as_ref().map_or((0, 0), |g| {
+        let grid = self.grid.as_ref().map_or((0, 0), |g| {
             (u64::from(g.table_size), u64::from(g.block_count))
         });
-        Sizes {
-            n: model.mass_count() as u64,
-            ns: model.spring_count() as u64,
-            table,
-            blocks,
-            colliders: model.effects.colliders.len() as u64 * 48,
-        }
+        Sizes::of(model, grid)
     }
 }
 

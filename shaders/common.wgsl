@@ -23,6 +23,10 @@ override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
+override NEWTON_FLOOR: f32 = 1e-2;
+override NEWTON_STALL: f32 = 0.5;
+// Threads of implicit_step's one workgroup (src/gpu/plan.rs's implicit::group_threads; at most 64).
+override GROUP_THREADS: u32 = 64u;
 // XPBD: compute_forces leaves the springs out (they are projected as constraints, xpbd.wgsl) but
 // for their dashpots' power, which the ledger books.
 override XPBD: bool = false;
@@ -120,6 +124,8 @@ fn is_broken(s: Spring) -> bool {
 
 // compute_strain's value for a broken spring (the host reads it as NaN: no strain).
 const BROKEN_STRAIN: f32 = -3.4028235e38;
+// The largest finite f32.
+const F32_MAX: f32 = 3.4028235e38;
 
 // Per spring, when some body has plasticity or tearing (as SpringLimits in src/model.rs).
 struct SpringLimits {

@@ -67,7 +67,8 @@ struct Solver {
     newton: u32,
     newton_pending: u32,
     converged: u32,
-    _pad: u32,
+    // |h f − M Δv| at the last Newton iterate (newton_stalled).
+    last_residual: f32,
 }
 
 struct Scratch {
@@ -78,27 +79,43 @@ struct Scratch {
 
 var<workgroup> sum_sh: array<vec4<f32>, 64>;
 var<workgroup> flag_sh: u32;
+var<workgroup> part_sh: array<vec4<f32>, 8>;
+var<workgroup> total_sh: vec4<f32>;
 
 // ---- workgroup sums ----
 
-// The workgroup's sum (or max, per component) of `value`, the same for every thread (a uniform
-// value, so loops and branches on it may hold barriers). Call from uniform control flow.
-fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
+// The sum (or max, per component) of `value` over a workgroup of `threads` threads, the same for
+// every thread (a uniform value, so loops and branches on it may hold barriers). Two levels: 8
+// threads add strided eighths, then one adds those, always in the same order. Call from uniform
+// control flow.
+fn reduce_over(lid: u32, value: vec4<f32>, take_max: bool, threads: u32) -> vec4<f32> {
     sum_sh[lid] = value;
     workgroupBarrier();
-    for (var s = WORKGROUP / 2u; s > 0u; s >>= 1u) {
-        if (lid < s) {
-            if (take_max) {
-                sum_sh[lid] = max(sum_sh[lid], sum_sh[lid + s]);
-            } else {
-                sum_sh[lid] += sum_sh[lid + s];
-            }
+    if (lid < 8u) {
+        var acc = vec4<f32>(0.0);
+        for (var k = lid; k < threads; k += 8u) {
+            acc = combine(acc, sum_sh[k], take_max);
         }
-        workgroupBarrier();
+        part_sh[lid] = acc;
     }
-    let total = workgroupUniformLoad(&sum_sh[0]);
     workgroupBarrier();
-    return total;
+    if (lid == 0u) {
+        var total = vec4<f32>(0.0);
+        for (var k = 0u; k < min(threads, 8u); k++) {
+            total = combine(total, part_sh[k], take_max);
+        }
+        total_sh = total;
+    }
+    return workgroupUniformLoad(&total_sh);
+}
+
+// Sums start from 0, and so do maxima (of lengths and other non-negative figures).
+fn combine(acc: vec4<f32>, value: vec4<f32>, take_max: bool) -> vec4<f32> {
+    return select(acc + value, max(acc, value), take_max);
+}
+
+fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
+    return reduce_over(lid, value, take_max, WORKGROUP);
 }
 
 // A per-mass pass's partial for its workgroup, reduced over the workgroup and stored by its first
@@ -143,10 +160,15 @@ fn newton_update_due(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
+// The one-workgroup step's sums.
+fn group_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
+    return reduce_over(lid, value, take_max, GROUP_THREADS);
+}
+
 // ---- one workgroup, the whole step ----
 
 // The conjugate-gradient solve from implicit_rhs's start (r·z = `rz`, |b| = `b_norm`) to
-// |r| ≤ CG_TOLERANCE · `scale`, each thread on the masses lid, lid + WORKGROUP, …. Returns the
+// |r| ≤ CG_TOLERANCE · `scale`, each thread on the masses lid, lid + GROUP_THREADS, …. Returns the
 // iterations and the final relative residual (as src/cpu/implicit.rs's solve).
 fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32> {
     let n = params.mass_count;
@@ -161,23 +183,23 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32>
         // Every thread's p is written before any is read across a spring.
         storageBarrier();
         var pap = vec4<f32>(0.0);
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             pap += apply_system_at(i);
         }
-        let curvature = workgroup_reduce(lid, pap, false).x;
+        let curvature = group_reduce(lid, pap, false).x;
         if (!usable_curvature(curvature)) {
             break;
         }
         let alpha = rz / curvature;
         var rr = vec4<f32>(0.0);
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             rr += cg_update_at(i, alpha);
         }
-        let sums = workgroup_reduce(lid, rr, false);
+        let sums = group_reduce(lid, rr, false);
         let beta = sums.x / rz;
         rz = sums.x;
         residual = sqrt(sums.y) / scale;
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             cg_direction_at(i, beta);
         }
     }
@@ -186,45 +208,50 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32>
 
 // One backward Euler step of the whole system by one workgroup (src/cpu/implicit.rs's
 // implicit_step): Newton iterations, each a CG solve, to the same stopping rules. Threads own the
-// masses lid, lid + WORKGROUP, …; a storage barrier separates a pass that writes what another
+// masses lid, lid + GROUP_THREADS, …; a storage barrier separates a pass that writes what another
 // thread's next pass reads across a spring.
-@compute @workgroup_size(64)
+@compute @workgroup_size(GROUP_THREADS)
 fn implicit_step(@builtin(local_invocation_index) lid: u32) {
     let n = params.mass_count;
-    for (var i = lid; i < n; i += WORKGROUP) {
+    for (var i = lid; i < n; i += GROUP_THREADS) {
         implicit_begin_at(i);
     }
     var scale = 0.0;
+    var last_residual = F32_MAX;
     var iterations = 0u;
     var max_residual = 0.0;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             implicit_iterate_at(i);
         }
         storageBarrier();
         var start = vec4<f32>(0.0);
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             forces_on(i);
             start += implicit_rhs_at(i);
         }
-        let t = workgroup_reduce(lid, start, false);
+        let t = group_reduce(lid, start, false);
         let b_norm = sqrt(t.y);
         if (scale == 0.0) {
             scale = b_norm;
         }
+        if (newton_stalled(b_norm, last_residual, scale)) {
+            break;
+        }
+        last_residual = b_norm;
         let solved = solve_in_group(lid, t.x, b_norm, scale);
         iterations += u32(solved.x);
         max_residual = max(max_residual, solved.y);
         var norms = vec4<f32>(0.0);
-        for (var i = lid; i < n; i += WORKGROUP) {
+        for (var i = lid; i < n; i += GROUP_THREADS) {
             norms = max(norms, newton_update_at(i));
         }
-        let m = workgroup_reduce(lid, norms, true);
+        let m = group_reduce(lid, norms, true);
         if (newton_converged(m.x, m.y)) {
             break;
         }
     }
-    for (var i = lid; i < n; i += WORKGROUP) {
+    for (var i = lid; i < n; i += GROUP_THREADS) {
         implicit_final_at(i);
     }
     if (lid == 0u) {
@@ -261,7 +288,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 // The start of a step's first solve: no residual scale yet, nothing done.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, F32_MAX);
 }
 
 // Partials: (r·z, b·b).
@@ -292,6 +319,15 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (sv.scale == 0.0) {
         sv.scale = b_norm;
     }
+    if (newton_stalled(b_norm, sv.last_residual, sv.scale)) {
+        // Newton has converged as far as f32 forces go: the step ends at this iterate.
+        sv.cg_active = 0u;
+        sv.newton_pending = 0u;
+        sv.converged = 1u;
+        scratch.solver = sv;
+        return;
+    }
+    sv.last_residual = b_norm;
     sv.rz = t.x;
     sv.iterations = 0u;
     sv.newton_pending = 1u;

@@ -11,12 +11,18 @@ fn cg_goes_on(residual: f32, iterations: u32) -> bool {
 
 // A solve whose p·Ap is not positive and finite stops where it is.
 fn usable_curvature(pap: f32) -> bool {
-    return pap > 0.0 && pap <= 3.4028235e38;
+    return pap > 0.0 && pap <= F32_MAX;
 }
 
 // Newton stops when its update is small against Δv (or Δv is below 1e-7 m/s).
 fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
     return step_norm <= NEWTON_TOLERANCE * size_norm || step_norm < 1e-7;
+}
+
+// Newton's residual has stalled at the floor of f32 forces (src/cpu/implicit.rs's newton_stalled):
+// below NEWTON_FLOOR of the step's first, and not halved since the last iterate's.
+fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
+    return residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last;
 }
 
 // A finished step's CG iterations and residual, kept for the frame's snapshot.

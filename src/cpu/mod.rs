@@ -26,7 +26,8 @@ pub use forces::{Gather, compute_external_forces, compute_forces};
 pub use fused::{FusedStep, Kernel};
 pub use grid::{MassGrid, SCAN_BLOCK, grid_cell, grid_hash, inv_cell_per_m, table_size};
 pub use implicit::{
-    CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE, SolveStats,
+    CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
+    NEWTON_TOLERANCE, SolveStats,
 };
 pub use law::{Real, contact_force, spring_force};
 pub use reduce::{compute_energies, compute_strain};

@@ -111,7 +111,8 @@ impl GpuBackend {
             (integrator, dt_secs, options),
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
-        let constants = constants(&model, integrator, kind_shift);
+        let group_threads = plan::implicit::group_threads(ctx.info.device_type);
+        let constants = constants(&model, integrator, kind_shift, group_threads);
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,

@@ -101,7 +101,7 @@ pub struct SolverStatus {
     pub newton: u32,
     pub newton_pending: u32,
     pub converged: u32,
-    pub _pad: u32,
+    pub last_residual: f32,
 }
 
 pub use crate::cpu::XpbdSpring;

@@ -264,6 +264,17 @@ pub mod implicit {
     /// pass spreads the masses over the device.
     pub const IN_GROUP_MAX_MASSES: usize = 2048;
 
+    /// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL, at most 64). On a CPU adapter
+    /// (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and each
+    /// further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
+    /// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU keeps 64.
+    pub fn group_threads(device: wgpu::DeviceType) -> u32 {
+        match device {
+            wgpu::DeviceType::Cpu => 8,
+            _ => 64,
+        }
+    }
+
     /// How an implicit step runs.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub enum Path {

@@ -113,8 +113,12 @@ pub fn constants(
     model: &Model,
     integrator: Integrator,
     kind_shift: u32,
+    group_threads: u32,
 ) -> Vec<(&'static str, f64)> {
-    use crate::cpu::{CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
+    use crate::cpu::{
+        CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
+        NEWTON_TOLERANCE,
+    };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
     c.extend([
@@ -130,6 +134,9 @@ pub fn constants(
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
+        ("NEWTON_FLOOR", NEWTON_FLOOR),
+        ("NEWTON_STALL", NEWTON_STALL),
+        ("GROUP_THREADS", f64::from(group_threads)),
     ]);
     c
 }

@@ -20,13 +20,15 @@ fn gpu_implicit_euler_matches_the_cpu() {
     if !have_adapter() {
         return;
     }
-    // hair: no contacts; cloth: falling towards its sphere, touching nothing in these frames.
-    for (name, frames) in [("hair", 10), ("cloth", 6)] {
+    // hair: no contacts; cloth: falling towards its sphere, touching nothing in these frames;
+    // jello-sphere: resting on the ground, struck by the moving sphere from frame 15.
+    for (name, frames) in [("hair", 10), ("cloth", 6), ("jello-sphere", 20)] {
         implicit_parity(name, frames, hooke::gpu::ImplicitPath::InGroup);
     }
 }
 
-/// The path a larger system or one with contacts takes, a dispatch per pass: the same tolerance.
+/// The path a larger system takes, a dispatch per pass (forced here on small ones): the same
+/// tolerance.
 #[test]
 fn gpu_implicit_euler_a_dispatch_per_pass_matches_the_cpu() {
     if !have_adapter() {
@@ -40,12 +42,13 @@ fn gpu_implicit_euler_a_dispatch_per_pass_matches_the_cpu() {
 
 /// Which path a scene's implicit steps take.
 #[test]
-fn implicit_steps_take_one_workgroup_when_small_and_without_contacts() {
+fn implicit_steps_take_one_workgroup_when_small() {
     use hooke::gpu::ImplicitPath::{InGroup, Passes};
     for (name, path) in [
         ("hair", InGroup),
-        ("jello", Passes),
-        ("jello-sphere", Passes),
+        ("jello", InGroup),
+        ("jello-sphere", InGroup),
+        ("cloth-64", Passes),
         ("cloth-256", Passes),
     ] {
         let (model, _) = scene_model(name);

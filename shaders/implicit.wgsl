@@ -132,11 +132,7 @@ fn total_of_partials(lid: u32, take_max: bool) -> vec4<f32> {
     let count = arrayLength(&scratch.partials);
     var acc = vec4<f32>(0.0);
     for (var g = lid; g < count; g += WORKGROUP) {
-        if (take_max) {
-            acc = max(acc, scratch.partials[g]);
-        } else {
-            acc += scratch.partials[g];
-        }
+        acc = combine(acc, scratch.partials[g], take_max);
     }
     return workgroup_reduce(lid, acc, take_max);
 }

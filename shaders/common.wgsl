@@ -27,6 +27,11 @@ override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
 // Threads of implicit_step's one workgroup (src/gpu/plan.rs's implicit::group_threads; at most 64).
 override GROUP_THREADS: u32 = 64u;
+// Where the one-workgroup step keeps the solver's vectors and spring terms (implicit_terms.wgsl,
+// src/gpu/plan.rs's SolverHome), and the workgroup arrays' lengths in vec4s (1 when unused).
+override SOLVER_IN_WORKGROUP: bool = false;
+override WORKGROUP_VECTORS: u32 = 1u;
+override WORKGROUP_TERMS: u32 = 1u;
 // XPBD: compute_forces leaves the springs out (they are projected as constraints, xpbd.wgsl) but
 // for their dashpots' power, which the ledger books.
 override XPBD: bool = false;

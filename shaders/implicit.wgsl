@@ -81,6 +81,9 @@ var<workgroup> sum_sh: array<vec4<f32>, 64>;
 var<workgroup> flag_sh: u32;
 var<workgroup> part_sh: array<vec4<f32>, 8>;
 var<workgroup> total_sh: vec4<f32>;
+// The one-workgroup step's solver vectors and spring terms, when they fit (SOLVER_IN_WORKGROUP).
+var<workgroup> vectors_sh: array<vec4<f32>, WORKGROUP_VECTORS>;
+var<workgroup> terms_sh: array<vec4<f32>, WORKGROUP_TERMS>;
 
 // ---- workgroup sums ----
 
@@ -156,6 +159,16 @@ fn newton_update_due(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
+// Between a pass that writes the solver's vectors and one that reads them across a spring, in
+// whichever memory holds them.
+fn vectors_barrier() {
+    if (SOLVER_IN_WORKGROUP) {
+        workgroupBarrier();
+    } else {
+        storageBarrier();
+    }
+}
+
 // The one-workgroup step's sums.
 fn group_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
     return reduce_over(lid, value, take_max, GROUP_THREADS);
@@ -177,7 +190,7 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32>
     while (cg_goes_on(residual, iterations)) {
         iterations += 1u;
         // Every thread's p is written before any is read across a spring.
-        storageBarrier();
+        vectors_barrier();
         var pap = vec4<f32>(0.0);
         for (var i = lid; i < n; i += GROUP_THREADS) {
             pap += apply_system_at(i);

@@ -2,6 +2,43 @@
 // rules of src/cpu/implicit.rs, and each pass over the masses as a function of one mass (the *_at
 // functions, named for the CPU functions they mirror). implicit.wgsl declares the bindings.
 
+// ---- where the solver's vectors live ----
+
+// The solver's per-mass vector `k` (block() in common.wgsl) and each CSR entry's spring terms are
+// read many times a step. The one-workgroup step keeps them in workgroup memory when they fit
+// (SOLVER_IN_WORKGROUP, src/gpu/plan.rs's implicit::SolverHome); otherwise, and always in the
+// per-pass kernels, they live in the `work` and `terms` buffers.
+
+fn vector_at(k: u32, i: u32) -> vec4<f32> {
+    if (SOLVER_IN_WORKGROUP) {
+        return vectors_sh[block(k, i)];
+    }
+    return work[block(k, i)];
+}
+
+fn set_vector(k: u32, i: u32, value: vec4<f32>) {
+    if (SOLVER_IN_WORKGROUP) {
+        vectors_sh[block(k, i)] = value;
+    } else {
+        work[block(k, i)] = value;
+    }
+}
+
+fn term_at(slot: u32) -> vec4<f32> {
+    if (SOLVER_IN_WORKGROUP) {
+        return terms_sh[slot];
+    }
+    return terms[slot];
+}
+
+fn set_term(slot: u32, value: vec4<f32>) {
+    if (SOLVER_IN_WORKGROUP) {
+        terms_sh[slot] = value;
+    } else {
+        terms[slot] = value;
+    }
+}
+
 // ---- the stopping rules, as src/cpu/implicit.rs's ----
 
 // Whether CG goes on at relative residual `residual` after `iterations` iterations.
@@ -83,18 +120,18 @@ fn own_mass_term(i: u32) -> f32 {
 // ---- the passes, per mass: src/cpu/implicit.rs's functions of the same names ----
 
 fn implicit_begin_at(i: u32) {
-    work[block(DV_TOTAL, i)] = vec4<f32>(0.0);
+    set_vector(DV_TOTAL, i, vec4<f32>(0.0));
 }
 
 fn implicit_iterate_at(i: u32) {
-    let vk = v[i].xyz + work[block(DV_TOTAL, i)].xyz;
+    let vk = v[i].xyz + vector_at(DV_TOTAL, i).xyz;
     v_in[i] = vec4<f32>(vk, 0.0);
     x_in[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
 }
 
 // The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU).
 fn implicit_final_at(i: u32) {
-    let vn = v[i].xyz + work[block(DV_TOTAL, i)].xyz;
+    let vn = v[i].xyz + vector_at(DV_TOTAL, i).xyz;
     v[i] = vec4<f32>(vn, 0.0);
     x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
     ledger[i] += stage.dt * deriv[2u * i + 1u];
@@ -108,7 +145,7 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var diag = vec3<f32>(1.0);
     if (mass[i].y != 0.0) {
         let m = mass[i].x;
-        b = stage.dt * m * deriv[2u * i].xyz - m * work[block(DV_TOTAL, i)].xyz;
+        b = stage.dt * m * deriv[2u * i].xyz - m * vector_at(DV_TOTAL, i).xyz;
         diag = vec3<f32>(own_mass_term(i));
         if (has_contact_terms()) {
             diag += deriv[2u * params.mass_count + 2u * i].xyz;
@@ -117,33 +154,33 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
         for (var e = offsets[i]; e < end; e++) {
             let t = spring_terms(i, neighbors[e]);
             let along = t.stiff_along + t.damp_along;
-            terms[2u * e] = vec4<f32>(t.n, along);
-            terms[2u * e + 1u] = vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0);
+            set_term(2u * e, vec4<f32>(t.n, along));
+            set_term(2u * e + 1u, vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0));
             diag += along * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
         }
     }
     let z = b / diag;
-    work[block(DV, i)] = vec4<f32>(0.0);
-    work[block(RESIDUAL, i)] = vec4<f32>(b, 0.0);
-    work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
-    work[block(DIRECTION, i)] = vec4<f32>(z, 0.0);
-    work[block(DIAGONAL, i)] = vec4<f32>(diag, 0.0);
+    set_vector(DV, i, vec4<f32>(0.0));
+    set_vector(RESIDUAL, i, vec4<f32>(b, 0.0));
+    set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
+    set_vector(DIRECTION, i, vec4<f32>(z, 0.0));
+    set_vector(DIAGONAL, i, vec4<f32>(diag, 0.0));
     return vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
 }
 
 // Ap = (M − h D − h² K) p, pinned rows and columns filtered out. Returns (p·Ap).
 fn apply_system_at(i: u32) -> vec4<f32> {
     var out = vec3<f32>(0.0);
-    let pi = work[block(DIRECTION, i)].xyz;
+    let pi = vector_at(DIRECTION, i).xyz;
     if (mass[i].y != 0.0) {
         out = own_mass_term(i) * pi;
         let end = offsets[i + 1u];
         for (var e = offsets[i]; e < end; e++) {
             // The terms implicit_rhs_at stored. A pinned neighbour's p is always 0 (its b is 0 and
             // its row is filtered), so its column drops out without reading its mass.
-            let t = terms[2u * e];
-            let stiff_across = terms[2u * e + 1u].x;
-            let dp = pi - work[block(DIRECTION, neighbors[e].other)].xyz;
+            let t = term_at(2u * e);
+            let stiff_across = term_at(2u * e + 1u).x;
+            let dp = pi - vector_at(DIRECTION, neighbors[e].other).xyz;
             let dn = dot(t.xyz, dp);
             out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
         }
@@ -151,29 +188,29 @@ fn apply_system_at(i: u32) -> vec4<f32> {
             out += contact_times(i, pi);
         }
     }
-    work[block(PRODUCT, i)] = vec4<f32>(out, 0.0);
+    set_vector(PRODUCT, i, vec4<f32>(out, 0.0));
     return vec4<f32>(dot(pi, out), 0.0, 0.0, 0.0);
 }
 
 // δ += α p, r −= α Ap, z = r / diag. Returns (r·z, r·r).
 fn cg_update_at(i: u32, alpha: f32) -> vec4<f32> {
-    work[block(DV, i)] += alpha * work[block(DIRECTION, i)];
-    let r = work[block(RESIDUAL, i)].xyz - alpha * work[block(PRODUCT, i)].xyz;
-    let z = r / work[block(DIAGONAL, i)].xyz;
-    work[block(RESIDUAL, i)] = vec4<f32>(r, 0.0);
-    work[block(PRECONDITIONED, i)] = vec4<f32>(z, 0.0);
+    set_vector(DV, i, vector_at(DV, i) + alpha * vector_at(DIRECTION, i));
+    let r = vector_at(RESIDUAL, i).xyz - alpha * vector_at(PRODUCT, i).xyz;
+    let z = r / vector_at(DIAGONAL, i).xyz;
+    set_vector(RESIDUAL, i, vec4<f32>(r, 0.0));
+    set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
 }
 
 // p = z + β p.
 fn cg_direction_at(i: u32, beta: f32) {
-    work[block(DIRECTION, i)] = work[block(PRECONDITIONED, i)] + beta * work[block(DIRECTION, i)];
+    set_vector(DIRECTION, i, vector_at(PRECONDITIONED, i) + beta * vector_at(DIRECTION, i));
 }
 
 // Δv += δ. Returns (|δ|, |Δv|), to be maxed.
 fn newton_update_at(i: u32) -> vec4<f32> {
-    let dv = work[block(DV, i)].xyz;
-    let total = work[block(DV_TOTAL, i)].xyz + dv;
-    work[block(DV_TOTAL, i)] = vec4<f32>(total, 0.0);
+    let dv = vector_at(DV, i).xyz;
+    let total = vector_at(DV_TOTAL, i).xyz + dv;
+    set_vector(DV_TOTAL, i, vec4<f32>(total, 0.0));
     return vec4<f32>(length(dv), length(total), 0.0, 0.0);
 }

@@ -56,6 +56,27 @@ fn implicit_steps_take_one_workgroup_when_small() {
     }
 }
 
+/// Where the one-workgroup step keeps its solver vectors and spring terms: workgroup memory when
+/// they fit the adapter's limit (hair: 700 + 740 vec4s, 24 KB with the sums' scratch), the
+/// buffers otherwise and on the per-pass path. The in-group parity test above runs hair one way
+/// and jello-sphere the other on lavapipe (32 KB).
+#[test]
+fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() {
+    use hooke::gpu::ImplicitPath::{InGroup, Passes};
+    use hooke::gpu::SolverHome::{Buffers, Workgroup};
+    let home =
+        |name: &str, path, bytes| hooke::gpu::SolverHome::of(&scene_model(name).0, path, bytes);
+    let hair = Workgroup {
+        vectors: 700,
+        terms: 740,
+    };
+    assert_eq!(home("hair", InGroup, 32 * 1024), hair);
+    assert_eq!(home("hair", InGroup, 24_224), hair);
+    assert_eq!(home("hair", InGroup, 24_223), Buffers);
+    assert_eq!(home("hair", Passes, 1 << 20), Buffers);
+    assert_eq!(home("jello", InGroup, 32 * 1024), Buffers);
+}
+
 fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
     let (model, _) = scene_model(name);
     let dt = 1.0 / 60.0;

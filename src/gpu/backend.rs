@@ -11,7 +11,7 @@ use super::encode::{Dispatcher, in_pass};
 use super::implicit::ImplicitStep;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
-use super::plan::implicit::Path;
+use super::plan::implicit::{Path, SolverHome};
 use super::plan::{self, Dispatch, ExplicitPath, SLOTS_PER_STEP, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
@@ -112,7 +112,18 @@ impl GpuBackend {
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
         let group_threads = plan::implicit::group_threads(ctx.info.device_type);
-        let constants = constants(&model, integrator, kind_shift, group_threads);
+        let home = match needed.implicit {
+            Some(path) => {
+                SolverHome::of(&model, path, ctx.limits.max_compute_workgroup_storage_size)
+            }
+            None => SolverHome::Buffers,
+        };
+        let constants = constants(
+            &model,
+            integrator,
+            kind_shift,
+            (group_threads, home.workgroup_arrays()),
+        );
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,

@@ -120,6 +120,9 @@ pub struct XpbdColour {
 /// Spring kinds the fused steps' table holds (`MAX_SPRING_KINDS` in WGSL).
 pub const MAX_SPRING_KINDS: usize = 256;
 
+/// Implicit Euler's per-mass vectors (`SOLVER_VECTORS` in shaders/common.wgsl).
+pub const SOLVER_VECTORS: u64 = 7;
+
 /// The fused steps' spring kinds (`SpringKinds` in WGSL): (stiffness, damping, 0, 0) each.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]

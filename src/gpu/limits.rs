@@ -3,12 +3,9 @@
 //! of failing inside wgpu.
 
 use super::context::{AdapterError, GpuContext};
-use super::layout::MAX_COLLIDERS;
+use super::layout::{MAX_COLLIDERS, SOLVER_VECTORS};
 use crate::integrator::Integrator;
 use crate::model::Model;
-
-/// Implicit Euler's per-mass vectors (SOLVER_VECTORS in shaders/common.wgsl).
-const IMPLICIT_VECTORS: u64 = 7;
 
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
 const STORAGE_BUFFERS_NEEDED: u32 = 8;
@@ -21,7 +18,7 @@ const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
     let per_mass = if integrator == Integrator::Implicit {
-        16 * IMPLICIT_VECTORS
+        16 * SOLVER_VECTORS
     } else {
         48
     };

@@ -41,6 +41,6 @@ pub use context::{
 };
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
-pub use plan::implicit::{Path as ImplicitPath, path as implicit_path};
+pub use plan::implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::programs;

@@ -257,6 +257,7 @@ fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
 /// NEWTON_BEGIN, CG_ITERATION repeated, NEWTON_END; then END. Every dispatch of a step reads the
 /// same slot.
 pub mod implicit {
+    use super::super::layout::SOLVER_VECTORS;
     use super::{Dispatch, Kernel::*, StateIn};
     use crate::model::Model;
 
@@ -272,6 +273,50 @@ pub mod implicit {
         match device {
             wgpu::DeviceType::Cpu => 8,
             _ => 64,
+        }
+    }
+
+    /// Workgroup memory the one-workgroup step's sums take (`sum_sh`, `part_sh`, `total_sh`,
+    /// `flag_sh` in shaders/implicit.wgsl), rounded up.
+    const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16;
+
+    /// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
+    /// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the
+    /// sums in `workgroup_bytes` (the adapter's limit), else in the `work` and `terms` buffers.
+    /// The passes read them many times a step; on lavapipe a storage-buffer load costs a
+    /// descriptor read, a bounds check and a branch per lane, a workgroup-memory load neither
+    /// (hair's steps 12% faster, BENCHMARKS.md).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum SolverHome {
+        Buffers,
+        /// The arrays' lengths in vec4s.
+        Workgroup {
+            vectors: u32,
+            terms: u32,
+        },
+    }
+
+    impl SolverHome {
+        pub fn of(model: &Model, path: Path, workgroup_bytes: u32) -> Self {
+            let vectors = SOLVER_VECTORS * model.mass_count() as u64;
+            let terms = 2 * model.adjacency.entries.len() as u64;
+            let bytes = 16 * (vectors + terms) + SUM_SCRATCH_BYTES;
+            match (path, u32::try_from(vectors), u32::try_from(terms)) {
+                (Path::InGroup, Ok(vectors), Ok(terms))
+                    if bytes <= u64::from(workgroup_bytes) && terms > 0 =>
+                {
+                    SolverHome::Workgroup { vectors, terms }
+                }
+                _ => SolverHome::Buffers,
+            }
+        }
+
+        /// The workgroup arrays' lengths (vectors, terms) for `shaders::constants`, if any.
+        pub fn workgroup_arrays(self) -> Option<[u32; 2]> {
+            match self {
+                SolverHome::Workgroup { vectors, terms } => Some([vectors, terms]),
+                SolverHome::Buffers => None,
+            }
         }
     }
 

@@ -108,12 +108,14 @@ const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
 
 /// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
 /// solver's stopping rules (the CPU's, so both backends stop alike), and where the fused steps'
-/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused).
+/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused); the
+/// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
+/// workgroup memory (`plan::implicit::SolverHome`), those arrays' lengths in vec4s.
 pub fn constants(
     model: &Model,
     integrator: Integrator,
     kind_shift: u32,
-    group_threads: u32,
+    (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
 ) -> Vec<(&'static str, f64)> {
     use crate::cpu::{
         CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -137,6 +139,13 @@ pub fn constants(
         ("NEWTON_FLOOR", NEWTON_FLOOR),
         ("NEWTON_STALL", NEWTON_STALL),
         ("GROUP_THREADS", f64::from(group_threads)),
+    ]);
+    // A workgroup array has at least one element, used or not.
+    let [vectors, terms] = in_workgroup.unwrap_or([1, 1]);
+    c.extend([
+        ("SOLVER_IN_WORKGROUP", flag(in_workgroup.is_some())),
+        ("WORKGROUP_VECTORS", f64::from(vectors)),
+        ("WORKGROUP_TERMS", f64::from(terms)),
     ]);
     c
 }

@@ -8,10 +8,10 @@
 // - implicit_step: one workgroup loops over the whole step in one dispatch, every sum reduced in
 //   workgroup memory, every stopping rule decided on the device. For small systems
 //   (src/gpu/implicit.rs says which): no host wait, one dispatch per step.
-// - larger systems: one dispatch per pass over the masses (implicit_begin … newton_end), each dot
-//   product summed per workgroup, then over the workgroups in a fixed order by one workgroup (the
-//   *_begin/_alpha/_beta/_end kernels); a kernel whose solve has stopped does nothing, and the
-//   host reads the status between chunks of CG iterations.
+// - larger systems: one dispatch per pass over the masses (implicit_begin … newton_end), two per
+//   CG iteration, each dot product summed per workgroup and then, by every workgroup that needs
+//   it, over the workgroups in a fixed order; a kernel whose solve or step has stopped does
+//   nothing, and the host reads the frame's outcome once (the section below says how).
 // Both keep the frame's largest CG count and residual per step in counters[2] and [3], which the
 // snapshot reads back once per frame. Sums run in a fixed order, so a run is repeatable.
 
@@ -41,7 +41,7 @@
 @group(0) @binding(15) var<storage, read_write> terms: array<vec4<f32>>;
 @group(2) @binding(0) var<uniform> stage: Stage;
 
-// Keep in sync with src/gpu/layout.rs's SolverStatus (the host reads it between chunks).
+// Keep in sync with src/gpu/layout.rs's SolverStatus.
 struct Solver {
     // r·z, and p·Ap of the current iteration.
     rz: f32,
@@ -71,9 +71,26 @@ struct Solver {
     last_residual: f32,
 }
 
+// What the per-pass kernels learn of a frame, read back once by the host (src/gpu/layout.rs's
+// FrameSolve). cg_most is indexed by Newton iteration (NEWTON_MAX_ITERATIONS ≤ 16).
+struct FrameSolve {
+    // The Newton iterations a step may take in this frame's encoding (the host writes it).
+    newton_budget: u32,
+    // NEWTON_OVERRAN, and bit j for a solve of Newton iteration j that ran out of its budget.
+    overran: u32,
+    // The most Newton iterations a step began, and CG iterations a solve of Newton iteration j
+    // took.
+    newton_most: u32,
+    _pad: u32,
+    cg_most: array<u32, 16>,
+}
+
 struct Scratch {
+    // The status cg_apply reads, and the one it writes (cg_advance reads it and writes the first).
     solver: Solver,
-    // One partial sum per workgroup of the last per-mass pass.
+    applied: Solver,
+    frame: FrameSolve,
+    // The per-pass kernels' partial sums, two per workgroup of their grid.
     partials: array<vec4<f32>>,
 }
 
@@ -121,25 +138,6 @@ fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
     return reduce_over(lid, value, take_max, WORKGROUP);
 }
 
-// A per-mass pass's partial for its workgroup, reduced over the workgroup and stored by its first
-// thread. Call from uniform control flow.
-fn store_partial(lid: u32, wid: vec3<u32>, groups: vec3<u32>, value: vec4<f32>, take_max: bool) {
-    let total = workgroup_reduce(lid, value, take_max);
-    if (lid == 0u) {
-        scratch.partials[wid.x + wid.y * groups.x] = total;
-    }
-}
-
-// Sum (or max) of the per-workgroup partials, by the single workgroup of a reduction kernel.
-fn total_of_partials(lid: u32, take_max: bool) -> vec4<f32> {
-    let count = arrayLength(&scratch.partials);
-    var acc = vec4<f32>(0.0);
-    for (var g = lid; g < count; g += WORKGROUP) {
-        acc = combine(acc, scratch.partials[g], take_max);
-    }
-    return workgroup_reduce(lid, acc, take_max);
-}
-
 // `flag` as read by the workgroup's first thread, the same for every thread (a uniform value for
 // the barriers that follow).
 fn uniform_flag(lid: u32, flag: bool) -> bool {
@@ -147,16 +145,6 @@ fn uniform_flag(lid: u32, flag: bool) -> bool {
         flag_sh = select(0u, 1u, flag);
     }
     return workgroupUniformLoad(&flag_sh) != 0u;
-}
-
-// Whether the current solve runs.
-fn solve_running(lid: u32) -> bool {
-    return uniform_flag(lid, scratch.solver.cg_active != 0u);
-}
-
-// Whether the Newton update waits: the solve has stopped and its update is not yet applied.
-fn newton_update_due(lid: u32) -> bool {
-    return uniform_flag(lid, scratch.solver.cg_active == 0u && scratch.solver.newton_pending != 0u);
 }
 
 // Between a pass that writes the solver's vectors and one that reads them across a spring, in
@@ -193,7 +181,7 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32>
         vectors_barrier();
         var pap = vec4<f32>(0.0);
         for (var i = lid; i < n; i += GROUP_THREADS) {
-            pap += apply_system_at(i);
+            pap += apply_system_at(i, 0.0, false);
         }
         let curvature = group_reduce(lid, pap, false).x;
         if (!usable_curvature(curvature)) {
@@ -269,61 +257,141 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
 }
 
 // ---- a dispatch per pass (larger systems) ----
+// The kernels below run on a fixed grid of workgroups (SOLVER_GROUPS: as many as the masses need,
+// at most a cap the host picks for the device), each thread striding over the masses, so every
+// workgroup can sum all of the last pass's partials itself, in the same fixed order: a dot
+// product's total needs no dispatch of its own. A CG iteration is two dispatches:
+//   cg_advance: α from the p·Ap partials; p = z + βp, δ += αp, r −= αAp, z = r / diag; partials
+//               (r·z, r·r);
+//   cg_apply:   β and the stopping rule from those partials; Ap with the next p taken on the fly
+//               (z + βp at each neighbour: p itself is only written by the next cg_advance);
+//               partials (p·Ap).
+// The solver's status is double-buffered so that no dispatch writes what it reads: cg_apply reads
+// scratch.solver and writes scratch.applied, cg_advance the reverse; a stopped solve's kernels
+// only copy it across. The partials are too: [0, G) hold (r·z, r·r) sums (forces_and_rhs,
+// cg_advance), [G, 2G) the others (cg_apply, newton_update).
+// The host encodes a frame's steps with budgets (Newton iterations per step, CG iterations per
+// Newton iteration); kernels past a finished solve or step find it stopped and return. A solve or
+// step the budget cut short is flagged in scratch.frame and halts the frame, which the host reads
+// once and replays from its start with larger budgets (src/gpu/implicit.rs).
+
+// The grid's workgroups: half the partials (set by the host, src/gpu/plan.rs's solver_groups).
+fn solver_groups() -> u32 {
+    return arrayLength(&scratch.partials) / 2u;
+}
+
+const RHS_SUMS: u32 = 0u;
+const OTHER_SUMS: u32 = 1u;
+
+// A grid kernel's partial for its workgroup, into sums `which`. Call from uniform control flow.
+fn store_grid_partial(lid: u32, wid: u32, which: u32, value: vec4<f32>, take_max: bool) {
+    let total = workgroup_reduce(lid, value, take_max);
+    if (lid == 0u) {
+        scratch.partials[which * solver_groups() + wid] = total;
+    }
+}
+
+// The sum (or max) of sums `which` over the grid's workgroups, in workgroup order, the same for
+// every thread of every workgroup.
+fn grid_total(lid: u32, which: u32, take_max: bool) -> vec4<f32> {
+    let groups = solver_groups();
+    var acc = vec4<f32>(0.0);
+    for (var g = lid; g < groups; g += WORKGROUP) {
+        acc = combine(acc, scratch.partials[which * groups + g], take_max);
+    }
+    return workgroup_reduce(lid, acc, take_max);
+}
+
+var<workgroup> solver_sh: Solver;
+
+// The status as the workgroup's first thread reads it, the same for every thread (a uniform
+// value). `applied`: scratch.applied (cg_apply's), else scratch.solver.
+fn uniform_status(lid: u32, applied: bool) -> Solver {
+    if (lid == 0u) {
+        if (applied) {
+            solver_sh = scratch.applied;
+        } else {
+            solver_sh = scratch.solver;
+        }
+    }
+    return workgroupUniformLoad(&solver_sh);
+}
+
+// Whether this is the grid's first thread, the one that writes the status.
+fn status_writer(lid: u32, wid: u32) -> bool {
+    return lid == 0u && wid == 0u;
+}
+
+// Whether the step's Newton iterations go on (not converged, stalled or halted).
+fn newton_running(lid: u32) -> bool {
+    return uniform_flag(lid, scratch.solver.converged == 0u);
+}
 
 @compute @workgroup_size(64)
-fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i < params.mass_count) {
+fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
         implicit_begin_at(i);
     }
 }
 
 @compute @workgroup_size(64)
-fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i < params.mass_count) {
+fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if (!newton_running(lid)) {
+        return;
+    }
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
         implicit_iterate_at(i);
     }
 }
 
 @compute @workgroup_size(64)
-fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i < params.mass_count) {
+fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
         implicit_final_at(i);
     }
 }
 
-// The start of a step's first solve: no residual scale yet, nothing done.
+// The start of a step: no residual scale yet, nothing done; a halted frame's later steps do
+// nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
     scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, F32_MAX);
+    if (scratch.frame.overran != 0u) {
+        scratch.solver.converged = 1u;
+    }
 }
 
-// Partials: (r·z, b·b).
+// The forces at the iterate and Newton's right-hand side from them, per mass. Partials: (r·z, b·b).
 @compute @workgroup_size(64)
-fn implicit_rhs(
+fn forces_and_rhs(
     @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let i = thread_index(gid, groups);
-    var partial = vec4<f32>(0.0);
-    if (i < params.mass_count) {
-        partial = implicit_rhs_at(i);
+    if (!newton_running(lid)) {
+        return;
     }
-    store_partial(lid, wid, groups, partial, false);
+    var partial = vec4<f32>(0.0);
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        forces_on(i);
+        partial += implicit_rhs_at(i);
+    }
+    store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
 }
 
-// After implicit_rhs: r·z, the residual scale (the first iterate's |b|), and whether to iterate.
+// After forces_and_rhs: r·z, the residual scale (the first iterate's |b|), and whether to iterate.
 @compute @workgroup_size(64)
 fn cg_begin(@builtin(local_invocation_index) lid: u32) {
-    let t = total_of_partials(lid, false);
+    if (!newton_running(lid)) {
+        return;
+    }
+    let t = grid_total(lid, RHS_SUMS, false);
     if (lid != 0u) {
         return;
     }
     var sv = scratch.solver;
+    // This step has used sv.newton + 1 of its budget's Newton iterations.
+    scratch.frame.newton_most = max(scratch.frame.newton_most, sv.newton + 1u);
     let b_norm = sqrt(t.y);
     if (sv.scale == 0.0) {
         sv.scale = b_norm;
@@ -350,135 +418,137 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     scratch.solver = sv;
 }
 
-// Partials: (p·Ap).
+// The first half of a CG iteration (the first of a solve, after cg_begin, with β = 0 and p = z):
+// r·z and |r| from the last pass's partials, whether the solve goes on, β, and Ap for the new
+// p = z + βp. Partials: (p·Ap).
 @compute @workgroup_size(64)
-fn apply_system(
+fn cg_apply(
     @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    if (!solve_running(lid)) {
+    var sv = uniform_status(lid, false);
+    let writer = status_writer(lid, wid.x);
+    if (sv.cg_active == 0u) {
+        if (writer) {
+            scratch.applied = sv;
+        }
         return;
     }
-    let i = thread_index(gid, groups);
-    var partial = vec4<f32>(0.0);
-    if (i < params.mass_count) {
-        partial = apply_system_at(i);
+    let t = grid_total(lid, RHS_SUMS, false);
+    let first = sv.iterations == 0u;
+    sv.residual = sqrt(t.y) / sv.scale;
+    if (!cg_goes_on(sv.residual, sv.iterations)) {
+        sv.cg_active = 0u;
+        if (writer) {
+            scratch.applied = sv;
+        }
+        return;
     }
-    store_partial(lid, wid, groups, partial, false);
+    sv.beta = select(t.x / sv.rz, 0.0, first);
+    sv.rz = t.x;
+    var partial = vec4<f32>(0.0);
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        partial += apply_system_at(i, sv.beta, true);
+    }
+    store_grid_partial(lid, wid.x, OTHER_SUMS, partial, false);
+    if (writer) {
+        scratch.applied = sv;
+    }
 }
 
-// α = r·z / p·Ap, or the solve stops where it is.
+// The second half of a CG iteration: α = r·z / p·Ap, or the solve stops where it is; then each
+// mass's p = z + βp, δ += αp, r −= αAp, z = r / diag. Partials: (r·z, r·r).
 @compute @workgroup_size(64)
-fn cg_alpha(@builtin(local_invocation_index) lid: u32) {
-    if (!solve_running(lid)) {
+fn cg_advance(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    var sv = uniform_status(lid, true);
+    let writer = status_writer(lid, wid.x);
+    if (sv.cg_active == 0u) {
+        if (writer) {
+            scratch.solver = sv;
+        }
         return;
     }
-    let t = total_of_partials(lid, false);
-    if (lid != 0u) {
-        return;
-    }
-    var sv = scratch.solver;
+    let t = grid_total(lid, OTHER_SUMS, false);
     sv.iterations += 1u;
     sv.total_iterations += 1u;
     sv.pap = t.x;
-    if (usable_curvature(t.x)) {
-        sv.alpha = sv.rz / t.x;
-    } else {
+    if (!usable_curvature(t.x)) {
         sv.cg_active = 0u;
-    }
-    scratch.solver = sv;
-}
-
-// Partials: (r·z, r·r).
-@compute @workgroup_size(64)
-fn cg_update(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-    @builtin(workgroup_id) wid: vec3<u32>,
-) {
-    if (!solve_running(lid)) {
+        if (writer) {
+            scratch.solver = sv;
+        }
         return;
     }
-    let i = thread_index(gid, groups);
+    sv.alpha = sv.rz / t.x;
     var partial = vec4<f32>(0.0);
-    if (i < params.mass_count) {
-        partial = cg_update_at(i, scratch.solver.alpha);
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        cg_direction_at(i, sv.beta);
+        partial += cg_update_at(i, sv.alpha);
     }
-    store_partial(lid, wid, groups, partial, false);
-}
-
-// β = r·z (new) / r·z (old), and whether the solve goes on.
-@compute @workgroup_size(64)
-fn cg_beta(@builtin(local_invocation_index) lid: u32) {
-    if (!solve_running(lid)) {
-        return;
-    }
-    let t = total_of_partials(lid, false);
-    if (lid != 0u) {
-        return;
-    }
-    var sv = scratch.solver;
-    sv.beta = t.x / sv.rz;
-    sv.rz = t.x;
-    sv.residual = sqrt(t.y) / sv.scale;
-    sv.cg_active = select(0u, 1u, cg_goes_on(sv.residual, sv.iterations));
-    scratch.solver = sv;
-}
-
-@compute @workgroup_size(64)
-fn cg_direction(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    if (!solve_running(lid)) {
-        return;
-    }
-    let i = thread_index(gid, groups);
-    if (i < params.mass_count) {
-        cg_direction_at(i, scratch.solver.beta);
+    store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
+    if (writer) {
+        scratch.solver = sv;
     }
 }
 
-// Once the solve has stopped. Partials: (max |δ|, max |Δv|).
+// Once the solve has stopped (after cg_apply: scratch.applied). Partials: (max |δ|, max |Δv|).
 @compute @workgroup_size(64)
 fn newton_update(
     @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    if (!newton_update_due(lid)) {
+    let sv = uniform_status(lid, true);
+    if (sv.cg_active != 0u || sv.newton_pending == 0u) {
         return;
     }
-    let i = thread_index(gid, groups);
     var partial = vec4<f32>(0.0);
-    if (i < params.mass_count) {
-        partial = newton_update_at(i);
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        partial = max(partial, newton_update_at(i));
     }
-    store_partial(lid, wid, groups, partial, true);
+    store_grid_partial(lid, wid.x, OTHER_SUMS, partial, true);
 }
 
-// Whether Newton has converged; the step's solve figures are booked for the snapshot.
+// Bit of scratch.frame.overran for a step that used its whole Newton budget unconverged; bit j
+// below it for a solve of Newton iteration j still running at the end of its CG budget.
+const NEWTON_OVERRAN: u32 = 0x80000000u;
+
+// Whether Newton has converged; the step's solve figures are booked for the snapshot and the
+// frame's budgets. A solve still running here has run out of its budget: the frame halts.
 @compute @workgroup_size(64)
 fn newton_end(@builtin(local_invocation_index) lid: u32) {
-    if (!newton_update_due(lid)) {
+    let applied = uniform_status(lid, true);
+    if (applied.newton_pending == 0u) {
         return;
     }
-    let t = total_of_partials(lid, true);
+    if (applied.cg_active != 0u) {
+        if (lid == 0u) {
+            scratch.frame.overran |= 1u << applied.newton;
+            scratch.solver.converged = 1u;
+        }
+        return;
+    }
+    let t = grid_total(lid, OTHER_SUMS, true);
     if (lid != 0u) {
         return;
     }
-    var sv = scratch.solver;
+    var sv = applied;
+    scratch.frame.cg_most[sv.newton] = max(scratch.frame.cg_most[sv.newton], sv.iterations);
     sv.newton += 1u;
     sv.newton_pending = 0u;
     sv.max_residual = max(sv.max_residual, sv.residual);
     sv.step_norm = t.x;
     sv.size_norm = t.y;
     sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
+    if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {
+        scratch.frame.overran |= NEWTON_OVERRAN;
+        sv.converged = 1u;
+    }
     scratch.solver = sv;
     book_solve(sv.total_iterations, sv.max_residual);
 }

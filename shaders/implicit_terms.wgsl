@@ -168,10 +168,20 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
     return vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
 }
 
-// Ap = (M − h D − h² K) p, pinned rows and columns filtered out. Returns (p·Ap).
-fn apply_system_at(i: u32) -> vec4<f32> {
+// The search direction at mass j: p, or (`pending`: the per-pass cg_apply, before cg_advance
+// stores it) the next one, z + βp, as cg_direction_at computes it.
+fn direction_at(j: u32, beta: f32, pending: bool) -> vec3<f32> {
+    if (pending) {
+        return (vector_at(PRECONDITIONED, j) + beta * vector_at(DIRECTION, j)).xyz;
+    }
+    return vector_at(DIRECTION, j).xyz;
+}
+
+// Ap = (M − h D − h² K) p, pinned rows and columns filtered out, p as direction_at gives it.
+// Returns (p·Ap).
+fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
     var out = vec3<f32>(0.0);
-    let pi = vector_at(DIRECTION, i).xyz;
+    let pi = direction_at(i, beta, pending);
     if (mass[i].y != 0.0) {
         out = own_mass_term(i) * pi;
         let end = offsets[i + 1u];
@@ -180,7 +190,7 @@ fn apply_system_at(i: u32) -> vec4<f32> {
             // its row is filtered), so its column drops out without reading its mass.
             let t = term_at(2u * e);
             let stiff_across = term_at(2u * e + 1u).x;
-            let dp = pi - vector_at(DIRECTION, neighbors[e].other).xyz;
+            let dp = pi - direction_at(neighbors[e].other, beta, pending);
             let dn = dot(t.xyz, dp);
             out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
         }
@@ -204,7 +214,7 @@ fn cg_update_at(i: u32, alpha: f32) -> vec4<f32> {
 
 // p = z + β p.
 fn cg_direction_at(i: u32, beta: f32) {
-    set_vector(DIRECTION, i, vector_at(PRECONDITIONED, i) + beta * vector_at(DIRECTION, i));
+    set_vector(DIRECTION, i, vec4<f32>(direction_at(i, beta, true), 0.0));
 }
 
 // Δv += δ. Returns (|δ|, |Δv|), to be maxed.

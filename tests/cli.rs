@@ -305,7 +305,8 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
         );
     }
     // Implicit Euler: Newton iterations, each a conjugate-gradient solve, then the update; a small
-    // system's whole step in one workgroup's dispatch, a larger one's a dispatch per pass.
+    // system's whole step in one workgroup's dispatch, a larger one's a dispatch per pass, two per
+    // CG iteration.
     for (scene, passes) in [
         (
             "hair",
@@ -313,7 +314,7 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
         ),
         (
             "cloth-64",
-            "implicit_begin → solver_begin → [Newton: implicit_iterate → compute_forces → implicit_rhs → cg_begin → [CG: apply_system → cg_alpha → cg_update → cg_beta → cg_direction] → newton_update → newton_end] → implicit_final",
+            "implicit_begin → solver_begin → [Newton: implicit_iterate → forces_and_rhs → cg_begin → cg_apply → [CG: cg_advance → cg_apply] → newton_update → newton_end] → implicit_final",
         ),
     ] {
         let out = hooke(&[

@@ -40,6 +40,66 @@ fn gpu_implicit_euler_a_dispatch_per_pass_matches_the_cpu() {
     }
 }
 
+/// The per-pass path encodes each frame with budgets (Newton iterations per step, CG iterations
+/// per solve) and replays a frame whose step or solve ran out of them. A replay must end exactly
+/// where a frame with room to spare ends: the same run with every frame started from budgets of
+/// one iteration (replayed, several times each) agrees with the run at its own budgets bit for
+/// bit, five steps a frame, in state, ledger and solve figures.
+#[test]
+fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
+    if !have_adapter() {
+        return;
+    }
+    use hooke::gpu::{ExplicitPath, ImplicitBudgets, ImplicitPath};
+    // tear: its springs and the energy they let go are part of the frame's start too.
+    for name in ["hair", "jello-sphere", "tear"] {
+        let (model, _) = scene_model(name);
+        let dt = 1.0 / 300.0;
+        let start = |m| {
+            ok(GpuBackend::with_paths(
+                m,
+                (Integrator::Implicit, dt, StepOptions::default()),
+                None,
+                (ImplicitPath::Passes, ExplicitPath::Fused),
+            ))
+        };
+        let (mut roomy, mut tight) = (start(model.clone()), start(model));
+        let starved = ImplicitBudgets {
+            newton: 1,
+            cg: [1; hooke::cpu::NEWTON_MAX_ITERATIONS as usize],
+        };
+        for frame in 1..=6 {
+            tight.set_implicit_budgets(starved);
+            let a = ok(roomy.advance(5));
+            let b = ok(tight.advance(5));
+            let a = ok(roomy.snapshot(frame, a)).stats;
+            let b = ok(tight.snapshot(frame, b)).stats;
+            assert_eq!(
+                (a.solver_iterations, a.solver_residual.to_bits()),
+                (b.solver_iterations, b.solver_residual.to_bits()),
+                "{name} frame {frame}"
+            );
+            let (sa, sb) = (ok(roomy.state()), ok(tight.state()));
+            assert!(
+                sa.x == sb.x && sa.v == sb.v && sa.ledger == sb.ledger,
+                "{name} frame {frame}: a replayed frame ends elsewhere"
+            );
+        }
+        // Every starved frame was replayed at least once (its first solve needs more than one
+        // CG iteration); the roomy run's budgets, fitted to its frames, rarely are.
+        assert!(
+            tight.implicit_replays() >= 6,
+            "{name}: {} replays",
+            tight.implicit_replays()
+        );
+        eprintln!(
+            "{name}: {} replays starved, {} at fitted budgets",
+            tight.implicit_replays(),
+            roomy.implicit_replays()
+        );
+    }
+}
+
 /// Which path a scene's implicit steps take.
 #[test]
 fn implicit_steps_take_one_workgroup_when_small() {

@@ -97,6 +97,20 @@ fn shared_structs_match_their_wgsl_layout() {
                         std::mem::offset_of!(hooke::gpu::layout::Stage, poses),
                     ),
                 ],
+                "FrameSolve" => vec![
+                    (
+                        "overran",
+                        std::mem::offset_of!(hooke::gpu::layout::FrameSolve, overran),
+                    ),
+                    (
+                        "newton_most",
+                        std::mem::offset_of!(hooke::gpu::layout::FrameSolve, newton_most),
+                    ),
+                    (
+                        "cg_most",
+                        std::mem::offset_of!(hooke::gpu::layout::FrameSolve, cg_most),
+                    ),
+                ],
                 "Solver" => vec![
                     (
                         "iterations",
@@ -143,6 +157,28 @@ fn shared_structs_match_their_wgsl_layout() {
             }
         }
     }
+    // The solver's scratch: the two statuses, the frame record where the host writes and reads
+    // it, then the partials.
+    let scratch = module
+        .types
+        .iter()
+        .find_map(|(_, t)| match (&t.name, &t.inner) {
+            (Some(n), naga::TypeInner::Struct { members, .. }) if n == "Scratch" => Some(members),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no struct Scratch in WGSL"));
+    let offset = |member: &str| {
+        scratch
+            .iter()
+            .find(|m| m.name.as_deref() == Some(member))
+            .map(|m| u64::from(m.offset))
+    };
+    use hooke::gpu::layout::FrameSolve;
+    assert_eq!(offset("frame"), Some(FrameSolve::OFFSET));
+    assert_eq!(
+        offset("partials"),
+        Some(FrameSolve::OFFSET + FrameSolve::SIZE)
+    );
 }
 
 #[test]

@@ -225,7 +225,7 @@ pub fn format_throughput(t: &Throughput) -> String {
 }
 
 /// "1 (fused step)", "4", or for implicit Euler a dispatch per pass "4 + 6 per Newton iteration
-/// + 5 per CG iteration".
+/// + 2 per CG iteration".
 fn format_dispatches(d: DispatchCount) -> String {
     let mut s = d.fixed.to_string();
     if d.fused {

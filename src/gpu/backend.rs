@@ -8,7 +8,8 @@ use std::time::Instant;
 
 use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
-use super::implicit::ImplicitStep;
+use super::implicit::{Budgets, ImplicitStep};
+use super::layout::FrameSolve;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::implicit::{Path, SolverHome};
@@ -21,6 +22,9 @@ use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergen
 use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
 use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
+
+/// Frames whose records implicit Euler's budgets follow (per-pass path).
+const RECENT_FRAMES: usize = 8;
 
 pub struct GpuBackend {
     pub(super) ctx: GpuContext,
@@ -41,10 +45,14 @@ pub struct GpuBackend {
     pending: VecDeque<Pending>,
     /// Snapshots returned by the recorder, their buffers reused.
     spare: Vec<Snapshot>,
-    /// Implicit Euler: how its steps run, and CG iterations to encode before a solve's first
-    /// status read (the path of a dispatch per pass).
+    /// Implicit Euler: how its steps run, and the budgets the next frame is encoded with (the
+    /// path of a dispatch per pass).
     implicit_path: Option<Path>,
-    cg_chunk: u32,
+    budgets: Budgets,
+    /// What the last few frames' steps took (the budgets follow the most of them).
+    recent_frames: VecDeque<FrameSolve>,
+    /// Frames replayed with larger budgets since the run began.
+    replays: u64,
     /// Explicit integrators: fused steps or a pass per stage (`plan::fused_links`).
     explicit_path: ExplicitPath,
 }
@@ -103,12 +111,17 @@ impl GpuBackend {
             fused: links.is_some(),
         };
         let layouts = Layouts::new(device, needed);
+        let grid = match path {
+            Path::Passes => plan::implicit::solver_groups(model.mass_count(), ctx.info.device_type),
+            Path::InGroup => 1,
+        };
         let resources = Resources::new(
             device,
             &ctx.limits,
             (&layouts, links.as_ref()),
             &model,
             (integrator, dt_secs, options),
+            needed.implicit.map(|path| (path, grid)),
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
         let group_threads = plan::implicit::group_threads(ctx.info.device_type);
@@ -146,7 +159,9 @@ impl GpuBackend {
             pending: VecDeque::new(),
             spare: Vec::new(),
             implicit_path: needed.implicit,
-            cg_chunk: 16,
+            budgets: Budgets::default(),
+            recent_frames: VecDeque::new(),
+            replays: 0,
             explicit_path: if needed.fused {
                 ExplicitPath::Fused
             } else {
@@ -155,6 +170,19 @@ impl GpuBackend {
         };
         backend.ctx.check()?;
         Ok(backend)
+    }
+
+    /// Implicit Euler's per-pass path: the budgets the next frame is encoded with (the tests
+    /// set them too small, to have frames replayed).
+    #[doc(hidden)]
+    pub fn set_implicit_budgets(&mut self, budgets: Budgets) {
+        self.budgets = budgets;
+    }
+
+    /// Implicit Euler's per-pass path: the frames replayed since the run began, because a step
+    /// or solve needed more iterations than the frame was encoded with.
+    pub fn implicit_replays(&self) -> u64 {
+        self.replays
     }
 
     pub(super) fn kernels(&self) -> Dispatcher<'_> {
@@ -255,12 +283,13 @@ impl GpuBackend {
         if self.implicit_path == Some(Path::InGroup) {
             step.run_in_group(substeps)?;
         } else {
-            let mut chunk = self.cg_chunk;
-            for k in 0..substeps {
-                // Every dispatch of step k reads slot 4k + 3, the step's end.
-                step.run(SLOTS_PER_STEP * k + 3, &mut chunk)?;
+            let outcome = step.run_frame(substeps, self.budgets)?;
+            if self.recent_frames.len() == RECENT_FRAMES {
+                self.recent_frames.pop_front();
             }
-            self.cg_chunk = chunk;
+            self.recent_frames.push_back(outcome.took);
+            self.budgets = outcome.budgets.fitted(&self.recent_frames);
+            self.replays += u64::from(outcome.replays);
         }
         self.clock.advance(substeps);
         self.ctx.check()?;

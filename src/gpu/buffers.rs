@@ -67,6 +67,17 @@ impl Alloc<'_> {
         self.count(b)
     }
 
+    /// A zeroed buffer of `live`'s size and usage, to copy it to and back.
+    pub(super) fn copy_of(&mut self, live: &wgpu::Buffer, label: &str) -> wgpu::Buffer {
+        let b = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: live.size(),
+            usage: live.usage(),
+            mapped_at_creation: false,
+        });
+        self.count(b)
+    }
+
     /// Where the host maps what it reads back.
     pub(super) fn read_back(&mut self, label: &str, size: u64) -> wgpu::Buffer {
         let b = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -115,7 +126,8 @@ impl Bufs {
             .collect();
         Self {
             params: a.uniform("params", bytemuck::bytes_of(&params(model))),
-            springs: a.model("springs", bytemuck::cast_slice(&model.springs)),
+            // Copied: implicit Euler's per-pass path keeps a frame's start to replay it from.
+            springs: a.storage("springs", bytemuck::cast_slice(&model.springs), COPY),
             offsets: a.model("offsets", bytemuck::cast_slice(&model.adjacency.offsets)),
             neighbors: a.model("neighbors", bytemuck::cast_slice(&model.adjacency.entries)),
             colliders: a.model("colliders", bytemuck::cast_slice(&colliders(model))),

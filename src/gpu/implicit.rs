@@ -2,33 +2,113 @@
 //! iterations and conjugate-gradient solves as `crate::cpu`'s `implicit_step`, with the same
 //! stopping rules, taken one of two ways (`plan::implicit::path`):
 //! - a small system's step is one dispatch of `implicit_step`, one workgroup deciding every
-//!   stopping rule on the device: a frame's steps go in one submission and nothing waits;
-//! - a larger one's Newton iteration is encoded with a chunk of CG iterations (as many as the last
-//!   solve took) and the solver's status is read back after it; a solve that needs more gets
-//!   further chunks, each twice as long. Kernels of a solve that has stopped do nothing, so a
-//!   chunk longer than needed costs only empty dispatches.
+//!   stopping rule on the device;
+//! - a larger one's step is a dispatch per pass, two per CG iteration. The host cannot know how
+//!   many iterations a solve will take without waiting for it, so it encodes the whole frame with
+//!   budgets ([`Budgets`]: Newton iterations per step, CG iterations per Newton iteration, from
+//!   what earlier frames took) and the kernels past a finished solve or step return at once. A
+//!   solve or step that needs more than its budget halts the frame on the device; the host reads
+//!   one small record after the frame, and if it halted, restores the frame's starting state
+//!   (copied on the device as the frame began), raises the budgets and replays it. The replay
+//!   computes exactly what an unhalted frame would have: budgets only decide which dispatches are
+//!   encoded, never what a dispatch computes.
 //!
-//! Either way each step books its CG iterations and residual on the device, and the frame's
-//! snapshot reads them back (`readback.rs`).
+//! Either way nothing waits inside a frame, each step books its CG iterations and residual on the
+//! device, and the frame's snapshot reads them back (`readback.rs`).
 
 use super::context::{DeviceError, GpuContext};
 use super::encode::{Dispatcher, in_pass};
-use super::layout::SolverStatus;
+use super::layout::FrameSolve;
 use super::plan::{Dispatch, SLOTS_PER_STEP, implicit::*};
 use super::resources::SolverBuffers;
 use crate::backend::BackendError;
-use crate::cpu::NEWTON_MAX_ITERATIONS;
+use crate::cpu::{CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS};
 
-/// The fewest CG iterations a chunk encodes.
-pub const MIN_CHUNK: u32 = 8;
+const NEWTON_SLOTS: usize = NEWTON_MAX_ITERATIONS as usize;
 
-/// One implicit step's solve, on the device.
+/// How many Newton iterations each step of a frame encodes, and how many CG iterations each
+/// Newton iteration's solve encodes (per-pass path).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Budgets {
+    pub newton: u32,
+    pub cg: [u32; NEWTON_SLOTS],
+}
+
+impl Default for Budgets {
+    /// A run's first frame: a guess, raised where it falls short.
+    fn default() -> Self {
+        Self {
+            newton: 3,
+            cg: [16; NEWTON_SLOTS],
+        }
+    }
+}
+
+impl Budgets {
+    /// After a frame that halted: twice the budget that ran out (and at least that for the
+    /// Newton iterations after it, whose solves are alike), within the stopping rules' maxima.
+    #[must_use]
+    pub fn raised(mut self, overran: u32) -> Self {
+        if overran & FrameSolve::NEWTON_OVERRAN != 0 {
+            self.newton = (2 * self.newton).min(NEWTON_MAX_ITERATIONS);
+        }
+        if let Some(j) = (0..NEWTON_SLOTS).find(|&j| overran & (1 << j) != 0) {
+            let more = (2 * self.cg[j]).min(CG_MAX_ITERATIONS);
+            for b in &mut self.cg[j..] {
+                *b = (*b).max(more);
+            }
+        }
+        self
+    }
+
+    /// After frames that ran through (`recent`, the last few): the most their steps took, and a
+    /// margin. A replay costs a whole frame; an unused iteration, dispatches that return at once.
+    /// So the budgets follow the most of several frames, not the last one's: a step that needs
+    /// one Newton iteration more every few frames would otherwise replay them.
+    #[must_use]
+    pub fn fitted<'a>(self, recent: impl IntoIterator<Item = &'a FrameSolve>) -> Self {
+        let mut newton = 0;
+        let mut cg = [0; NEWTON_SLOTS];
+        for took in recent {
+            newton = newton.max(took.newton_most);
+            for (j, c) in cg.iter_mut().enumerate() {
+                *c = (*c).max(took.cg_most[j]);
+            }
+        }
+        let mut fitted = self;
+        fitted.newton = newton.clamp(1, NEWTON_MAX_ITERATIONS);
+        for (j, (b, most)) in fitted.cg.iter_mut().zip(cg).enumerate() {
+            // A Newton iteration none of them reached keeps its budget.
+            if (j as u32) < newton && most > 0 {
+                *b = (most + most / 4 + 2).min(CG_MAX_ITERATIONS);
+            }
+        }
+        fitted
+    }
+
+    /// Whether `overran` can be met by larger budgets (always, unless a budget is already at its
+    /// maximum, where the device never flags it).
+    fn can_raise(self, overran: u32) -> bool {
+        self.raised(overran) != self
+    }
+}
+
+/// One frame of implicit steps, on the device.
 pub struct ImplicitStep<'a> {
     pub ctx: &'a GpuContext,
     pub kernels: Dispatcher<'a>,
     pub solver: &'a SolverBuffers,
     /// The passes every integrator runs after its step (plasticity, tearing).
     pub post: &'a [Dispatch],
+}
+
+/// How a frame on the per-pass path went: what its steps took (its record), the budgets it ran
+/// through with, and how many times it was replayed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameOutcome {
+    pub took: FrameSolve,
+    pub budgets: Budgets,
+    pub replays: u32,
 }
 
 impl ImplicitStep<'_> {
@@ -56,77 +136,151 @@ impl ImplicitStep<'_> {
         })
     }
 
-    /// One backward Euler step whose every dispatch reads stage slot `slot`: the step's end time
-    /// (backward Euler evaluates forces there), its dt and its index (for the divergence check).
-    /// `chunk`: CG iterations to encode before the first status read, the last solve's count;
-    /// updated.
-    pub fn run(&self, slot: u32, chunk: &mut u32) -> Result<(), BackendError> {
-        let label = "implicit step";
+    /// `steps` backward Euler steps of a larger system, encoded with `budgets`, replayed with
+    /// larger ones until no step or solve runs out: one wait for the device per run through.
+    /// Step k reads stage slot 4k + 3, its end (backward Euler evaluates forces there).
+    pub fn run_frame(&self, steps: u32, budgets: Budgets) -> Result<FrameOutcome, BackendError> {
+        let label = "implicit frame";
+        let mut budgets = budgets;
+        let mut replays = 0;
         let mut enc = self.ctx.encoder(label);
-        in_pass(&mut enc, label, |pass| {
-            self.kernels.dispatch_all(pass, &BEGIN, slot)
-        })?;
-        for _ in 0..NEWTON_MAX_ITERATIONS {
-            let mut cg = *chunk;
+        // The frame's start, to replay it from.
+        for (live, start) in &self.solver.frame_start {
+            enc.copy_buffer_to_buffer(live, 0, start, 0, live.size());
+        }
+        loop {
+            self.begin_frame(budgets);
             in_pass(&mut enc, label, |pass| {
-                self.kernels.dispatch_all(pass, &NEWTON_BEGIN, slot)?;
-                self.encode_cg(pass, cg, slot)
+                (0..steps).try_for_each(|k| self.encode_step(pass, SLOTS_PER_STEP * k + 3, budgets))
             })?;
-            let mut status = self.submit_and_read_status(enc)?;
-            while status.cg_active != 0 {
-                cg *= 2;
-                enc = self.ctx.encoder(label);
-                in_pass(&mut enc, label, |pass| self.encode_cg(pass, cg, slot))?;
-                status = self.submit_and_read_status(enc)?;
+            let took = self.submit_and_read(enc)?;
+            if took.overran == 0 {
+                return Ok(FrameOutcome {
+                    took,
+                    budgets,
+                    replays,
+                });
             }
-            *chunk = status.iterations.max(MIN_CHUNK);
+            if !budgets.can_raise(took.overran) {
+                return Err(DeviceError::Internal(format!(
+                    "implicit Euler's solve flagged a budget already at its maximum ({:#x}, {budgets:?})",
+                    took.overran
+                ))
+                .into());
+            }
+            budgets = budgets.raised(took.overran);
+            replays += 1;
             enc = self.ctx.encoder(label);
-            if status.converged != 0 {
-                break;
+            for (live, start) in &self.solver.frame_start {
+                enc.copy_buffer_to_buffer(start, 0, live, 0, live.size());
             }
         }
-        in_pass(&mut enc, label, |pass| {
-            self.kernels.dispatch_all(pass, &END, slot)?;
-            self.post_step(pass, slot)
-        })?;
-        self.ctx.queue.submit([enc.finish()]);
-        Ok(())
     }
 
-    /// `iterations` CG iterations, then the Newton update (which waits for the solve to stop).
-    fn encode_cg(
+    /// The frame's record, zeroed, with the Newton budget its steps are encoded with.
+    fn begin_frame(&self, budgets: Budgets) {
+        let record = FrameSolve {
+            newton_budget: budgets.newton,
+            ..FrameSolve::default()
+        };
+        self.ctx.queue.write_buffer(
+            &self.solver.scratch,
+            FrameSolve::OFFSET,
+            bytemuck::bytes_of(&record),
+        );
+    }
+
+    /// One step: its Newton iterations, each with its solve's budget of CG iterations.
+    fn encode_step(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
-        iterations: u32,
         slot: u32,
+        budgets: Budgets,
     ) -> Result<(), BackendError> {
-        for _ in 0..iterations {
-            self.kernels.dispatch_all(pass, &CG_ITERATION, slot)?;
+        let k = &self.kernels;
+        k.dispatch_all(pass, &BEGIN, slot)?;
+        for &cg in &budgets.cg[..budgets.newton as usize] {
+            k.dispatch_all(pass, &NEWTON_BEGIN, slot)?;
+            for _ in 0..cg {
+                k.dispatch_all(pass, &CG_ITERATION, slot)?;
+            }
+            k.dispatch_all(pass, &NEWTON_END, slot)?;
         }
-        self.kernels.dispatch_all(pass, &NEWTON_END, slot)
+        k.dispatch_all(pass, &END, slot)?;
+        self.post_step(pass, slot)
     }
 
-    /// Submit `enc` with a copy of the solver's status, and wait for it.
-    fn submit_and_read_status(
-        &self,
-        mut enc: wgpu::CommandEncoder,
-    ) -> Result<SolverStatus, BackendError> {
-        let size = std::mem::size_of::<SolverStatus>() as u64;
+    /// Submit `enc` with a copy of the frame's record, and wait for it.
+    fn submit_and_read(&self, mut enc: wgpu::CommandEncoder) -> Result<FrameSolve, BackendError> {
         let s = self.solver;
-        enc.copy_buffer_to_buffer(&s.scratch, 0, &s.status, 0, size);
+        enc.copy_buffer_to_buffer(
+            &s.scratch,
+            FrameSolve::OFFSET,
+            &s.status,
+            0,
+            FrameSolve::SIZE,
+        );
         let index = self.ctx.queue.submit([enc.finish()]);
         let slice = s.status.slice(..);
         self.ctx.map_and_wait(&slice, index)?;
-        let status = {
+        let record = {
             let data = slice
                 .get_mapped_range()
                 .map_err(|e| DeviceError::ReadBack {
-                    what: format!("the solver status from {}", self.ctx.describe()),
+                    what: format!("implicit Euler's frame record from {}", self.ctx.describe()),
                     cause: e.to_string(),
                 })?;
-            bytemuck::pod_read_unaligned::<SolverStatus>(&data[..size as usize])
+            bytemuck::pod_read_unaligned::<FrameSolve>(&data[..FrameSolve::SIZE as usize])
         };
         s.status.unmap();
-        Ok(status)
+        Ok(record)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(newton_most: u32, cg: &[u32]) -> FrameSolve {
+        let mut r = FrameSolve {
+            newton_most,
+            ..FrameSolve::default()
+        };
+        r.cg_most[..cg.len()].copy_from_slice(cg);
+        r
+    }
+
+    /// A budget that ran out doubles, and never past the stopping rules' maxima: replays end.
+    #[test]
+    fn budgets_that_ran_out_double_up_to_the_maxima() {
+        let b = Budgets::default();
+        let r = b.raised(1 << 1);
+        assert_eq!(r.cg[0], b.cg[0]);
+        assert!(r.cg[1..].iter().all(|&c| c == 2 * b.cg[1]));
+        assert_eq!(r.newton, b.newton);
+        let r = b.raised(FrameSolve::NEWTON_OVERRAN);
+        assert_eq!((r.newton, r.cg), (2 * b.newton, b.cg));
+        let mut top = b;
+        for _ in 0..20 {
+            top = top.raised(FrameSolve::NEWTON_OVERRAN | 1);
+        }
+        assert_eq!(top.newton, NEWTON_MAX_ITERATIONS);
+        assert!(top.cg.iter().all(|&c| c == CG_MAX_ITERATIONS));
+        assert!(!top.can_raise(FrameSolve::NEWTON_OVERRAN | 1));
+        assert!(b.can_raise(1));
+    }
+
+    /// After a frame, each budget fits what its steps took with a margin; a Newton iteration no
+    /// step reached keeps its budget.
+    #[test]
+    fn budgets_fit_what_the_frame_took() {
+        let b = Budgets::default().fitted(&[record(2, &[40, 8, 99])]);
+        assert_eq!(b.newton, 2);
+        assert_eq!(b.cg[..3], [52, 12, 16]);
+        let b = Budgets::default().fitted(&[record(1, &[190])]);
+        assert_eq!(b.cg[0], CG_MAX_ITERATIONS);
+        // The most of several frames.
+        let b = Budgets::default().fitted(&[record(3, &[4, 2, 1]), record(2, &[8, 1])]);
+        assert_eq!((b.newton, b.cg[..4].to_vec()), (3, vec![12, 4, 3, 16]));
     }
 }

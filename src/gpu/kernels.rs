@@ -105,7 +105,7 @@ impl Group {
 
 /// How many threads a kernel runs: one per mass, per spring, per mass or spring (the energy
 /// sums), per bucket of the hash grid, per block of its prefix sum, per spring of one XPBD
-/// colour (the dispatch names the colour), or one workgroup.
+/// colour (the dispatch names the colour), one workgroup, or implicit Euler's grid.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Threads {
     Masses,
@@ -115,6 +115,9 @@ pub enum Threads {
     ScanBlocks,
     Colour,
     OneGroup,
+    /// Implicit Euler's per-pass kernels: a fixed grid of workgroups striding over the masses
+    /// (`plan::implicit::solver_groups`).
+    SolverGrid,
 }
 
 /// Which runs compile a kernel (absent effects cost nothing).
@@ -323,46 +326,41 @@ kernels! {
         bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
     }
 
-    // ---- implicit.wgsl: the same step a dispatch per pass (larger systems) ----
+    // ---- implicit.wgsl: the same step a dispatch per pass (larger systems), on the solver's
+    // grid of workgroups, two dispatches per CG iteration ----
     ImplicitBegin = implicit_begin in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
     }
     ImplicitIterate = implicit_iterate in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
     }
     ImplicitFinal = implicit_final in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
     }
     SolverBegin = solver_begin in Implicit {
         group: Solve, threads: OneGroup, needs: ImplicitPasses,
         cpu: "resets the solver's status, which the CPU keeps in locals of its solve",
     }
-    ImplicitRhs = implicit_rhs in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    ForcesAndRhs = forces_and_rhs in Implicit {
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+        cpu: "compute_forces and implicit_rhs in one pass; the CPU runs them in turn",
     }
     CgBegin = cg_begin in Implicit {
         group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "sums the per-workgroup partials of implicit_rhs; the CPU takes the dot products whole",
+        cpu: "sums the per-workgroup partials of forces_and_rhs; the CPU takes the dot products whole",
     }
-    ApplySystem = apply_system in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    CgApply = cg_apply in Implicit {
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+        cpu: "β from the last pass's partials, then apply_system on the next direction z + βp, \
+              taken on the fly; the CPU runs cg_direction and apply_system in turn",
     }
-    CgAlpha = cg_alpha in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "sums the per-workgroup partials of apply_system; the CPU takes the dot product whole",
-    }
-    CgUpdate = cg_update in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
-    }
-    CgBeta = cg_beta in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "sums the per-workgroup partials of cg_update; the CPU takes the dot products whole",
-    }
-    CgDirection = cg_direction in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+    CgAdvance = cg_advance in Implicit {
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+        cpu: "α from cg_apply's partials, then cg_direction and cg_update in one pass; the CPU \
+              runs them in turn",
     }
     NewtonUpdate = newton_update in Implicit {
-        group: Solve, threads: Masses, needs: ImplicitPasses, cpu: (implicit),
+        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
     }
     NewtonEnd = newton_end in Implicit {
         group: Solve, threads: OneGroup, needs: ImplicitPasses,

@@ -81,8 +81,8 @@ pub struct MassContact {
     pub within_bodies: u32,
 }
 
-/// Implicit Euler's solver state (`Solver` in shaders/implicit.wgsl), read back between chunks of
-/// conjugate-gradient iterations.
+/// Implicit Euler's solver state on the per-pass path (`Solver` in shaders/implicit.wgsl); the
+/// solver's scratch holds two, the status `cg_apply` reads and the one it writes.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct SolverStatus {
@@ -102,6 +102,36 @@ pub struct SolverStatus {
     pub newton_pending: u32,
     pub converged: u32,
     pub last_residual: f32,
+}
+
+/// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.
+pub const MAX_NEWTON_SLOTS: usize = 16;
+const _: () = assert!(crate::cpu::NEWTON_MAX_ITERATIONS as usize <= MAX_NEWTON_SLOTS);
+
+/// What implicit Euler's per-pass kernels learn of a frame (`FrameSolve` in
+/// shaders/implicit.wgsl), after the two statuses in the solver's scratch: the host writes the
+/// Newton budget and zeros before a frame and reads the rest back once after it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameSolve {
+    /// The Newton iterations the frame's encoding gives each step.
+    pub newton_budget: u32,
+    /// [`FrameSolve::NEWTON_OVERRAN`], and bit j for a solve of Newton iteration j still running
+    /// when its CG budget ran out: the frame halted there and must be replayed.
+    pub overran: u32,
+    /// The most Newton iterations any step began.
+    pub newton_most: u32,
+    pub _pad: u32,
+    /// The most CG iterations of any solve of Newton iteration j.
+    pub cg_most: [u32; MAX_NEWTON_SLOTS],
+}
+
+impl FrameSolve {
+    /// A step used its whole Newton budget without converging.
+    pub const NEWTON_OVERRAN: u32 = 1 << 31;
+    /// Where it sits in the solver's scratch: after the two statuses.
+    pub const OFFSET: u64 = 2 * std::mem::size_of::<SolverStatus>() as u64;
+    pub const SIZE: u64 = std::mem::size_of::<FrameSolve>() as u64;
 }
 
 pub use crate::cpu::XpbdSpring;
@@ -137,13 +167,14 @@ impl Default for SpringKinds {
 }
 
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 12] = [
+pub const SHARED_STRUCTS: [(&str, usize); 13] = [
     ("SpringKinds", std::mem::size_of::<SpringKinds>()),
     ("XpbdSpring", std::mem::size_of::<XpbdSpring>()),
     ("XpbdColour", std::mem::size_of::<XpbdColour>()),
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),
     ("MassContact", std::mem::size_of::<MassContact>()),
     ("Solver", std::mem::size_of::<SolverStatus>()),
+    ("FrameSolve", std::mem::size_of::<FrameSolve>()),
     ("Params", std::mem::size_of::<Params>()),
     ("Stage", std::mem::size_of::<Stage>()),
     ("Collider", std::mem::size_of::<Collider>()),

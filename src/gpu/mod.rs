@@ -39,6 +39,7 @@ pub use backend::GpuBackend;
 pub use context::{
     AdapterError, DeviceError, GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error,
 };
+pub use implicit::Budgets as ImplicitBudgets;
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
 pub use plan::implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};

@@ -254,11 +254,12 @@ fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
 
 /// An implicit step's passes. A small system's whole step is one dispatch of `implicit_step` (one
 /// workgroup, no host wait). A larger one runs, in order: BEGIN, then per Newton iteration
-/// NEWTON_BEGIN, CG_ITERATION repeated, NEWTON_END; then END. Every dispatch of a step reads the
-/// same slot.
+/// NEWTON_BEGIN, CG_ITERATION repeated, NEWTON_END; then END, each a dispatch over the solver's
+/// grid of workgroups (`solver_groups`) or one workgroup. Every dispatch of a step reads the same
+/// slot.
 pub mod implicit {
     use super::super::layout::SOLVER_VECTORS;
-    use super::{Dispatch, Kernel::*, StateIn};
+    use super::{Dispatch, Kernel::*};
     use crate::model::Model;
 
     /// The most masses the one-workgroup step takes: 32 per thread. Beyond that, a dispatch per
@@ -339,25 +340,44 @@ pub mod implicit {
         }
     }
 
+    /// The most workgroups of the per-pass kernels' grid on a CPU adapter (lavapipe), and on a
+    /// GPU. Every workgroup of a pass sums the partials of all (the grid's size squared, in
+    /// loads): a CPU runs few workgroups at once, and each load of a partial costs it a
+    /// descriptor read and a bounds check; a GPU needs enough threads in flight to hide memory
+    /// latency, and reads the partials from its cache.
+    const SOLVER_GROUPS_CPU: u32 = 64;
+    const SOLVER_GROUPS_GPU: u32 = 1024;
+
+    /// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL): one per 64 masses, at
+    /// most the device's cap.
+    pub fn solver_groups(masses: usize, device: wgpu::DeviceType) -> u32 {
+        let cap = match device {
+            wgpu::DeviceType::Cpu => SOLVER_GROUPS_CPU,
+            _ => SOLVER_GROUPS_GPU,
+        };
+        let wanted = masses
+            .div_ceil(super::super::shaders::WORKGROUP as usize)
+            .max(1);
+        u32::try_from(wanted).map_or(cap, |w| w.min(cap))
+    }
+
     const fn at(k: super::Kernel) -> Dispatch {
         Dispatch::at(k, 0)
     }
 
     pub const IN_GROUP: [Dispatch; 1] = [at(ImplicitStep)];
     pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
+    /// The Newton iterate, its forces and right-hand side, and the first half of the solve's first
+    /// CG iteration (`cg_apply` with p = z).
     pub const NEWTON_BEGIN: [Dispatch; 4] = [
         at(ImplicitIterate),
-        Dispatch::reading(ComputeForces, StateIn::XtVt, 0),
-        at(ImplicitRhs),
+        at(ForcesAndRhs),
         at(CgBegin),
+        at(CgApply),
     ];
-    pub const CG_ITERATION: [Dispatch; 5] = [
-        at(ApplySystem),
-        at(CgAlpha),
-        at(CgUpdate),
-        at(CgBeta),
-        at(CgDirection),
-    ];
+    /// The rest of a CG iteration and the first half of the next: each half sums the partials
+    /// the other left, so a dot product costs no dispatch of its own.
+    pub const CG_ITERATION: [Dispatch; 2] = [at(CgAdvance), at(CgApply)];
     pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
     pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
 
@@ -451,8 +471,9 @@ pub fn step_passes(
 }
 
 /// How many dispatches one GPU step records: `fixed`, plus (implicit Euler a dispatch per pass)
-/// so many per Newton iteration and per CG iteration (at least: a chunk of CG iterations may
-/// encode a few that find the solve stopped and return at once). A fused Euler or semi-implicit
+/// so many per Newton iteration and per CG iteration that the step takes (the frame's budgets
+/// also encode a few that find their step or solve stopped and return at once,
+/// `implicit.rs`). A fused Euler or semi-implicit
 /// run whose submission has an odd number of steps also copies the state back once (not a
 /// dispatch).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -575,6 +596,30 @@ mod tests {
             general > 1.9 * fused,
             "general {general:.1} B, fused {fused:.1} B"
         );
+    }
+
+    /// Implicit Euler's per-pass path keeps issue 13's bound: at most 2 dispatches per CG
+    /// iteration, and no kernel of a CG iteration runs on one workgroup alone (each sums the
+    /// partials it needs itself).
+    #[test]
+    fn a_cg_iteration_is_at_most_two_dispatches_over_the_grid() {
+        use crate::gpu::kernels::Threads;
+        assert!(implicit::CG_ITERATION.len() <= 2);
+        for d in implicit::CG_ITERATION {
+            assert_eq!(
+                d.kernel.spec().threads,
+                Threads::SolverGrid,
+                "{}",
+                d.kernel.name()
+            );
+        }
+        // The solver's grid: one workgroup per 64 masses up to the device's cap.
+        use wgpu::DeviceType::{Cpu, DiscreteGpu};
+        assert_eq!(implicit::solver_groups(4096, Cpu), 64);
+        assert_eq!(implicit::solver_groups(100, Cpu), 2);
+        assert_eq!(implicit::solver_groups(1 << 20, Cpu), 64);
+        assert_eq!(implicit::solver_groups(1 << 20, DiscreteGpu), 1024);
+        assert_eq!(implicit::solver_groups(0, DiscreteGpu), 1);
     }
 
     /// XPBD's substep: the kick, every colour once per sweep with the multipliers reset on the

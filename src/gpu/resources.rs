@@ -4,9 +4,10 @@
 
 use super::buffers::{Alloc, Bufs};
 use super::kernels::{Group, Sizes, Threads};
-use super::layout::{MassContact, SolverStatus};
+use super::layout::{FrameSolve, MassContact};
 use super::links::Links;
 use super::pipelines::Layouts;
+use super::plan::implicit::Path;
 use super::plan::{Flow, StateIn};
 use super::shaders::{WORKGROUP, groups_for};
 use super::xpbd::{XpbdBuffers, XpbdSetup};
@@ -23,6 +24,8 @@ pub struct Workgroups {
     /// Mass–mass contact only: over the hash grid's buckets, and one per block of its prefix sum.
     pub buckets: (u32, u32),
     pub scan_blocks: (u32, u32),
+    /// Implicit Euler's per-pass kernels (`plan::implicit::solver_groups`).
+    pub solver: (u32, u32),
 }
 
 impl Workgroups {
@@ -35,6 +38,7 @@ impl Workgroups {
             Threads::Buckets => self.buckets,
             Threads::ScanBlocks => self.scan_blocks,
             Threads::OneGroup => (1, 1),
+            Threads::SolverGrid => self.solver,
             Threads::Colour => return None,
         })
     }
@@ -55,10 +59,15 @@ pub struct GridBuffers {
 
 /// Implicit Euler's solver (its vectors live in the per-mass scratch, `sums`).
 pub struct SolverBuffers {
-    /// `SolverStatus`, then the per-workgroup partial sums.
+    /// Two `SolverStatus`es, the `FrameSolve`, then two partial sums per workgroup of the
+    /// per-pass kernels' grid.
     pub scratch: wgpu::Buffer,
-    /// Where the host reads the status between chunks.
+    /// Where the host reads the `FrameSolve` after a frame (the per-pass path).
     pub status: wgpu::Buffer,
+    /// The per-pass path: each buffer a frame changes, and its copy from the frame's start, to
+    /// replay the frame from when a budget ran out (`implicit.rs`). Empty on the one-workgroup
+    /// path, which has no budgets.
+    pub frame_start: Vec<(wgpu::Buffer, wgpu::Buffer)>,
 }
 
 /// Every buffer a run binds, and the bind groups over them.
@@ -240,7 +249,14 @@ impl GroupSet<'_> {
 
     /// Plasticity and tearing: each spring's limits, and the energy it let go since the last
     /// snapshot.
-    fn springs(&mut self, a: &mut Alloc<'_>, b: &Bufs, model: &Model, dt_secs: f64) {
+    /// Returns the released energy's buffer.
+    fn springs(
+        &mut self,
+        a: &mut Alloc<'_>,
+        b: &Bufs,
+        model: &Model,
+        dt_secs: f64,
+    ) -> wgpu::Buffer {
         let limits = a.model(
             "spring limits",
             bytemuck::cast_slice(&model.spring_limits(dt_secs)),
@@ -250,17 +266,20 @@ impl GroupSet<'_> {
             Group::Springs,
             &[&b.params, &b.springs, &limits, &b.x, &released, &b.partials],
         );
+        released
     }
 }
 
 impl Resources {
-    /// `links`: the fused steps' compact springs, for a fused run.
+    /// `links`: the fused steps' compact springs, for a fused run; `implicit`: implicit Euler's
+    /// path and the workgroups of its per-pass grid.
     pub fn new(
         device: &wgpu::Device,
         limits: &wgpu::Limits,
         (layouts, links): (&Layouts, Option<&Links>),
         model: &Model,
         (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+        implicit: Option<(Path, u32)>,
     ) -> Self {
         let mut a = Alloc { device, bytes: 0 };
         let (n, ns) = (model.mass_count(), model.spring_count());
@@ -271,6 +290,7 @@ impl Resources {
             energies: groups_for(n.max(ns) as u32, max_dim),
             buckets: (1, 1),
             scan_blocks: (1, 1),
+            solver: (implicit.map_or(1, |(_, groups)| groups), 1),
         };
         let b = Bufs::new(&mut a, model, integrator, workgroups.partial_count());
         let mut groups = GroupSet {
@@ -279,11 +299,22 @@ impl Resources {
             groups: Group::ALL.iter().map(|_| None).collect(),
         };
         groups.common(&b);
-        if model.effects.springs_change() {
-            groups.springs(&mut a, &b, model, dt_secs);
-        }
-        let solver = (integrator == Integrator::Implicit)
-            .then(|| SolverBuffers::new(&mut a, (&b, model), &mut groups, workgroups.masses));
+        let released = model
+            .effects
+            .springs_change()
+            .then(|| groups.springs(&mut a, &b, model, dt_secs));
+        let solver = implicit.map(|(path, grid)| {
+            let mut s = SolverBuffers::new(&mut a, (&b, model), &mut groups, grid);
+            if path == Path::Passes {
+                let changing = [&b.x, &b.v, &b.ledger, &b.counters]
+                    .into_iter()
+                    .chain(released.iter().flat_map(|r| [&b.springs, r]));
+                s.frame_start = changing
+                    .map(|live| (live.clone(), a.copy_of(live, "frame start")))
+                    .collect();
+            }
+            s
+        });
         let xpbd_layout = layouts.group(Group::XpbdSolve);
         let xpbd = xpbd_layout
             .filter(|_| integrator == Integrator::Xpbd)
@@ -357,16 +388,16 @@ impl Resources {
 }
 
 impl SolverBuffers {
-    /// The solver's status, then one partial sum per mass workgroup.
+    /// The solver's statuses and frame record, then two partial sums per workgroup of its grid.
     fn new(
         a: &mut Alloc<'_>,
         (b, model): (&Bufs, &Model),
         groups: &mut GroupSet<'_>,
-        masses: (u32, u32),
+        grid: u32,
     ) -> Self {
-        let status_bytes = std::mem::size_of::<SolverStatus>();
-        let scratch = a.zeros("solver", status_bytes + 16 * (masses.0 * masses.1) as usize);
-        let status = a.read_back("solver status", status_bytes as u64);
+        let head = FrameSolve::OFFSET + FrameSolve::SIZE;
+        let scratch = a.zeros("solver", (head + 2 * 16 * u64::from(grid)) as usize);
+        let status = a.read_back("frame solve", FrameSolve::SIZE);
         // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
         let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
         groups.set(
@@ -390,7 +421,11 @@ impl SolverBuffers {
                 &terms,
             ],
         );
-        Self { scratch, status }
+        Self {
+            scratch,
+            status,
+            frame_start: Vec::new(),
+        }
     }
 }
 

@@ -51,6 +51,11 @@ pub trait Backend: Send {
     fn memory_bytes(&self) -> Option<u64> {
         None
     }
+    /// Submissions of steps run again since the backend began, where it ever runs one again
+    /// (implicit Euler on the GPU's per-pass path replays a frame that outran its budgets).
+    fn replays(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// Advance `steps` steps in submissions of at most `batch` substeps (a GPU encodes each batch

@@ -145,6 +145,14 @@ fn text_says_the_median_of_the_runs_and_the_gpu_dispatches_per_step() {
             ),
             "{scene} {integrator}: {o}"
         );
+        // Only the per-pass implicit path replays a submission; it counts the timed ones.
+        let replays = &o["replays"];
+        if scene == "cloth-64" {
+            assert_eq!(replays["submissions"], 2, "{o}");
+            assert!(replays["replayed"].as_u64().is_some_and(|r| r <= 2), "{o}");
+        } else {
+            assert!(replays.is_null(), "{scene} {integrator}: {o}");
+        }
     }
 }
 

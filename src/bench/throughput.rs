@@ -47,6 +47,9 @@ pub struct Throughput {
     pub kernels_ms: Option<Vec<(String, f64)>>,
     /// Compulsory bytes a GPU step moves (see `GpuBackend::bytes_per_step`).
     pub bytes_per_step: Option<u64>,
+    /// Where the backend may run a submission again (implicit Euler on the GPU's per-pass path):
+    /// the timed runs' submissions, and how many of them were replayed.
+    pub replays: Option<(u64, u64)>,
 }
 
 impl Throughput {
@@ -93,6 +96,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
     // Warm-up: pipelines compiled, caches and clocks up.
     be.advance(batch.min(opts.steps).max(1))?;
     be.finish()?;
+    let replays_before = be.replays();
     let mut runs_secs = Vec::with_capacity(opts.repeat.max(1) as usize);
     for _ in 0..opts.repeat.max(1) {
         let start = Instant::now();
@@ -101,6 +105,10 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         runs_secs.push(start.elapsed().as_secs_f64());
     }
     let wall_secs = median(&runs_secs);
+    let submissions = u64::from(opts.repeat.max(1)) * u64::from(opts.steps.div_ceil(batch));
+    let replays = replays_before
+        .zip(be.replays())
+        .map(|(before, after)| (submissions, after - before));
     // The final state must still be sound, or the figure means nothing.
     be.snapshot(0, Default::default())?;
     let (kernels_ms, bytes_per_step, dispatches) = match opts.device.kind {
@@ -121,6 +129,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         dispatches,
         kernels_ms,
         bytes_per_step,
+        replays,
     })
 }
 
@@ -196,6 +205,12 @@ pub fn format_throughput(t: &Throughput) -> String {
     if let Some(d) = t.dispatches {
         let _ = write!(s, "\n    dispatches per step: {}", format_dispatches(d));
     }
+    if let Some((submissions, replayed)) = t.replays {
+        let _ = write!(
+            s,
+            "\n    submissions replayed (a step or solve outran its budget): {replayed} of {submissions}"
+        );
+    }
     if let Some(m) = t.memory_bytes {
         let _ = write!(
             s,
@@ -270,6 +285,10 @@ pub fn throughput_json(t: &Throughput) -> String {
         })),
         "memory_bytes": t.memory_bytes,
         "bytes_per_step": t.bytes_per_step,
+        "replays": t.replays.map(|(submissions, replayed)| serde_json::json!({
+            "submissions": submissions,
+            "replayed": replayed,
+        })),
         "kernels_ms": t.kernels_ms.as_ref().map(|k| {
             k.iter()
                 .map(|(name, ms)| (name.clone(), serde_json::json!(ms)))

@@ -519,4 +519,8 @@ impl Backend for GpuBackend {
     fn memory_bytes(&self) -> Option<u64> {
         Some(self.memory_bytes)
     }
+
+    fn replays(&self) -> Option<u64> {
+        (self.implicit_path == Some(Path::Passes)).then_some(self.replays)
+    }
 }

@@ -62,9 +62,10 @@ impl Budgets {
     }
 
     /// After frames that ran through (`recent`, the last few): the most their steps took, and a
-    /// margin. A replay costs a whole frame; an unused iteration, dispatches that return at once.
-    /// So the budgets follow the most of several frames, not the last one's: a step that needs
-    /// one Newton iteration more every few frames would otherwise replay them.
+    /// margin on CG. A replay costs a whole frame; an unused iteration, dispatches that return at
+    /// once (on lavapipe about 80 µs each, as much as one that works: a spare Newton iteration
+    /// made cloth-64's steps slower than the replays it saved). So the budgets follow the most of
+    /// several frames, not the last one's, and Newton gets no margin.
     #[must_use]
     pub fn fitted<'a>(self, recent: impl IntoIterator<Item = &'a FrameSolve>) -> Self {
         let mut newton = 0;

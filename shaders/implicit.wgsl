@@ -527,8 +527,11 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
         return;
     }
     if (applied.cg_active != 0u) {
+        // The rest of the step's encoding does nothing, nor do the frame's later steps.
         if (lid == 0u) {
             scratch.frame.overran |= 1u << applied.newton;
+            scratch.solver.cg_active = 0u;
+            scratch.solver.newton_pending = 0u;
             scratch.solver.converged = 1u;
         }
         return;

@@ -87,6 +87,17 @@ impl Budgets {
         fitted
     }
 
+    /// At least one iteration each (a step encoded with no Newton iteration would end unsolved
+    /// and unflagged), and no more than the stopping rules allow.
+    #[must_use]
+    fn within_rules(mut self) -> Self {
+        self.newton = self.newton.clamp(1, NEWTON_MAX_ITERATIONS);
+        for b in &mut self.cg {
+            *b = (*b).clamp(1, CG_MAX_ITERATIONS);
+        }
+        self
+    }
+
     /// Whether `overran` can be met by larger budgets (always, unless a budget is already at its
     /// maximum, where the device never flags it).
     fn can_raise(self, overran: u32) -> bool {
@@ -142,7 +153,7 @@ impl ImplicitStep<'_> {
     /// Step k reads stage slot 4k + 3, its end (backward Euler evaluates forces there).
     pub fn run_frame(&self, steps: u32, budgets: Budgets) -> Result<FrameOutcome, BackendError> {
         let label = "implicit frame";
-        let mut budgets = budgets;
+        let mut budgets = budgets.within_rules();
         let mut replays = 0;
         let mut enc = self.ctx.encoder(label);
         // The frame's start, to replay it from.
@@ -269,6 +280,14 @@ mod tests {
         assert!(top.cg.iter().all(|&c| c == CG_MAX_ITERATIONS));
         assert!(!top.can_raise(FrameSolve::NEWTON_OVERRAN | 1));
         assert!(b.can_raise(1));
+        // Budgets set from outside are held to at least one iteration, so they can grow.
+        let none = Budgets {
+            newton: 0,
+            cg: [0; NEWTON_SLOTS],
+        }
+        .within_rules();
+        assert_eq!((none.newton, none.cg), (1, [1; NEWTON_SLOTS]));
+        assert!(none.can_raise(FrameSolve::NEWTON_OVERRAN | 1));
     }
 
     /// After a frame, each budget fits what its steps took with a margin; a Newton iteration no

@@ -43,10 +43,8 @@
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus.
 struct Solver {
-    // r·z, and p·Ap of the current iteration.
+    // r·z of the current iteration, and the β that cg_apply took for it (cg_advance's p).
     rz: f32,
-    pap: f32,
-    alpha: f32,
     beta: f32,
     // |h f| of the step's first Newton iterate: residuals are relative to it.
     scale: f32,
@@ -54,9 +52,6 @@ struct Solver {
     residual: f32,
     // Largest final residual over the step's solves.
     max_residual: f32,
-    // Newton: the last update's and Δv's largest per-mass length.
-    step_norm: f32,
-    size_norm: f32,
     // CG iterations of the current solve, and of the whole step.
     iterations: u32,
     total_iterations: u32,
@@ -355,7 +350,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
 // nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, F32_MAX);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, F32_MAX);
     if (scratch.frame.overran != 0u) {
         scratch.solver.converged = 1u;
     }
@@ -476,7 +471,6 @@ fn cg_advance(
     let t = grid_total(lid, OTHER_SUMS, false);
     sv.iterations += 1u;
     sv.total_iterations += 1u;
-    sv.pap = t.x;
     if (!usable_curvature(t.x)) {
         sv.cg_active = 0u;
         if (writer) {
@@ -484,11 +478,11 @@ fn cg_advance(
         }
         return;
     }
-    sv.alpha = sv.rz / t.x;
+    let alpha = sv.rz / t.x;
     var partial = vec4<f32>(0.0);
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
         cg_direction_at(i, sv.beta);
-        partial += cg_update_at(i, sv.alpha);
+        partial += cg_update_at(i, alpha);
     }
     store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
     if (writer) {
@@ -545,8 +539,6 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
     sv.newton += 1u;
     sv.newton_pending = 0u;
     sv.max_residual = max(sv.max_residual, sv.residual);
-    sv.step_norm = t.x;
-    sv.size_norm = t.y;
     sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
     if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {
         scratch.frame.overran |= NEWTON_OVERRAN;

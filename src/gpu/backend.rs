@@ -111,7 +111,8 @@ impl GpuBackend {
             fused: links.is_some(),
         };
         let layouts = Layouts::new(device, needed);
-        let grid = match path {
+        // The per-pass kernels' grid; the one-workgroup step has none.
+        let grid = |path| match path {
             Path::Passes => plan::implicit::solver_groups(model.mass_count(), ctx.info.device_type),
             Path::InGroup => 1,
         };
@@ -121,7 +122,7 @@ impl GpuBackend {
             (&layouts, links.as_ref()),
             &model,
             (integrator, dt_secs, options),
-            needed.implicit.map(|path| (path, grid)),
+            needed.implicit.map(|path| (path, grid(path))),
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
         let group_threads = plan::implicit::group_threads(ctx.info.device_type);

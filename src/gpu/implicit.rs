@@ -238,10 +238,7 @@ impl ImplicitStep<'_> {
         let record = {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| DeviceError::ReadBack {
-                    what: format!("implicit Euler's frame record from {}", self.ctx.describe()),
-                    cause: e.to_string(),
-                })?;
+                .map_err(|e| self.ctx.read_back_failed(e))?;
             bytemuck::pod_read_unaligned::<FrameSolve>(&data[..FrameSolve::SIZE as usize])
         };
         s.status.unmap();

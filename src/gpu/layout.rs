@@ -87,14 +87,10 @@ pub struct MassContact {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct SolverStatus {
     pub rz: f32,
-    pub pap: f32,
-    pub alpha: f32,
     pub beta: f32,
     pub scale: f32,
     pub residual: f32,
     pub max_residual: f32,
-    pub step_norm: f32,
-    pub size_norm: f32,
     pub iterations: u32,
     pub total_iterations: u32,
     pub cg_active: u32,

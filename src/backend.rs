@@ -3,9 +3,11 @@
 //! they stop with, and what every backend shares (the divergence check). Which backend a run
 //! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
 
+use crate::divergence::{Divergence, Fault, StrainedSpring};
 use crate::integrator::Integrator;
 use crate::model::Model;
-use crate::state::{Divergence, Snapshot, State, StepStats};
+use crate::stability::{Modes, stable_step};
+use crate::state::{Snapshot, State, StepStats};
 
 /// Why a backend stopped.
 #[derive(Debug, thiserror::Error)]
@@ -74,7 +76,8 @@ pub fn advance_steps(be: &mut dyn Backend, steps: u64, batch: u32) -> Result<(),
 /// unless the integration has gone unstable, and stopping there keeps the last frames readable.
 pub const RUNAWAY_SPEED_M_PER_S: f32 = 1.0e4;
 
-/// The first mass whose state is non-finite or runaway, described for the user.
+/// The first mass whose state is non-finite or runaway, described for the user: what went
+/// wrong, its most strained spring, and the stability limit its step crossed there.
 pub fn find_divergence(
     model: &Model,
     state: &State,
@@ -84,18 +87,19 @@ pub fn find_divergence(
     let bad = |i: usize| {
         let (x, v) = (state.x[i], state.v[i]);
         if !x.is_finite() || !v.is_finite() {
-            Some("a non-finite position or velocity".to_owned())
+            Some(Fault::NonFinite)
         } else if v.length() > RUNAWAY_SPEED_M_PER_S {
-            Some(format!("a runaway speed of {:.3e} m/s", v.length()))
+            Some(Fault::Runaway {
+                speed_m_per_s: v.length(),
+            })
         } else {
             None
         }
     };
-    let (i, what) = (0..state.x.len()).find_map(|i| bad(i).map(|w| (i, w)))?;
+    let (i, fault) = (0..state.x.len()).find_map(|i| bad(i).map(|w| (i, w)))?;
     let body = model
         .body_of_mass(i as u32)
-        .map(|(b, local)| format!(" (body '{}', mass {} of its grid)", b.name, local))
-        .unwrap_or_default();
+        .map(|(b, local)| (b.name.clone(), local));
     // The spring at this mass that is stretched or squeezed the most points at the culprit.
     let spring = model
         .adjacency
@@ -105,32 +109,28 @@ pub fn find_divergence(
             let s = &model.springs[nb.spring as usize];
             let len = state.x[s.a as usize].distance(state.x[s.b as usize]);
             let strain = (len - s.rest_m) / s.rest_m;
-            (
-                nb.spring,
-                if strain.is_finite() {
-                    strain.abs()
+            StrainedSpring {
+                index: nb.spring,
+                kind: model.spring_kind[nb.spring as usize],
+                strain: if strain.is_finite() {
+                    strain
                 } else {
                     f32::INFINITY
                 },
-            )
+                stiffness_n_per_m: s.stiffness_n_per_m,
+            }
         })
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(s, strain)| {
-            format!(
-                ", its most strained spring is {s} ({}, strain {strain:.3e}, stiffness {} N/m)",
-                model.spring_kind[s as usize].name(),
-                model.springs[s as usize].stiffness_n_per_m
-            )
-        })
-        .unwrap_or_default();
+        .max_by(|a, b| a.strain.abs().total_cmp(&b.strain.abs()));
     Some(Box::new(Divergence {
         step: state.steps,
         time_secs: state.time_secs,
         mass: i as u32,
+        fault,
         body,
         spring,
-        what,
         dt_secs,
-        integrator: integrator.name().to_owned(),
+        integrator,
+        scene: stable_step(&Modes::of(model), integrator),
+        here: stable_step(&Modes::at_mass(model, i as u32), integrator),
     }))
 }

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use crate::model::{Collider, Model, Path, Shape, SpringKindTag};
 use crate::settings::Settings;
-use crate::stability::{dt_warning, stable_dts, stiffest_mode};
+use crate::stability::{Modes, dt_warning, stable_steps};
 
 pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     let mut s = String::new();
@@ -173,17 +173,37 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
         settings.frames,
         settings.duration_secs()
     );
-    let mode = stiffest_mode(model);
+    let modes = Modes::of(model);
     let _ = writeln!(
         s,
-        "  stiffest mode (bound): ω ≈ {:.4e} rad/s, damping ratio {:.3}, at mass {}",
-        mode.omega_rad_per_s, mode.damping_ratio, mode.mass
+        "  stiffest mode (bound): ω ≈ {:.4e} rad/s, damping ratio {:.3}, at mass {} ({})",
+        modes.stiffest.value,
+        modes.corner_damping_ratio(),
+        modes.stiffest.mass,
+        modes.stiffest.source
     );
     let _ = writeln!(
         s,
-        "  largest stable dt, estimated from that bound (`hooke bench accuracy` measures it):"
+        "  most damped mode (bound): γ ≈ {:.4e} /s at mass {} ({}); the damping ratio above is γ/2ω",
+        modes.most_damped.value, modes.most_damped.mass, modes.most_damped.source
     );
-    for (i, dt) in stable_dts(model) {
+    if let Some(r) = modes.ratios {
+        let _ = writeln!(
+            s,
+            "  damping per stiffness c/k: {:.3e} s ({}) to {:.3e} s",
+            r.least_s, r.least, r.most_s
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  largest stable dt, estimated over every mode within those bounds (`hooke bench accuracy` measures it):"
+    );
+    for step in stable_steps(&modes) {
+        let (i, dt) = (step.integrator, step.dt_secs);
+        let by = step
+            .limit
+            .map(|l| format!(", {} limit", l.name()))
+            .unwrap_or_default();
         let mark = if i == settings.integrator {
             " <- chosen"
         } else {
@@ -193,7 +213,7 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             Some(dt) if dt.is_finite() => {
                 let _ = writeln!(
                     s,
-                    "    {:<14} {:.3e} s ({:.0} substeps/frame){mark}",
+                    "    {:<14} {:.3e} s ({:.0} substeps/frame{by}){mark}",
                     i.name(),
                     dt,
                     (1.0 / (settings.frame_rate_hz * dt)).ceil()
@@ -223,7 +243,7 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             None => {
                 let _ = writeln!(
                     s,
-                    "    {:<14} unstable even at ωdt = 0.01 (needs damping){mark}",
+                    "    {:<14} unstable even at ωdt = 0.01 (needs more damping{by}){mark}",
                     i.name()
                 );
             }

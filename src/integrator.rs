@@ -94,17 +94,20 @@ impl Integrator {
 
     /// One step of this scheme on the linear test oscillator `x'' = -ω² x - 2ζω x'`, written
     /// exactly as the backends apply the scheme, so that its amplification is the scheme's own.
-    fn step_oscillator(self, omega: f64, zeta: f64, dt: f64, x: f64, v: f64) -> (f64, f64) {
+    /// The state is (x, v, a): `a` is what velocity Verlet keeps from the step before, the
+    /// acceleration at the new position and the *predicted* velocity (both backends evaluate
+    /// the force once a step and reuse it); the other schemes ignore it and return 0 there.
+    fn step_oscillator(self, omega: f64, zeta: f64, dt: f64, [x, v, a]: [f64; 3]) -> [f64; 3] {
         let acc = |x: f64, v: f64| -omega * omega * x - 2.0 * zeta * omega * v;
         match self {
-            Integrator::Euler => (x + dt * v, v + dt * acc(x, v)),
+            Integrator::Euler => [x + dt * v, v + dt * acc(x, v), 0.0],
             Integrator::SemiImplicit => {
                 let v1 = v + dt * acc(x, v);
-                (x + dt * v1, v1)
+                [x + dt * v1, v1, 0.0]
             }
             Integrator::Rk2 => {
                 let (xm, vm) = (x + 0.5 * dt * v, v + 0.5 * dt * acc(x, v));
-                (x + dt * vm, v + dt * acc(xm, vm))
+                [x + dt * vm, v + dt * acc(xm, vm), 0.0]
             }
             Integrator::Rk4 => {
                 let (k1x, k1v) = (v, acc(x, v));
@@ -117,16 +120,17 @@ impl Integrator {
                     acc(x + 0.5 * dt * k2x, v + 0.5 * dt * k2v),
                 );
                 let (k4x, k4v) = (v + dt * k3v, acc(x + dt * k3x, v + dt * k3v));
-                (
+                [
                     x + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
                     v + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v),
-                )
+                    0.0,
+                ]
             }
             Integrator::Implicit => {
                 // v₁ = v₀ + h a(x₀ + h v₁, v₁), solved exactly for the linear oscillator.
                 let v1 = (v - dt * omega * omega * x)
                     / (1.0 + 2.0 * zeta * omega * dt + omega * omega * dt * dt);
-                (x + dt * v1, v1)
+                [x + dt * v1, v1, 0.0]
             }
             Integrator::Xpbd => {
                 // Unit mass on a spring k = ω² with dashpot c = 2ζω: predict dx = h v, then one
@@ -135,31 +139,37 @@ impl Integrator {
                 let gamma = 2.0 * zeta / (omega * dt);
                 let dx = dt * v;
                 let dl = (-(x + dx) - gamma * dx) / (1.0 + gamma + alpha);
-                (x + dx + dl, (dx + dl) / dt)
+                [x + dx + dl, (dx + dl) / dt, 0.0]
             }
             Integrator::Verlet => {
-                let a0 = acc(x, v);
-                let x1 = x + dt * v + 0.5 * dt * dt * a0;
-                let a1 = acc(x1, v + dt * a0);
-                (x1, v + 0.5 * dt * (a0 + a1))
+                // src/cpu/integrate.rs: verlet_drift, the force at (x₁, v + h a), verlet_kick.
+                let kicked = v + 0.5 * dt * a;
+                let x1 = x + dt * kicked;
+                let a1 = acc(x1, v + dt * a);
+                [x1, kicked + 0.5 * dt * a1, a1]
             }
         }
     }
 
-    /// Spectral radius of one step on the test oscillator.
-    fn amplification(self, omega: f64, zeta: f64, dt: f64) -> f64 {
-        let (a, c) = self.step_oscillator(omega, zeta, dt, 1.0, 0.0);
-        let (b, d) = self.step_oscillator(omega, zeta, dt, 0.0, 1.0);
-        // Eigenvalues of [[a, b], [c, d]].
-        let tr = a + d;
-        let det = a * d - b * c;
-        let disc = tr * tr / 4.0 - det;
-        if disc >= 0.0 {
-            let s = disc.sqrt();
-            (tr / 2.0 + s).abs().max((tr / 2.0 - s).abs())
-        } else {
-            det.abs().sqrt()
-        }
+    /// Spectral radius of one step on the test oscillator: the largest root of the
+    /// characteristic polynomial of the step's 3 × 3 matrix.
+    pub fn amplification(self, omega: f64, zeta: f64, dt: f64) -> f64 {
+        let column = |k: usize| {
+            let mut unit = [0.0; 3];
+            unit[k] = 1.0;
+            self.step_oscillator(omega, zeta, dt, unit)
+        };
+        let (c0, c1, c2) = (column(0), column(1), column(2));
+        let m = |r: usize, c: usize| [c0, c1, c2][c][r];
+        // det(zI − M) = z³ − t z² + s z − d.
+        let t = m(0, 0) + m(1, 1) + m(2, 2);
+        let s = m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0) + m(0, 0) * m(2, 2) - m(0, 2) * m(2, 0)
+            + m(1, 1) * m(2, 2)
+            - m(1, 2) * m(2, 1);
+        let d = m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1))
+            - m(0, 1) * (m(1, 0) * m(2, 2) - m(1, 2) * m(2, 0))
+            + m(0, 2) * (m(1, 0) * m(2, 1) - m(1, 1) * m(2, 0));
+        cubic_spectral_radius(-t, s, -d)
     }
 
     /// Largest dt for which the stiffest mode (angular frequency `omega`, damping ratio `zeta`)
@@ -194,6 +204,34 @@ impl Integrator {
         }
         Some(lo)
     }
+}
+
+/// The largest modulus of the roots of z³ + a z² + b z + c: one real root by bisection (a
+/// cubic always has one), then the quadratic left after dividing it out.
+fn cubic_spectral_radius(a: f64, b: f64, c: f64) -> f64 {
+    let p = |z: f64| ((z + a) * z + b) * z + c;
+    // Cauchy's bound holds every root.
+    let bound = 1.0 + a.abs().max(b.abs()).max(c.abs());
+    let (mut lo, mut hi) = (-bound, bound);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if p(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let r = 0.5 * (lo + hi);
+    // z³ + a z² + b z + c = (z − r)(z² + q1 z + q0).
+    let (q1, q0) = (a + r, b + r * (a + r));
+    let disc = q1 * q1 / 4.0 - q0;
+    let quadratic = if disc >= 0.0 {
+        let sq = disc.sqrt();
+        (-q1 / 2.0 + sq).abs().max((-q1 / 2.0 - sq).abs())
+    } else {
+        q0.abs().sqrt()
+    };
+    r.abs().max(quadratic)
 }
 
 impl std::fmt::Display for Integrator {

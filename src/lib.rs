@@ -14,6 +14,7 @@ pub mod bench;
 pub mod check;
 pub mod contact_law;
 pub mod cpu;
+pub mod divergence;
 pub mod error;
 pub mod gpu;
 pub mod integrator;

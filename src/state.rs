@@ -154,23 +154,3 @@ impl Snapshot {
         self.strain.iter().filter(|s| s.is_nan()).count()
     }
 }
-
-/// The state stopped being finite or ran away. Carries what a user needs to fix it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error(
-    "the simulation diverged at step {step} (t = {time_secs:.6} s): {what} at mass {mass}{body}{spring}. \
-     The step dt = {dt_secs:.3e} s is too large for this scene with `{integrator}`: use a smaller \
-     --dt or more --substeps (run `hooke check` for each integrator's stable step)"
-)]
-pub struct Divergence {
-    pub step: u64,
-    pub time_secs: f64,
-    pub mass: u32,
-    /// ", body 'cloth' grid index 17" or empty.
-    pub body: String,
-    /// ", its most strained spring is 42 (structural)" or empty.
-    pub spring: String,
-    pub what: String,
-    pub dt_secs: f64,
-    pub integrator: String,
-}

@@ -4,13 +4,18 @@
 //! `hooke check` gives. Written as Markdown, CSV and an SVG work-precision chart.
 
 mod chart;
+mod limits;
 mod measure;
 mod report;
 mod results;
 mod stable_dt;
 
 pub use chart::svg;
+pub use limits::{LimitRow, limits_markdown, measure_limits};
 pub use measure::{AccuracyOptions, accuracy};
 pub use report::{cheapest_per_level, markdown};
 pub use results::{Accuracy, Found, Row, StableDt};
-pub use stable_dt::{IMPLICIT_SEARCH_UP_TO_SECS, is_stable, search_range, search_stable_dt};
+pub use stable_dt::{
+    IMPLICIT_SEARCH_UP_TO_SECS, is_stable, is_stable_on, search_range, search_stable_dt,
+    search_stable_dt_on,
+};

@@ -3,9 +3,10 @@
 
 use std::sync::Arc;
 
-use crate::backend::{self, Backend as _, BackendError};
+use crate::backend::{self, Backend, BackendError};
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::select::Device;
 
 use super::results::Found;
 
@@ -38,14 +39,27 @@ pub(super) fn dissipated_pct(balance_change_j: f64, scale: f64) -> f64 {
 /// Whether `integrator` at `dt` runs `duration` on the CPU without diverging (see
 /// [`stayed_stable`]).
 pub fn is_stable(model: &Arc<Model>, integrator: Integrator, dt: f64, duration: f64) -> bool {
-    let steps = (duration / dt).ceil() as u64;
-    let mut be = crate::cpu::CpuBackend::new(model.clone(), integrator, dt);
-    run_cpu(&mut be, steps).is_ok_and(|change| stayed_stable(change, energy_scale(model)))
+    is_stable_on(model, &Device::cpu(), integrator, dt, duration)
 }
 
-fn run_cpu(be: &mut crate::cpu::CpuBackend, steps: u64) -> std::result::Result<f64, BackendError> {
+/// [`is_stable`] on any device. A device that cannot be opened counts as no answer: unstable.
+pub fn is_stable_on(
+    model: &Arc<Model>,
+    device: &Device,
+    integrator: Integrator,
+    dt: f64,
+    duration: f64,
+) -> bool {
+    let steps = (duration / dt).ceil() as u64;
+    let Ok(mut be) = device.create(model.clone(), integrator, dt, Default::default()) else {
+        return false;
+    };
+    run_steps(be.as_mut(), steps).is_ok_and(|change| stayed_stable(change, energy_scale(model)))
+}
+
+fn run_steps(be: &mut dyn Backend, steps: u64) -> std::result::Result<f64, BackendError> {
     let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
-    backend::advance_steps(be, steps, 10_000)?;
+    backend::advance_steps(be, steps, 1_000)?;
     Ok(be.snapshot(0, Default::default())?.energies.balance_j() - b0)
 }
 
@@ -59,10 +73,21 @@ const SEARCH_PRECISION: f64 = 1.005;
 pub fn search_stable_dt(
     model: &Arc<Model>,
     integrator: Integrator,
+    range: (f64, f64),
+    duration: f64,
+) -> Found {
+    search_stable_dt_on(model, &Device::cpu(), integrator, range, duration)
+}
+
+/// [`search_stable_dt`] on any device.
+pub fn search_stable_dt_on(
+    model: &Arc<Model>,
+    device: &Device,
+    integrator: Integrator,
     (lo, hi): (f64, f64),
     duration: f64,
 ) -> Found {
-    let stable = |dt| is_stable(model, integrator, dt, duration);
+    let stable = |dt| is_stable_on(model, device, integrator, dt, duration);
     let start = (lo * hi).sqrt();
     let (mut good, mut bad);
     if stable(start) {

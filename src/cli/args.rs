@@ -154,6 +154,21 @@ pub enum BenchCommand {
         #[arg(long)]
         save: Option<std::path::PathBuf>,
     },
+    /// Each explicit integrator's estimated stable step (`hooke check`'s) against the largest
+    /// stable step measured by bisection, per scene: the estimate must never overshoot.
+    Stability {
+        /// Built-in scene names or .toml files (default: every built-in scene but cloth-1024,
+        /// whose searches take hours on a CPU; name it on a GPU machine with --backend gpu).
+        scenes: Vec<String>,
+        #[command(flatten)]
+        device: DeviceArgs,
+        /// Simulated seconds per trial.
+        #[arg(long, default_value_t = 0.5)]
+        duration: f64,
+        /// Also write the table to this Markdown file.
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+    },
     /// The recorder alone, on frames made without stepping: bytes per frame per entity, frames/s
     /// sustained into an .rrd file and into a sink that discards, and peak memory.
     Record {

@@ -46,6 +46,46 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                     .unwrap_or_default()
             );
         }
+        BenchCommand::Stability {
+            scenes,
+            device,
+            duration,
+            out,
+        } => {
+            let scenes = if scenes.is_empty() {
+                hooke::scene::BUILT_IN
+                    .iter()
+                    .map(|b| b.name.to_owned())
+                    .filter(|n| n != "cloth-1024")
+                    .collect()
+            } else {
+                scenes
+            };
+            let device = device.device();
+            let start = std::time::Instant::now();
+            let (rows, device_name) =
+                accuracy::measure_limits(&scenes, &device, duration, &mut |r| {
+                    eprintln!(
+                        "[{:>5.0} s] {} {}: estimate {:?}, measured {:?}",
+                        start.elapsed().as_secs_f64(),
+                        r.scene,
+                        r.integrator,
+                        r.estimate_secs,
+                        r.found
+                    );
+                })?;
+            let table = accuracy::limits_markdown(&rows, duration, &device_name);
+            println!("{table}");
+            if let Some(path) = out {
+                std::fs::write(&path, &table)
+                    .map_err(|e| anyhow::anyhow!("could not write {}: {e}", path.display()))?;
+                println!("wrote {}", path.display());
+            }
+            let over = rows.iter().filter(|r| !r.holds()).count();
+            if over > 0 {
+                anyhow::bail!("{over} estimate(s) overshoot the measured stable step");
+            }
+        }
         BenchCommand::Record {
             scene,
             frames,

@@ -19,9 +19,10 @@ use super::resources::Resources;
 use super::shaders::constants;
 use super::stages::{Clock, StageSlots};
 use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
+use crate::divergence::Divergence;
 use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
-use crate::state::{Divergence, Energies, Ledger, Snapshot, State, StepStats};
+use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
 /// Frames whose records implicit Euler's budgets follow (per-pass path).
 const RECENT_FRAMES: usize = 8;

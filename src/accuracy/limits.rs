@@ -1,0 +1,120 @@
+//! `hooke bench stability`: each explicit integrator's estimated stable step (`hooke check`'s)
+//! beside the largest stable step measured by bisection, scene by scene, so that the promise
+//! "the estimate never overshoots" is checked against the scenes themselves.
+
+use std::fmt::Write as _;
+
+use crate::error::Result;
+use crate::integrator::Integrator;
+use crate::prepare::{self, Request};
+use crate::select::Device;
+use crate::stability::{Modes, stable_step};
+
+use super::results::Found;
+use super::stable_dt::{search_range, search_stable_dt_on};
+
+/// One scene and integrator: the estimate, what binds it, and the measurement.
+#[derive(Debug, Clone)]
+pub struct LimitRow {
+    pub scene: String,
+    pub integrator: Integrator,
+    pub scene_dt_secs: f64,
+    /// `None`: unstable at any practical step.
+    pub estimate_secs: Option<f64>,
+    pub limit: Option<&'static str>,
+    pub found: Found,
+}
+
+impl LimitRow {
+    /// The estimate is at or below the measured step (or both say "no stable step").
+    pub fn holds(&self) -> bool {
+        match (self.estimate_secs, self.found) {
+            (None, _) => true,
+            (Some(e), Found::Largest(m) | Found::AtLeast(m)) => e <= m,
+            (Some(_), Found::Unstable) => false,
+        }
+    }
+}
+
+/// Measure every explicit integrator's largest stable step on each scene, `duration` simulated
+/// seconds per trial, on `device`; `progress` hears of each finished search. Returns the rows
+/// and the device's name.
+pub fn measure_limits(
+    scenes: &[String],
+    device: &Device,
+    duration: f64,
+    progress: &mut dyn FnMut(&LimitRow),
+) -> Result<(Vec<LimitRow>, String)> {
+    let mut rows = Vec::new();
+    let mut device_name = String::new();
+    for scene in scenes {
+        let planned = prepare::plan(&Request::named(scene, device.clone()), &mut |_| {})?;
+        let (model, scene_dt) = (&planned.model, planned.settings.dt_secs);
+        if device_name.is_empty() {
+            device_name = device
+                .create(
+                    model.clone(),
+                    Integrator::SemiImplicit,
+                    scene_dt,
+                    Default::default(),
+                )?
+                .describe();
+        }
+        let modes = Modes::of(model);
+        for integrator in Integrator::EXPLICIT {
+            let estimate = stable_step(&modes, integrator);
+            let range = search_range(integrator, estimate.finite_dt(), scene_dt);
+            let row = LimitRow {
+                scene: planned.loaded.scene.name.clone(),
+                integrator,
+                scene_dt_secs: scene_dt,
+                estimate_secs: estimate.dt_secs,
+                limit: estimate.limit.map(|l| l.name()),
+                found: search_stable_dt_on(model, device, integrator, range, duration),
+            };
+            progress(&row);
+            rows.push(row);
+        }
+    }
+    Ok((rows, device_name))
+}
+
+/// The table, as Markdown: one row per scene and integrator.
+pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Largest stable dt: `hooke check`'s estimate against bisection ({duration} s of simulated \
+         time per trial, stable = finite and gaining under a tenth of the initial energy; \
+         {device}).\n"
+    );
+    let _ = writeln!(
+        s,
+        "| scene | integrator | scene's dt | estimate | limit | measured | estimate / measured |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---|---:|---:|");
+    for r in rows {
+        let estimate = r
+            .estimate_secs
+            .map_or("none".to_owned(), |e| format!("{e:.3e} s"));
+        let measured = match r.found {
+            Found::Largest(m) => format!("{m:.3e} s"),
+            Found::AtLeast(m) => format!("≥ {m:.3e} s"),
+            Found::Unstable => "unstable".to_owned(),
+        };
+        let ratio = match (r.estimate_secs, r.found.dt()) {
+            (Some(e), Some(m)) => format!("{:.2}", e / m),
+            _ => "—".to_owned(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3e} s | {estimate} | {} | {measured} | {ratio}{} |",
+            r.scene,
+            r.integrator,
+            r.scene_dt_secs,
+            r.limit.unwrap_or("—"),
+            if r.holds() { "" } else { " **overshoots**" }
+        );
+    }
+    s
+}

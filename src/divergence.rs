@@ -1,0 +1,164 @@
+//! A state that went bad, described for the user: where, what, which stability limit the step
+//! crossed there, and the step that would hold. The message is written once, in `Display`,
+//! from the fields.
+
+use std::fmt;
+
+use crate::integrator::Integrator;
+use crate::spring_kind::SpringKindTag;
+use crate::stability::{Limit, Source, StableStep};
+
+/// What was wrong with the mass's state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fault {
+    NonFinite,
+    Runaway { speed_m_per_s: f32 },
+}
+
+/// The spring at the diverged mass that is stretched or squeezed the most.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrainedSpring {
+    pub index: u32,
+    pub kind: SpringKindTag,
+    /// (length − rest) / rest; infinite where it cannot be told (a zero rest length, a
+    /// non-finite end).
+    pub strain: f32,
+    pub stiffness_n_per_m: f32,
+}
+
+/// The state stopped being finite or ran away. Carries what a user needs to fix it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct Divergence {
+    pub step: u64,
+    pub time_secs: f64,
+    pub mass: u32,
+    pub fault: Fault,
+    /// The mass's body and its index in that body's grid.
+    pub body: Option<(String, u32)>,
+    pub spring: Option<StrainedSpring>,
+    pub dt_secs: f64,
+    pub integrator: Integrator,
+    /// The scene's estimated stable step for the integrator (`hooke check`'s).
+    pub scene: StableStep,
+    /// The estimate from the diverged mass's own springs and contacts: which limit binds there.
+    pub here: StableStep,
+}
+
+impl fmt::Display for Divergence {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "the simulation diverged at step {} (t = {:.6} s): ",
+            self.step, self.time_secs
+        )?;
+        match self.fault {
+            Fault::NonFinite => f.write_str("a non-finite position or velocity")?,
+            Fault::Runaway { speed_m_per_s } => {
+                write!(f, "a runaway speed of {speed_m_per_s:.3e} m/s")?
+            }
+        }
+        write!(f, " at mass {}", self.mass)?;
+        if let Some((name, local)) = &self.body {
+            write!(f, " (body '{name}', mass {local} of its grid)")?;
+        }
+        if let Some(s) = &self.spring {
+            write!(
+                f,
+                ", its most strained spring is {} ({}, strain {:.3e}, stiffness {} N/m)",
+                s.index,
+                s.kind.name(),
+                s.strain,
+                s.stiffness_n_per_m
+            )?;
+        }
+        f.write_str(". ")?;
+        self.verdict(f)
+    }
+}
+
+impl Divergence {
+    /// Which limit the step crossed and the step that would hold, or, where the step is within
+    /// the estimate, that its size alone does not explain the divergence.
+    fn verdict(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (dt, scheme) = (self.dt_secs, self.integrator);
+        let limit_here = self.here.limit.or(self.scene.limit);
+        match (self.scene.dt_secs, limit_here) {
+            (None, limit) => {
+                write!(
+                    f,
+                    "`{scheme}` is unstable at any practical dt on this scene"
+                )?;
+                if let Some(l) = limit {
+                    write!(f, " ({l})")?;
+                }
+                f.write_str(
+                    ": use semi-implicit, verlet or rk4 (run `hooke check` for each integrator's stable step)",
+                )
+            }
+            (Some(holds), limit) if dt > holds => {
+                write!(
+                    f,
+                    "The step dt = {dt:.3e} s is too large for `{scheme}` here"
+                )?;
+                if let Some(l) = limit {
+                    write!(f, ": it crossed the {} limit set by {l}", l.name())?;
+                    if let Some(local) = self.here.finite_dt() {
+                        write!(f, ", which holds it to dt ≤ {local:.3e} s at this mass")?;
+                    }
+                }
+                write!(
+                    f,
+                    ". A step that holds on the whole scene: dt ≤ {holds:.3e} s; use a smaller \
+                     --dt (--dt {holds:.3e}) or more --substeps (`hooke check` gives each \
+                     integrator's stable step)"
+                )
+            }
+            (Some(holds), _) => {
+                write!(
+                    f,
+                    "The step dt = {dt:.3e} s is within the stable step estimated for `{scheme}` \
+                     ({}), so its size alone does not explain this",
+                    if holds.is_finite() {
+                        format!("{holds:.3e} s")
+                    } else {
+                        "any step".to_owned()
+                    }
+                )?;
+                if let Some(cause) = self.likely_cause() {
+                    write!(f, ": {cause}")?;
+                }
+                write!(
+                    f,
+                    ". Try a smaller --dt (--dt {:.3e}) to see whether it holds, and run `hooke check`",
+                    0.5 * dt.min(holds)
+                )
+            }
+        }
+    }
+
+    fn likely_cause(&self) -> Option<&'static str> {
+        if self.spring.is_some_and(|s| s.strain < -0.5) {
+            return Some(
+                "its most strained spring is squeezed below half its rest length, where a spring \
+                 is stiffer sideways than its stiffness k, which the estimate assumes",
+            );
+        }
+        match (self.integrator, self.here.limit) {
+            (Integrator::Euler | Integrator::Rk2, _) => Some(
+                "this scheme needs damping in every mode, and a stretched spring's sideways swing \
+                 has no dashpot (the estimate sees only the dashpots along the springs)",
+            ),
+            (
+                _,
+                Some(Limit::Stiffness {
+                    source: Source::MassContact,
+                    ..
+                }),
+            ) => Some(
+                "a mass pressed by several others at once is stiffer than the one contact \
+                     pair the estimate counts",
+            ),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! What a user is told before stepping when the chosen step is above the estimate.
+
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::settings::Settings;
+
+use super::estimate::{stable_step, stable_steps};
+use super::modes::Modes;
+
+/// Estimated largest stable dt for each integrator; `None` where the scheme is unstable at any
+/// practical dt.
+pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
+    stable_steps(&Modes::of(model))
+        .into_iter()
+        .map(|s| (s.integrator, s.dt_secs))
+        .collect()
+}
+
+/// Is the chosen dt above the estimated limit of the chosen integrator? Names the limit (the
+/// stiffness, the damping or too little of it; the mass and the spring kind) and the step that
+/// would hold.
+pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
+    let step = stable_step(&Modes::of(model), settings.integrator);
+    let limit = step
+        .limit
+        .map(|l| format!(" ({} limit: {l})", l.name()))
+        .unwrap_or_default();
+    match step.dt_secs {
+        Some(l) if settings.dt_secs <= l => None,
+        Some(l) => Some(format!(
+            "dt = {:.3e} s is above the estimated stable step {:.3e} s of `{}` on this scene{limit}; \
+             use at least {} substeps per frame (or --dt {:.3e})",
+            settings.dt_secs,
+            l,
+            settings.integrator,
+            (1.0 / (settings.frame_rate_hz * l)).ceil(),
+            l
+        )),
+        None => Some(format!(
+            "`{}` is unstable at any practical dt on this scene{limit}; prefer semi-implicit, verlet or rk4",
+            settings.integrator
+        )),
+    }
+}

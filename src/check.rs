@@ -241,9 +241,13 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                 );
             }
             None => {
+                let line = step
+                    .dashpot_line_secs
+                    .map(|l| format!("; the dashpots along the springs allow ≤ {l:.3e} s"))
+                    .unwrap_or_default();
                 let _ = writeln!(
                     s,
-                    "    {:<14} unstable even at ωdt = 0.01 (needs more damping{by}){mark}",
+                    "    {:<14} no step stable for sure (a swing across stretched springs has no dashpot{line}){mark}",
                     i.name()
                 );
             }

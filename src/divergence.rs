@@ -91,8 +91,16 @@ impl Divergence {
                 if let Some(l) = limit {
                     write!(f, " ({l})")?;
                 }
+                if let Some(line) = self.scene.dashpot_line_secs {
+                    write!(
+                        f,
+                        "; the dashpots along its springs allow at most dt ≤ {line:.3e} s, and \
+                         dt = {dt:.3e} s: try a smaller --dt (--dt {:.3e})",
+                        0.5 * dt.min(line)
+                    )?;
+                }
                 f.write_str(
-                    ": use semi-implicit, verlet or rk4 (run `hooke check` for each integrator's stable step)",
+                    ", or use semi-implicit, verlet or rk4 (run `hooke check` for each integrator's stable step)",
                 )
             }
             (Some(holds), limit) if dt > holds => {

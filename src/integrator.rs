@@ -275,6 +275,31 @@ mod tests {
     }
 
     #[test]
+    fn overdamped_semi_implicit_euler_is_held_by_its_damping() {
+        // ωh ≤ 2(√(ζ²+1) − ζ): with ζ = 2.318, half the undamped limit and less.
+        let (w, zeta) = (4.5242e4, 2.318);
+        let dt = Integrator::SemiImplicit.stable_dt(w, zeta).unwrap_or(0.0);
+        let theory = 2.0 * ((zeta * zeta + 1.0).sqrt() - zeta) / w;
+        assert!((dt / theory - 1.0).abs() < 1e-9, "{dt} against {theory}");
+    }
+
+    #[test]
+    fn verlet_with_its_kept_acceleration_loses_step_to_damping() {
+        // Undamped, the kept acceleration is exact: ωh ≤ 2 as for textbook Verlet. Damped, it
+        // was taken at the predicted velocity, and the limit falls below the textbook scheme's
+        // (which damping would raise): hair's measured 1.341e-3 s against 1.371e-3 s.
+        let w = 1417.0;
+        let undamped = Integrator::Verlet.stable_dt(w, 0.0).unwrap_or(0.0);
+        assert!((undamped * w - 2.0).abs() < 1e-6, "ωdt = {}", undamped * w);
+        let damped = Integrator::Verlet.stable_dt(w, 0.031).unwrap_or(0.0);
+        assert!(
+            damped * w < 0.95 * 2.0,
+            "damping should cost Verlet's kept acceleration step: ωdt = {}",
+            damped * w
+        );
+    }
+
+    #[test]
     fn damping_makes_euler_conditionally_stable() {
         // Forward Euler on a damped oscillator: stable while ωdt < 2ζ (for small ζ).
         let dt = Integrator::Euler.stable_dt(10.0, 0.05).unwrap_or(0.0);

@@ -388,7 +388,7 @@ fn without_any_gpu_adapter_the_run_fails_clearly_before_writing_anything() {
 fn a_diverging_run_says_where_and_keeps_its_good_frames() {
     let dir = temp_dir("diverge");
     let path = dir.join("hair.rrd");
-    // Forward Euler at the hair scene's dt is 19 times past its stable step.
+    // Forward Euler at the hair scene's dt is 20 times past what its dashpots allow.
     let out = hooke(&cpu_run(
         "hair",
         &["--integrator", "euler", "--save", &path.to_string_lossy()],
@@ -421,6 +421,36 @@ fn a_diverging_run_says_where_and_keeps_its_good_frames() {
         Some(frames.len() as i64 - 1),
         "frames missing"
     );
+    // No NaN or infinity reached the file: the diverged step's state was never handed out.
+    let bad = common::record::non_finite_components(&path);
+    assert!(bad.is_empty(), "non-finite values recorded in {bad:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The same divergence on the GPU backend (lavapipe here): the device flags the bad step, the
+/// frame is never read back as good, and the file holds no NaN or infinity.
+#[test]
+fn a_diverging_gpu_run_records_no_non_finite_value() {
+    if !common::gpu_available() {
+        return;
+    }
+    let dir = temp_dir("diverge-gpu");
+    let path = dir.join("hair.rrd");
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "gpu",
+        "--integrator",
+        "euler",
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("diverged at step"), "{err}");
+    let bad = common::record::non_finite_components(&path);
+    assert!(bad.is_empty(), "non-finite values recorded in {bad:?}");
     let _ = std::fs::remove_dir_all(dir);
 }
 

@@ -22,6 +22,8 @@ pub struct LimitRow {
     /// `None`: unstable at any practical step.
     pub estimate_secs: Option<f64>,
     pub limit: Option<&'static str>,
+    /// Where no step is stable for sure: what the dashpots along the springs would allow.
+    pub dashpot_line_secs: Option<f64>,
     pub found: Found,
 }
 
@@ -70,6 +72,7 @@ pub fn measure_limits(
                 scene_dt_secs: scene_dt,
                 estimate_secs: estimate.dt_secs,
                 limit: estimate.limit.map(|l| l.name()),
+                dashpot_line_secs: estimate.dashpot_line_secs,
                 found: search_stable_dt_on(model, device, integrator, range, duration),
             };
             progress(&row);
@@ -94,9 +97,11 @@ pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String
     );
     let _ = writeln!(s, "|---|---|---:|---:|---|---:|---:|");
     for r in rows {
-        let estimate = r
-            .estimate_secs
-            .map_or("none".to_owned(), |e| format!("{e:.3e} s"));
+        let estimate = match (r.estimate_secs, r.dashpot_line_secs) {
+            (Some(e), _) => format!("{e:.3e} s"),
+            (None, Some(line)) => format!("none for sure (dashpots: {line:.3e} s)"),
+            (None, None) => "none".to_owned(),
+        };
         let measured = match r.found {
             Found::Largest(m) => format!("{m:.3e} s"),
             Found::AtLeast(m) => format!("≥ {m:.3e} s"),

@@ -37,8 +37,12 @@ pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
             l
         )),
         None => Some(format!(
-            "`{}` is unstable at any practical dt on this scene{limit}; prefer semi-implicit, verlet or rk4",
-            settings.integrator
+            "dt = {:.3e} s: `{}` has no step that is stable for sure on this scene{limit}{}; prefer semi-implicit, verlet or rk4",
+            settings.dt_secs,
+            settings.integrator,
+            step.dashpot_line_secs
+                .map(|l| format!("; the dashpots along the springs allow at most {l:.3e} s"))
+                .unwrap_or_default()
         )),
     }
 }

@@ -71,7 +71,7 @@ impl std::fmt::Display for Limit {
             }
             Limit::WeakDamping { ratio_s, source } => write!(
                 f,
-                "too little damping in the {source} (c/k = {ratio_s:.3e} s) for a scheme that needs damping to keep an oscillation from growing"
+                "too little damping for a scheme that amplifies every undamped oscillation: the {source} have c/k = {ratio_s:.3e} s along them, and a swing across stretched springs has no dashpot at all"
             ),
         }
     }
@@ -86,6 +86,13 @@ pub struct StableStep {
     pub dt_secs: Option<f64>,
     /// What binds at that step; `None` where nothing does.
     pub limit: Option<Limit>,
+    /// For a scheme that needs damping in every mode (forward Euler, RK2): the largest step
+    /// the dashpots along the springs would allow if every mode had them. No step is stable for
+    /// sure ([`StableStep::dt_secs`] is `None`): a loaded or folded body swings across its
+    /// stretched springs, where no dashpot acts and drag alone damps, and those schemes amplify
+    /// an undamped oscillation at any step. How far below this line a scene holds is measured
+    /// (`hooke bench stability`).
+    pub dashpot_line_secs: Option<f64>,
 }
 
 impl StableStep {
@@ -129,6 +136,7 @@ pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
             integrator,
             dt_secs: Some(f64::INFINITY),
             limit: None,
+            dashpot_line_secs: None,
         };
     }
     let points = region(modes);
@@ -141,12 +149,15 @@ pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
     // Every scheme here is unstable by ωdt = 4. A scheme that grows at ωdt = 0.01 grows at any
     // practical step (forward Euler and RK2 on an undamped mode).
     let probe = 1e-2 / w_max;
-    if let Some((w, g)) = grows(probe) {
-        return StableStep {
-            integrator,
-            dt_secs: None,
-            limit: Some(limit_at(modes, integrator, probe, (w, g))),
-        };
+    let needs_damping = integrator.stable_dt(w_max, 0.0).is_none();
+    let weak = |line: Option<f64>| StableStep {
+        integrator,
+        dt_secs: None,
+        limit: Some(weak_damping(modes)),
+        dashpot_line_secs: line,
+    };
+    if grows(probe).is_some() {
+        return weak(None);
     }
     let (mut good, mut bad) = (probe, 4.0 / w_max);
     let mut culprit = grows(bad).unwrap_or((w_max, modes.most_damped.value));
@@ -160,11 +171,22 @@ pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
             }
         }
     }
+    if needs_damping {
+        return weak(Some(good));
+    }
     StableStep {
         integrator,
         dt_secs: Some(good),
         limit: Some(limit_at(modes, integrator, good, culprit)),
+        dashpot_line_secs: None,
     }
+}
+
+fn weak_damping(modes: &Modes) -> Limit {
+    let (ratio_s, source) = modes
+        .ratios
+        .map_or((0.0, Source::AirDrag), |r| (r.least_s, r.least));
+    Limit::WeakDamping { ratio_s, source }
 }
 
 /// Which limit the oscillator that first grows past `dt` shows. Overdamped, or held to a clearly
@@ -175,12 +197,7 @@ fn limit_at(modes: &Modes, integrator: Integrator, dt: f64, (w, g): (f64, f64)) 
     match integrator.stable_dt(w, 0.0) {
         Some(u) if overdamped || (g > 0.0 && dt < 0.95 * u) => damping(modes),
         None if overdamped => damping(modes),
-        None => {
-            let (ratio_s, source) = modes
-                .ratios
-                .map_or((0.0, Source::AirDrag), |r| (r.least_s, r.least));
-            Limit::WeakDamping { ratio_s, source }
-        }
+        None => weak_damping(modes),
         Some(_) => Limit::Stiffness {
             omega_rad_per_s: modes.stiffest.value,
             mass: modes.stiffest.mass,

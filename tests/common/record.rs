@@ -117,3 +117,33 @@ pub fn record(
     drop(r);
     rec.flush_blocking().unwrap_or_else(|e| panic!("{e}"));
 }
+
+/// Every (entity, component) of a recording that holds a NaN or an infinity in any of its float
+/// values, at any frame: none may ever reach a recording.
+pub fn non_finite_components(path: &Path) -> Vec<(String, String)> {
+    read_components(path)
+        .into_iter()
+        .filter(|(_, rows)| rows.iter().any(|(_, array)| !all_finite(array.as_ref())))
+        .map(|(key, _)| key)
+        .collect()
+}
+
+fn all_finite(array: &dyn rerun::external::arrow::array::Array) -> bool {
+    use rerun::external::arrow::array::{
+        FixedSizeListArray, Float32Array, Float64Array, ListArray, StructArray,
+    };
+    let any = array.as_any();
+    if let Some(a) = any.downcast_ref::<Float32Array>() {
+        a.iter().flatten().all(f32::is_finite)
+    } else if let Some(a) = any.downcast_ref::<Float64Array>() {
+        a.iter().flatten().all(f64::is_finite)
+    } else if let Some(a) = any.downcast_ref::<FixedSizeListArray>() {
+        all_finite(a.values().as_ref())
+    } else if let Some(a) = any.downcast_ref::<ListArray>() {
+        all_finite(a.values().as_ref())
+    } else if let Some(a) = any.downcast_ref::<StructArray>() {
+        a.columns().iter().all(|c| all_finite(c.as_ref()))
+    } else {
+        true
+    }
+}

@@ -427,6 +427,47 @@ fn a_diverging_run_says_where_and_keeps_its_good_frames() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A step above the estimate is named before anything steps, by `check` and by `run` alike: the
+/// limit (stiffness here), the mass, the spring kind, and the step that would hold.
+#[test]
+fn a_step_above_the_estimate_is_named_before_stepping() {
+    let dir = temp_dir("above");
+    let path = dir.join("hair.rrd");
+    let path = path.to_string_lossy();
+    let check = hooke(&["check", "hair", "--backend", "cpu", "--dt", "2e-3"]);
+    let run = hooke(&cpu_run(
+        "hair",
+        &["--dt", "2e-3", "--frames", "1", "--save", &path],
+    ));
+    for (what, out) in [("check", &check), ("run", &run)] {
+        let all = text(&out.stdout) + &text(&out.stderr);
+        let warning = all
+            .lines()
+            .find(|l| l.starts_with("warning: dt = "))
+            .unwrap_or_else(|| panic!("{what} gave no warning: {all}"));
+        for needle in [
+            "above the estimated stable step 1.368e-3 s",
+            "stiffness limit",
+            "structural springs at mass",
+            "--dt 1.368e-3",
+        ] {
+            assert!(
+                warning.contains(needle),
+                "{what}: `{needle}` missing from: {warning}"
+            );
+        }
+    }
+    // `run` says it before its first frame.
+    let err = text(&run.stderr);
+    let warned = err.find("warning: dt = ").unwrap_or(usize::MAX);
+    let started = err.find("hooke: 'hair'").unwrap_or(0);
+    assert!(
+        warned < started,
+        "the warning should come before the run starts: {err}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// The same divergence on the GPU backend (lavapipe here): the device flags the bad step, the
 /// frame is never read back as good, and the file holds no NaN or infinity.
 #[test]

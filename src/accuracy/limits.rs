@@ -65,7 +65,9 @@ pub fn measure_limits(
         let modes = Modes::of(model);
         for integrator in Integrator::EXPLICIT {
             let estimate = stable_step(&modes, integrator);
-            let range = search_range(integrator, estimate.finite_dt(), scene_dt);
+            // Where no step is stable for sure, search around the dashpots' line.
+            let centre = estimate.finite_dt().or(estimate.dashpot_line_secs);
+            let range = search_range(integrator, centre, scene_dt);
             let row = LimitRow {
                 scene: planned.loaded.scene.name.clone(),
                 integrator,

@@ -104,11 +104,14 @@ pub fn accuracy(
         progress(&format!("{integrator}: {} time steps", ladder.len()));
     }
     let search_time = duration.min(0.5);
-    let stable = crate::stability::stable_dts(model)
+    let stable = crate::stability::stable_steps(&crate::stability::Modes::of(model))
         .into_iter()
-        .filter(|(i, _)| supported(*i))
-        .map(|(integrator, estimate)| {
-            let searched = search_range(integrator, estimate, scene_dt);
+        .filter(|s| supported(s.integrator))
+        .map(|step| {
+            let (integrator, estimate) = (step.integrator, step.dt_secs);
+            // Where no step is stable for sure, search around the dashpots' line.
+            let centre = step.finite_dt().or(step.dashpot_line_secs);
+            let searched = search_range(integrator, centre.or(estimate), scene_dt);
             let found = search_stable_dt(model, integrator, searched, search_time);
             progress(&format!("{integrator}: largest stable dt searched"));
             StableDt {

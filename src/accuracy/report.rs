@@ -60,7 +60,7 @@ pub fn markdown(r: &Accuracy) -> String {
         let est = match st.estimate {
             Some(e) if e.is_finite() => format!("{e:.3e} s"),
             Some(_) => "any".to_owned(),
-            None => "none (unstable even at ωdt = 0.01)".to_owned(),
+            None => "none for sure (docs/stability.md)".to_owned(),
         };
         let found = match st.found {
             Found::Largest(f) => format!("{f:.3e} s"),

@@ -68,3 +68,15 @@ fn cloth_1024s_step_is_below_its_damped_estimate() {
         "cloth-1024's own dt {dt:e} is above its estimate {estimate:e}"
     );
 }
+
+/// No built-in scene is stepped above its own estimate: `hooke run NAME` never opens with a
+/// warning about the scene's own settings.
+#[test]
+fn no_built_in_scene_warns_about_its_own_step() {
+    for b in hooke::scene::BUILT_IN {
+        let request = hooke::prepare::Request::named(b.name, hooke::select::Device::cpu());
+        let planned = common::ok(hooke::prepare::plan(&request, &mut |_| {}));
+        let warning = hooke::stability::dt_warning(&planned.model, &planned.settings);
+        assert!(warning.is_none(), "{}: {warning:?}", b.name);
+    }
+}

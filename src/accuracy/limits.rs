@@ -38,11 +38,12 @@ impl LimitRow {
     }
 }
 
-/// Measure every explicit integrator's largest stable step on each scene, `duration` simulated
+/// Measure each of `integrators`' largest stable step on each scene, `duration` simulated
 /// seconds per trial, on `device`; `progress` hears of each finished search. Returns the rows
 /// and the device's name.
 pub fn measure_limits(
     scenes: &[String],
+    integrators: &[Integrator],
     device: &Device,
     duration: f64,
     progress: &mut dyn FnMut(&LimitRow),
@@ -63,7 +64,7 @@ pub fn measure_limits(
                 .describe();
         }
         let modes = Modes::of(model);
-        for integrator in Integrator::EXPLICIT {
+        for &integrator in integrators {
             let estimate = stable_step(&modes, integrator);
             // Where no step is stable for sure, search around the dashpots' line.
             let centre = estimate.finite_dt().or(estimate.dashpot_line_secs);

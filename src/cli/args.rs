@@ -165,6 +165,9 @@ pub enum BenchCommand {
         /// Simulated seconds per trial.
         #[arg(long, default_value_t = 0.5)]
         duration: f64,
+        /// Only these integrators (repeat the flag; default: every explicit one).
+        #[arg(long = "integrator", value_enum)]
+        integrators: Vec<Integrator>,
         /// Also write the table to this Markdown file.
         #[arg(long)]
         out: Option<std::path::PathBuf>,

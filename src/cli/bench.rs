@@ -50,8 +50,14 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             scenes,
             device,
             duration,
+            integrators,
             out,
         } => {
+            let integrators = if integrators.is_empty() {
+                hooke::integrator::Integrator::EXPLICIT.to_vec()
+            } else {
+                integrators
+            };
             let scenes = if scenes.is_empty() {
                 hooke::scene::BUILT_IN
                     .iter()
@@ -64,7 +70,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             let device = device.device();
             let start = std::time::Instant::now();
             let (rows, device_name) =
-                accuracy::measure_limits(&scenes, &device, duration, &mut |r| {
+                accuracy::measure_limits(&scenes, &integrators, &device, duration, &mut |r| {
                     eprintln!(
                         "[{:>5.0} s] {} {}: estimate {:?}, measured {:?}",
                         start.elapsed().as_secs_f64(),

@@ -348,3 +348,31 @@ fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_struct
     assert_eq!(got, want);
     assert!(got.iter().any(|s| *s < 0.0) && got.iter().any(|s| *s > 0.0));
 }
+
+/// The scan the diverging-run tests rely on finds a NaN or an infinity wherever it is logged
+/// (positions, scalars), and nothing in a clean recording.
+#[test]
+fn the_non_finite_scan_finds_what_it_looks_for() {
+    let dir = common::temp_dir("non-finite");
+    let path = dir.join("bad.rrd");
+    let rec = rerun::RecordingStreamBuilder::new("hooke-test")
+        .save(&path)
+        .unwrap_or_else(|e| panic!("{e}"));
+    rec.log("ok/points", &rerun::Points3D::new([[0.0f32, 1.0, 2.0]]))
+        .unwrap_or_else(|e| panic!("{e}"));
+    rec.log(
+        "bad/points",
+        &rerun::Points3D::new([[0.0f32, f32::NAN, 2.0]]),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    rec.log("bad/scalar", &rerun::Scalars::single(f64::INFINITY))
+        .unwrap_or_else(|e| panic!("{e}"));
+    rec.flush_blocking().unwrap_or_else(|e| panic!("{e}"));
+    drop(rec);
+    let bad: Vec<String> = common::record::non_finite_components(&path)
+        .into_iter()
+        .map(|(entity, _)| entity)
+        .collect();
+    assert_eq!(bad, ["/bad/points", "/bad/scalar"], "{bad:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}

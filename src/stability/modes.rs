@@ -117,17 +117,8 @@ impl Modes {
                 continue;
             }
             let row = Row::of(model, i, lightest);
-            for &(ratio, source) in &row.ratios {
-                let r = ratios.get_or_insert(Ratios {
-                    least_s: ratio,
-                    least: source,
-                    most_s: ratio,
-                });
-                if ratio < r.least_s {
-                    r.least_s = ratio;
-                    r.least = source;
-                }
-                r.most_s = r.most_s.max(ratio);
+            if let Some(r) = row.ratios {
+                widen(&mut ratios, r);
             }
             if row.stiffness > stiffest.value * stiffest.value {
                 stiffest = Bound {
@@ -154,6 +145,20 @@ impl Modes {
     }
 }
 
+/// `into` widened to cover `r` as well.
+fn widen(into: &mut Option<Ratios>, r: Ratios) {
+    match into {
+        None => *into = Some(r),
+        Some(into) => {
+            if r.least_s < into.least_s {
+                into.least_s = r.least_s;
+                into.least = r.least;
+            }
+            into.most_s = into.most_s.max(r.most_s);
+        }
+    }
+}
+
 fn lightest_free_mass(model: &Model) -> f64 {
     (0..model.mass_count())
         .filter(|&j| model.inv_mass[j] != 0.0)
@@ -168,7 +173,7 @@ struct Row {
     damping: f64,
     stiffest_source: Source,
     damped_source: Source,
-    ratios: Vec<(f64, Source)>,
+    ratios: Option<Ratios>,
 }
 
 impl Row {
@@ -184,13 +189,21 @@ impl Row {
                 }
                 None => parts.push((source, k, c)),
             };
-        let mut ratios = Vec::new();
+        let mut ratios = None;
         let mut ratio = |source: Source, k: f64, c: f64| {
-            if k > 0.0 {
-                ratios.push((c / k, source));
+            let r = if k > 0.0 {
+                c / k
             } else if c > 0.0 {
-                ratios.push((f64::INFINITY, source));
-            }
+                f64::INFINITY
+            } else {
+                return;
+            };
+            let one = Ratios {
+                least_s: r,
+                least: source,
+                most_s: r,
+            };
+            widen(&mut ratios, one);
         };
         for nb in model.adjacency.of(i) {
             let s = &model.springs[nb.spring as usize];

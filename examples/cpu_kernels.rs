@@ -8,12 +8,11 @@
 //! (default 3); ONLY keeps the kernels whose name contains it (`avx2`). Prints each kernel's
 //! best steps/s and spring updates/s. See BENCHMARKS.md.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use hooke::backend::{Backend, advance_steps};
-use hooke::cpu::{CpuBackend, Kernel};
-use hooke::integrator::Integrator;
+use hooke::cpu::{CpuBackend, Simd};
+use hooke::integrator::{Integrator, Step};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -24,17 +23,17 @@ fn main() -> anyhow::Result<()> {
     };
     let steps: u64 = args.get(1).map_or(Ok(200), |s| s.parse())?;
     let rounds: usize = args.get(2).map_or(Ok(3), |s| s.parse())?;
-    let loaded = hooke::scene::load(scene)?;
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())?;
-    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = hooke::prepare::planned(scene)?;
     let integrator = Integrator::SemiImplicit;
     let only = args.get(3).map_or("", String::as_str);
     let kernels: Vec<_> = [
         ("general", None),
-        ("fused scalar", Some(Kernel::Scalar)),
-        ("fused portable", Some(Kernel::Portable)),
-        ("fused sse2", Some(Kernel::Sse2)),
-        ("fused avx2", Some(Kernel::Avx2)),
+        ("fused scalar", Some(Simd::Scalar)),
+        ("fused portable", Some(Simd::Portable)),
+        ("fused sse2", Some(Simd::Sse2)),
+        ("fused avx2", Some(Simd::Avx2)),
     ]
     .into_iter()
     .filter(|(name, _)| name.contains(only))
@@ -42,8 +41,8 @@ fn main() -> anyhow::Result<()> {
     let mut best = vec![0.0f64; kernels.len()];
     for _ in 0..rounds {
         for (k, (_, kernel)) in kernels.iter().enumerate() {
-            let mut be = CpuBackend::new(model.clone(), integrator, settings.dt_secs);
-            be.set_kernel(*kernel);
+            let mut be = CpuBackend::new(model.clone(), Step::new(integrator, settings.dt_secs));
+            be.set_simd(*kernel);
             advance_steps(&mut be, 20, 20)?;
             let t = Instant::now();
             advance_steps(&mut be, steps, 100)?;

@@ -3,23 +3,21 @@
 //!
 //! `cargo run --release --example energy_trace -- jello [every_n_frames]`
 
-use std::sync::Arc;
+use hooke::integrator::Step;
 
 use hooke::select::{self, BackendKind};
-use hooke::settings::{Overrides, Settings};
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let name = args.next().unwrap_or_else(|| "jello".to_owned());
     let every: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(30);
-    let loaded = hooke::scene::load(&name)?;
-    let settings = Settings::resolve(&loaded.scene, &Overrides::default())?;
-    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = hooke::prepare::planned(&name)?;
     let mut be = select::create(
         BackendKind::Cpu,
         model.clone(),
-        settings.integrator,
-        settings.dt_secs,
+        Step::new(settings.integrator, settings.dt_secs),
         None,
     )?;
     println!(

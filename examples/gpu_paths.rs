@@ -8,20 +8,20 @@
 //! 200, ROUNDS of each path to 3, BATCH (steps per submission) to 20. Prints each path's best
 //! steps/s and spring updates/s, and its dispatches per step. See BENCHMARKS.md.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use hooke::backend::{Backend, advance_steps};
 use hooke::gpu::{ExplicitPath, GpuBackend, ImplicitPath};
-use hooke::integrator::{Integrator, StepOptions};
+use hooke::integrator::{Integrator, Step, StepOptions};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(scene) = args.first() else {
         anyhow::bail!("usage: gpu_paths SCENE [INTEGRATOR] [STEPS] [ROUNDS] [BATCH]");
     };
-    let loaded = hooke::scene::load(scene)?;
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())?;
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = hooke::prepare::planned(scene)?;
     let integrator = match args.get(1) {
         Some(name) => Integrator::ALL
             .into_iter()
@@ -32,12 +32,11 @@ fn main() -> anyhow::Result<()> {
     let steps: u64 = args.get(2).map_or(Ok(200), |s| s.parse())?;
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
     let batch: u32 = args.get(4).map_or(Ok(20), |s| s.parse())?;
-    let model = Arc::new(hooke::model::build(&loaded.scene));
     let mut backends = Vec::new();
     for path in [ExplicitPath::General, ExplicitPath::Fused] {
         let mut be = GpuBackend::with_paths(
             model.clone(),
-            (integrator, settings.dt_secs, StepOptions::default()),
+            Step::new(integrator, settings.dt_secs),
             None,
             (ImplicitPath::Passes, path),
         )?;

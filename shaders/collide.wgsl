@@ -1,16 +1,9 @@
 // project_contacts: the post-step safeguard against tunnelling, over every mass (the law is
 // project_body, contact_projection.wgsl). Mirrors src/cpu/collide.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(2) var<storage, read> mass: array<vec2<f32>>;
-@group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> v: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> ledger: array<vec4<f32>>;
-// [0] masses projected since the counters were last cleared.
-@group(0) @binding(6) var<storage, read_write> counters: array<atomic<u32>>;
-// Dispatched at the step's end slot.
-@group(2) @binding(0) var<uniform> stage: Stage;
+// Bindings: `Collide` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// #import contact_projection
 
 fn end_pose(k: u32) -> Pose {
     return stage.poses[k];

@@ -6,21 +6,8 @@
 // share yields each mass once), and every pair is computed lower index first and negated for the
 // other mass, so the two sides are exact negatives.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> contact: MassContact;
-// (mass, inverse mass; 0 when pinned)
-@group(0) @binding(2) var<storage, read> mass: array<vec2<f32>>;
-// Body index of each mass.
-@group(0) @binding(3) var<storage, read> mass_body: array<u32>;
-@group(0) @binding(4) var<storage, read> cell_start: array<u32>;
-@group(0) @binding(5) var<storage, read> sorted: array<u32>;
-// compute_forces' output: [2i] acceleration, [2i+1] ledger rates; the pairs are added to it.
-@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
-// compute_energies' per-workgroup sums (reduce.wgsl): the pair potential is added to [3g].w.
-@group(0) @binding(7) var<storage, read_write> partials: array<vec4<f32>>;
-@group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
-@group(2) @binding(0) var<uniform> stage: Stage;
+// Bindings: `CollideMasses` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 
 struct Pair {
     touching: bool,

@@ -17,7 +17,7 @@ override HAS_DAMPING: bool = false;
 override HAS_PLASTICITY: bool = false;
 override HAS_TEARING: bool = false;
 // Implicit Euler: compute_forces also linearises the contacts, and the solver's stopping rules
-// (set from src/cpu/implicit.rs, so both backends stop alike).
+// (set from src/physics/solver.rs, so both backends stop alike).
 override IMPLICIT: bool = false;
 override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
@@ -25,10 +25,10 @@ override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
-// Threads of implicit_step's one workgroup (src/gpu/plan.rs's implicit::group_threads; at most 64).
+// Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads; at most 64).
 override GROUP_THREADS: u32 = 64u;
 // Where the one-workgroup step keeps the solver's vectors and spring terms (implicit_terms.wgsl,
-// src/gpu/plan.rs's SolverHome), and the workgroup arrays' lengths in vec4s (1 when unused).
+// src/gpu/implicit/plan.rs's SolverHome), and the workgroup arrays' lengths in vec4s (1 when unused).
 override SOLVER_IN_WORKGROUP: bool = false;
 override WORKGROUP_VECTORS: u32 = 1u;
 override WORKGROUP_TERMS: u32 = 1u;
@@ -47,7 +47,7 @@ fn has_contact_terms() -> bool {
 override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
-// src/cpu/collide_masses.rs).
+// src/physics/mass_contact.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
 
 const WORKGROUP: u32 = 64u;

@@ -1,6 +1,10 @@
 // project_body: the post-step safeguard against tunnelling for one mass, at the step's end (the
 // collider poses come from end_pose(k), which the calling file defines). Mirrors
 // src/cpu/collide.rs. Shared by project_contacts (collide.wgsl) and the fused steps (fused.wgsl).
+// A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
+// functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
+// #uses params colliders
+// #calls end_pose
 
 struct Body {
     x: vec3<f32>,

@@ -13,30 +13,9 @@
 // kernels of integrate.wgsl, project_contacts), operation for operation and in the same order, so
 // the two paths agree bit for bit (tests/gpu_fused.rs).
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> kinds: SpringKinds;
-@group(0) @binding(2) var<storage, read> offsets: array<u32>;
-@group(0) @binding(3) var<storage, read> links: array<vec2<u32>>;
-@group(0) @binding(4) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
-// Verlet: [2i] a(x_n) and [2i+1] its rates, kept from the last kick for the next drift.
-@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
-// RK4: [3i] Σ weighted stage velocities, [3i+1] accelerations, [3i+2] rates. Verlet: [3i] the
-// half-kicked velocity, [3i+2] a(x_n)'s rates.
-@group(0) @binding(7) var<storage, read_write> sums: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> ledger: array<vec4<f32>>;
-// [0] masses projected; [1] the divergence flag (check_state).
-@group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
-// RK4's middle stages only: the step's starting state, which their stage points start from.
-@group(0) @binding(10) var<storage, read> x_base: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> v_base: array<vec4<f32>>;
-@group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> v_in: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> x_out: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> v_out: array<vec4<f32>>;
-@group(2) @binding(0) var<uniform> stage: Stage;
-// The step's end slot, whose collider poses the projection uses.
-@group(3) @binding(0) var<uniform> stage_end: Stage;
+// Bindings: `Fused` and `FusedMid` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// #import mass_force state_check contact_projection
 
 fn spring_end(e: u32) -> SpringEnd {
     let link = links[e];

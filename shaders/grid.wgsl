@@ -5,18 +5,8 @@
 // order), then grid_sort_cells (each bucket by mass index: the same layout every run, and the
 // CPU's). Mirrors src/cpu/grid.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> contact: MassContact;
-// Masses per bucket while building; grid_scatter counts each back down to zero, which is where
-// the next build starts.
-@group(0) @binding(2) var<storage, read_write> cell_count: array<atomic<u32>>;
-// Bucket b holds sorted[cell_start[b] .. cell_start[b + 1]]; one entry more than buckets.
-@group(0) @binding(3) var<storage, read_write> cell_start: array<u32>;
-@group(0) @binding(4) var<storage, read_write> block_sums: array<u32>;
-// Bucket of each mass, from grid_count.
-@group(0) @binding(5) var<storage, read_write> mass_cell: array<u32>;
-@group(0) @binding(6) var<storage, read_write> sorted: array<u32>;
-@group(1) @binding(0) var<storage, read> x_in: array<vec4<f32>>;
+// Bindings: `Grid` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 
 @compute @workgroup_size(64)
 fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -7,7 +7,7 @@
 // implicit_terms.wgsl, compiled before this file); two ways run it:
 // - implicit_step: one workgroup loops over the whole step in one dispatch, every sum reduced in
 //   workgroup memory, every stopping rule decided on the device. For small systems
-//   (src/gpu/implicit.rs says which): no host wait, one dispatch per step.
+//   (src/gpu/implicit/plan.rs says which): no host wait, one dispatch per step.
 // - larger systems: one dispatch per pass over the masses (implicit_begin … newton_end), two per
 //   CG iteration, each dot product summed per workgroup and then, by every workgroup that needs
 //   it, over the workgroups in a fixed order; a kernel whose solve or step has stopped does
@@ -15,31 +15,9 @@
 // Both keep the frame's largest CG count and residual per step in counters[2] and [3], which the
 // snapshot reads back once per frame. Sums run in a fixed order, so a run is repeatable.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> springs: array<Spring>;
-@group(0) @binding(2) var<storage, read> offsets: array<u32>;
-@group(0) @binding(3) var<storage, read> neighbors: array<Neighbor>;
-@group(0) @binding(4) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
-// forces_on's output at the iterate: [2i] acceleration, [2i + 1] ledger rates, [2n + 2i],
-// [2n + 2i + 1] contacts.
-@group(0) @binding(6) var<storage, read_write> deriv: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> x: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> v: array<vec4<f32>>;
-// The Newton iterate (the state forces_on reads).
-@group(0) @binding(9) var<storage, read_write> x_in: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read_write> v_in: array<vec4<f32>>;
-// The solver's per-mass vectors (block() in common.wgsl).
-@group(0) @binding(11) var<storage, read_write> work: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read_write> ledger: array<vec4<f32>>;
-// [1] the divergence flag (check_state); [2] the most CG iterations of a step since the last
-// snapshot; [3] the largest residual (an f32's bits: positive floats order as their bits).
-@group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(14) var<storage, read_write> scratch: Scratch;
-// Each CSR entry's spring terms at the iterate (spring_terms), stored by implicit_rhs_at for the
-// solve's products: [2e] (n, h²k + h c), [2e + 1] (h²k·max(0, 1 − L/l), …).
-@group(0) @binding(15) var<storage, read_write> terms: array<vec4<f32>>;
-@group(2) @binding(0) var<uniform> stage: Stage;
+// Bindings: `Solve` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// #import mass_force spring_records state_check implicit_terms
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus.
 struct Solver {
@@ -268,9 +246,9 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
 // The host encodes a frame's steps with budgets (Newton iterations per step, CG iterations per
 // Newton iteration); kernels past a finished solve or step find it stopped and return. A solve or
 // step the budget cut short is flagged in scratch.frame and halts the frame, which the host reads
-// once and replays from its start with larger budgets (src/gpu/implicit.rs).
+// once and replays from its start with larger budgets (src/gpu/implicit/solve.rs).
 
-// The grid's workgroups: half the partials (set by the host, src/gpu/plan.rs's solver_groups).
+// The grid's workgroups: half the partials (set by the host, src/gpu/implicit/plan.rs's solver_groups).
 fn solver_groups() -> u32 {
     return arrayLength(&scratch.partials) / 2u;
 }

@@ -1,12 +1,16 @@
 // Implicit Euler's arithmetic, written once for both ways implicit.wgsl runs a step: the stopping
 // rules of src/cpu/implicit.rs, and each pass over the masses as a function of one mass (the *_at
-// functions, named for the CPU functions they mirror). implicit.wgsl declares the bindings.
+// functions, named for the CPU functions they mirror). It runs in implicit.wgsl.
+// A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
+// functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
+// #uses params springs offsets neighbors mass deriv x v ledger counters x_in v_in work terms stage
+// #calls check_state
 
 // ---- where the solver's vectors live ----
 
 // The solver's per-mass vector `k` (block() in common.wgsl) and each CSR entry's spring terms are
 // read many times a step. The one-workgroup step keeps them in workgroup memory when they fit
-// (SOLVER_IN_WORKGROUP, src/gpu/plan.rs's implicit::SolverHome); otherwise, and always in the
+// (SOLVER_IN_WORKGROUP, src/gpu/implicit/plan.rs's SolverHome); otherwise, and always in the
 // per-pass kernels, they live in the `work` and `terms` buffers.
 
 fn vector_at(k: u32, i: u32) -> vec4<f32> {

@@ -1,21 +1,9 @@
 // The integrators' update kernels, one per stage of each scheme. Mirrors src/cpu/integrate.rs;
 // every stage's derivative comes from compute_forces (forces.wgsl) on the state named there.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> v: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read_write> xt: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> vt: array<vec4<f32>>;
-// [2i] acceleration, [2i+1] ledger rates, from the last compute_forces.
-@group(0) @binding(5) var<storage, read> deriv: array<vec4<f32>>;
-// Per-mass scratch. RK4 and Verlet: [3i] Σ weighted stage velocities, [3i+1] Σ weighted
-// accelerations, [3i+2] Σ weighted rates. (Implicit Euler's kernels are all in implicit.wgsl.)
-@group(0) @binding(6) var<storage, read_write> sums: array<vec4<f32>>;
-// Energy that left (damping, drag, contact) or entered (collider work) through this mass.
-@group(0) @binding(7) var<storage, read_write> ledger: array<vec4<f32>>;
-// [1]: u32::MAX − (index of the first step whose state went non-finite or ran away), 0 if none.
-@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
-@group(2) @binding(0) var<uniform> stage: Stage;
+// Bindings: `Integrate` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// #import state_check
 
 fn acc(i: u32) -> vec3<f32> {
     return deriv[2u * i].xyz;

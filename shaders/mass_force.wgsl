@@ -1,8 +1,12 @@
 // mass_force: the full force on one mass (springs, gravity, drag, contact) at the state x_in,
 // v_in, as its acceleration and the ledger's rates; forces_on writes it to deriv as
 // compute_forces' output. Mirrors src/cpu/forces.rs. Shared by compute_forces (forces.wgsl),
-// implicit_step (implicit.wgsl) and the fused steps (fused.wgsl), which declare the bindings it
-// reads and define spring_end(e), the spring of CSR entry e in their own layout of the springs.
+// implicit_step (implicit.wgsl) and the fused steps (fused.wgsl), which define spring_end(e), the
+// spring of CSR entry e in their own layout of the springs.
+// A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
+// functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
+// #uses params offsets colliders mass deriv x_in v_in stage
+// #calls spring_end
 
 struct MassForce {
     acc: vec3<f32>,

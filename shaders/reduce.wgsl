@@ -2,19 +2,8 @@
 // is read back. Mirrors src/cpu/reduce.rs. compute_energies leaves one partial sum per workgroup;
 // the host adds those few in f64, in order, so the result is the same from run to run.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> springs: array<Spring>;
-@group(0) @binding(2) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(3) var<storage, read> mass: array<vec2<f32>>;
-@group(0) @binding(4) var<storage, read> x: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> v: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read> ledger: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> strain: array<f32>;
-// Per workgroup: [3g] (kinetic, elastic, gravity, contact), [3g+1] ledger, [3g+2] (max speed,
-// count of masses with a non-finite state, energy let go by plasticity and tearing (written by
-// sum_spring_work in springs.wgsl), 0).
-@group(0) @binding(8) var<storage, read_write> partials: array<vec4<f32>>;
-@group(2) @binding(0) var<uniform> stage: Stage;
+// Bindings: `Reduce` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 
 @compute @workgroup_size(64)
 fn compute_strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

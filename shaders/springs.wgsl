@@ -1,14 +1,8 @@
 // update_springs: plasticity and tearing, once after every step; sum_spring_work: the energy they
 // let go, per workgroup, for a snapshot. Mirrors src/cpu/springs.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> springs: array<Spring>;
-@group(0) @binding(2) var<storage, read> limits: array<SpringLimits>;
-@group(0) @binding(3) var<storage, read> x: array<vec4<f32>>;
-// Elastic energy each spring let go since the last snapshot.
-@group(0) @binding(4) var<storage, read_write> released: array<f32>;
-// compute_energies' partial sums (reduce.wgsl): sum_spring_work fills [3g + 2].z.
-@group(0) @binding(5) var<storage, read_write> partials: array<vec4<f32>>;
+// Bindings: `Springs` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 
 @compute @workgroup_size(64)
 fn update_springs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -1,5 +1,8 @@
-// check_state: the divergence check of every update kernel (integrate.wgsl, implicit.wgsl), which
-// declare the counters it flags.
+// check_state: the divergence check of every update kernel (integrate.wgsl, implicit.wgsl,
+// fused.wgsl), flagged in their counters.
+// A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
+// functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
+// #uses params counters stage
 
 // Flag the step if the new state of mass i is not finite or runs away (as src/backend.rs's
 // find_divergence): atomicMax of the complement keeps the earliest step.

@@ -3,21 +3,8 @@
 // their threads never write the same displacement, and every thread's arithmetic is the CPU's
 // xpbd_solve_spring, operation for operation.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> colour: XpbdColour;
-// The springs as they are now (plasticity and tearing change them).
-@group(0) @binding(2) var<storage, read> springs: array<Spring>;
-@group(0) @binding(3) var<storage, read> constants: array<XpbdSpring>;
-// Spring indices, colour by colour.
-@group(0) @binding(4) var<storage, read> colour_order: array<u32>;
-// (mass, inverse mass; 0 when pinned)
-@group(0) @binding(5) var<storage, read> mass: array<vec2<f32>>;
-// Positions at the substep's start.
-@group(0) @binding(6) var<storage, read> x: array<vec4<f32>>;
-// The substep's displacement (the xt buffer): xpbd_predict writes it, this corrects it.
-@group(0) @binding(7) var<storage, read_write> dx: array<vec4<f32>>;
-// Each spring's multiplier within the substep.
-@group(0) @binding(8) var<storage, read_write> lambda: array<f32>;
+// Bindings: `XpbdSolve` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
+// src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 
 @compute @workgroup_size(64)
 fn xpbd_solve_spring(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::backend;
 use crate::error::Result;
-use crate::integrator::{Integrator, StepOptions};
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::select::Device;
 use crate::settings::Settings;
@@ -56,11 +56,10 @@ impl std::fmt::Display for AutoDt {
 fn positions_after(
     model: &Arc<Model>,
     device: &Device,
-    (integrator, options): (Integrator, StepOptions),
-    dt: f64,
+    step: Step,
     steps: u64,
 ) -> Result<Vec<glam::Vec3>> {
-    let mut be = device.create(model.clone(), integrator, dt, options)?;
+    let mut be = device.create(model.clone(), step)?;
     backend::advance_steps(be.as_mut(), steps, 1000)?;
     Ok(be.state()?.x)
 }
@@ -96,9 +95,12 @@ pub fn choose(
     for _ in 0..6 {
         let dt = frame / f64::from(substeps);
         let steps = (probe / dt).round().max(1.0) as u64;
-        let scheme = (integrator, settings.options);
-        let coarse = positions_after(model, device, scheme, dt, steps)?;
-        let fine = positions_after(model, device, scheme, dt / 2.0, 2 * steps)?;
+        let at = |dt_secs| Step {
+            dt_secs,
+            ..settings.step()
+        };
+        let coarse = positions_after(model, device, at(dt), steps)?;
+        let fine = positions_after(model, device, at(dt / 2.0), 2 * steps)?;
         let sq: f64 = coarse
             .iter()
             .zip(&fine)

@@ -15,9 +15,47 @@ pub enum BackendError {
     /// The state went bad; every frame before it was delivered.
     #[error(transparent)]
     Diverged(Box<Divergence>),
-    /// The device failed (lost, out of memory, no adapter, scene beyond its limits).
-    #[error("{0}")]
-    Device(String),
+    /// The device failed or refused the run (lost, out of memory, no adapter, scene beyond its
+    /// limits): the backend's own typed error, kept whole (the GPU's `gpu::AdapterError` or
+    /// `gpu::DeviceError`, which this layer below the backends cannot name).
+    #[error(transparent)]
+    Device(Box<dyn std::error::Error + Send + Sync>),
+    /// A broken invariant of Hooke's own, not a problem of the device or the scene.
+    #[error("internal: {0}")]
+    Internal(Internal),
+}
+
+/// A bug in Hooke that a backend caught before it did harm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Internal {
+    #[error("a requested snapshot went missing")]
+    SnapshotMissing,
+    #[error("both snapshot buffers are in use")]
+    SnapshotBuffersBusy,
+    #[error("the fused step is missing")]
+    FusedStepMissing,
+    #[error("no implicit solver")]
+    NoImplicitSolver,
+    /// A step plan asked for a dispatch the run cannot make.
+    #[error("kernel {kernel} {why}")]
+    Dispatch {
+        kernel: &'static str,
+        why: Misplanned,
+    },
+    /// Implicit Euler's solve overran a budget that cannot be raised (`overran`: its flags).
+    #[error("implicit Euler's solve flagged a budget already at its maximum ({overran:#x})")]
+    BudgetAtMaximum { overran: u32 },
+}
+
+/// How a planned dispatch does not fit the run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Misplanned {
+    #[error("asked for without its effect or its colour")]
+    WithoutEffect,
+    #[error("planned with a state flow the run lacks")]
+    NoSuchFlow,
+    #[error("planned with the wrong state")]
+    WrongState,
 }
 
 pub trait Backend: Send {
@@ -36,9 +74,8 @@ pub trait Backend: Send {
     /// A snapshot of the current state, now (none may be pending).
     fn snapshot(&mut self, frame: u64, stats: StepStats) -> Result<Snapshot, BackendError> {
         self.request_snapshot(frame, stats)?;
-        self.collect_snapshot()?.ok_or_else(|| {
-            BackendError::Device("internal: a requested snapshot went missing".to_owned())
-        })
+        self.collect_snapshot()?
+            .ok_or_else(|| BackendError::Internal(Internal::SnapshotMissing))
     }
     /// The full state (tests and benchmarks).
     fn state(&mut self) -> Result<State, BackendError>;
@@ -107,8 +144,7 @@ pub fn find_divergence(
         .iter()
         .map(|nb| {
             let s = &model.springs[nb.spring as usize];
-            let len = state.x[s.a as usize].distance(state.x[s.b as usize]);
-            let strain = (len - s.rest_m) / s.rest_m;
+            let strain = s.strain(&state.x);
             StrainedSpring {
                 index: nb.spring,
                 kind: model.spring_kind[nb.spring as usize],

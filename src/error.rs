@@ -10,7 +10,7 @@ use crate::record::RecordError;
 use crate::rrd_file::{CreateError, WriteFailure};
 use crate::scene::LoadError;
 use crate::settings::SettingsError;
-use crate::viewer::ConnectError;
+use crate::viewer::{ConnectError, Gone};
 // Where they have always been found, beside the library's other errors.
 pub use crate::scene::{SceneError, SceneOrigin};
 
@@ -56,6 +56,13 @@ pub enum Error {
         source: std::io::Error,
     },
 
+    /// A report (Markdown, CSV, SVG) could not be written where it was asked for.
+    #[error("cannot write {}: {source}", path.display())]
+    WriteOutput {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+
     /// The simulation thread panicked: a bug, reported with the panic's own message.
     #[error("the simulation thread panicked{}", panic_message(.0))]
     SimulationPanicked(Option<String>),
@@ -84,11 +91,7 @@ pub enum Error {
         "the viewer at {url} went away at frame {frame} ({why}); the run stopped there. To keep a run \
          whatever the viewer does, record it as well with --save FILE (streaming and saving together)"
     )]
-    ViewerGone {
-        url: String,
-        frame: u64,
-        why: String,
-    },
+    ViewerGone { url: String, frame: u64, why: Gone },
 }
 
 /// What Rerun said when it refused.

@@ -47,6 +47,103 @@ impl Default for StepOptions {
 /// "Small Steps": one iteration per substep, and more substeps where accuracy is wanted.
 pub const DEFAULT_XPBD_ITERATIONS: u32 = 1;
 
+/// How a backend steps: the integrator, its step and its options. Both backends take one; a
+/// run's comes from its [`Settings`](crate::settings::Settings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    pub integrator: Integrator,
+    pub dt_secs: f64,
+    pub options: StepOptions,
+}
+
+impl Step {
+    /// `integrator` at `dt_secs`, with the default options.
+    pub fn new(integrator: Integrator, dt_secs: f64) -> Self {
+        Self {
+            integrator,
+            dt_secs,
+            options: StepOptions::default(),
+        }
+    }
+
+    pub fn with_options(self, options: StepOptions) -> Self {
+        Self { options, ..self }
+    }
+}
+
+/// An effect that some integrator cannot simulate, as [`Integrator::supports`] says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Unsupported {
+    /// Mass–mass contact has no Jacobian in implicit Euler's system (a pair couples two masses
+    /// along a normal that changes as they move): entering through the force only, stiff
+    /// contacts would stall Newton.
+    #[error("implicit Euler does not support {}", self.effect())]
+    MassContact,
+}
+
+impl Unsupported {
+    /// The effect, as a message names it.
+    pub fn effect(self) -> &'static str {
+        match self {
+            Unsupported::MassContact => "mass–mass contact",
+        }
+    }
+
+    /// The scene file's table that asks for the effect.
+    pub fn scene_field(self) -> &'static str {
+        match self {
+            Unsupported::MassContact => "effects.self_collision",
+        }
+    }
+
+    /// The integrators that do support it, by name: `semi-implicit, verlet or rk4`, each name
+    /// between `quote`s.
+    pub fn instead(self, quote: &str) -> String {
+        let suggested: &[Integrator] = match self {
+            // Forward Euler and RK2 have no step stable for sure, and XPBD softens the springs.
+            Unsupported::MassContact => &[
+                Integrator::SemiImplicit,
+                Integrator::Verlet,
+                Integrator::Rk4,
+            ],
+        };
+        let names: Vec<String> = suggested
+            .iter()
+            .filter(|i| i.supports(&self).is_ok())
+            .map(|i| format!("{quote}{}{quote}", i.name()))
+            .collect();
+        match names.split_last() {
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        }
+    }
+}
+
+/// An effect refused stands for a scene that asks for just that effect.
+impl AskedEffects for Unsupported {
+    fn mass_contact(&self) -> bool {
+        matches!(self, Unsupported::MassContact)
+    }
+}
+
+/// The effects a scene asks for, as far as an integrator may refuse them: the scene file's
+/// `[effects]` (checked as it loads) and a built model's `Effects` (checked by the backends and
+/// the accuracy bench) both answer, so the rule is written once, in [`Integrator::supports`].
+pub trait AskedEffects {
+    fn mass_contact(&self) -> bool;
+}
+
+impl Integrator {
+    /// Whether this integrator can simulate every effect in `effects`; the one it cannot, if any.
+    pub fn supports(self, effects: &impl AskedEffects) -> Result<(), Unsupported> {
+        if self == Integrator::Implicit && effects.mass_contact() {
+            return Err(Unsupported::MassContact);
+        }
+        Ok(())
+    }
+}
+
 impl Integrator {
     pub const ALL: [Integrator; 7] = [
         Integrator::Euler,

@@ -5,10 +5,8 @@ mod cli;
 use anyhow::Context as _;
 use clap::{CommandFactory as _, FromArgMatches as _};
 
-use cli::{Cli, Command, DeviceArgs, Outcome};
-use hooke::prepare::{self, Planned};
-use hooke::scene;
-use hooke::select::BackendKind;
+use cli::{Cli, Command, Outcome};
+use hooke::prepare;
 
 fn main() -> std::process::ExitCode {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
@@ -57,7 +55,7 @@ fn one_message(e: &anyhow::Error) -> String {
 
 fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
     match cli.command {
-        Command::Scenes => scenes()?,
+        Command::Scenes => cli::scenes()?,
         Command::Check {
             scene,
             solver,
@@ -67,7 +65,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             let planned = prepare::plan(&solver.request(&scene, &device), &mut |notice| {
                 println!("{notice}")
             })?;
-            check(&planned, &device)?;
+            cli::check(&planned, &device)?;
         }
         Command::Bench { which } => cli::bench(which)?,
         Command::Run {
@@ -93,52 +91,4 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
         }
     }
     Ok(Outcome::Done)
-}
-
-/// `hooke scenes`: each built-in scene and its one-line description.
-fn scenes() -> anyhow::Result<()> {
-    for b in scene::BUILT_IN {
-        let s = scene::from_toml(b.toml, scene::SceneOrigin::BuiltIn(b.name.into()))?;
-        println!("{:<14} {}", b.name, s.description);
-    }
-    println!(
-        "\nEach is also a file under examples/scenes/; `hooke run FILE.toml` runs a copy you edit."
-    );
-    Ok(())
-}
-
-/// `hooke check`: the model, its stable steps, the recording's size and the device.
-fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
-    let Planned {
-        loaded,
-        settings,
-        model,
-    } = planned;
-    print!(
-        "{}",
-        hooke::check::report(&loaded.scene.name, model, settings)
-    );
-    let size = hooke::recording_size::estimate(
-        model,
-        settings,
-        loaded.scene.view.strain_range,
-        hooke::record::RecordOptions::default(),
-    )?;
-    println!(
-        "recording (estimated from sample frames, default --springs): about {} per frame, {} for all {} frames",
-        hooke::rrd_file::human_bytes(size.bytes_per_frame),
-        hooke::rrd_file::human_bytes(size.total(settings.frames)),
-        settings.frames + 1
-    );
-    match device.backend {
-        BackendKind::Cpu => println!("backend: cpu ({} threads)", rayon::current_num_threads()),
-        BackendKind::Gpu => {
-            match hooke::gpu::adapter_report(device.adapter.as_deref(), model, settings.integrator)
-            {
-                Ok(line) => println!("{line}"),
-                Err(e) => println!("warning: {e}"),
-            }
-        }
-    }
-    Ok(())
 }

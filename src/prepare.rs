@@ -25,7 +25,7 @@ pub enum SceneSource {
 
 /// How the time step is chosen.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub enum Step {
+pub enum DtChoice {
     /// The scene's, as the overrides change it.
     #[default]
     AsGiven,
@@ -38,7 +38,7 @@ pub enum Step {
 pub struct Request {
     pub scene: SceneSource,
     pub overrides: Overrides,
-    pub step: Step,
+    pub dt: DtChoice,
     pub device: Device,
 }
 
@@ -48,7 +48,7 @@ impl Request {
         Self {
             scene: SceneSource::Named(scene.to_owned()),
             overrides: Overrides::default(),
-            step: Step::AsGiven,
+            dt: DtChoice::AsGiven,
             device,
         }
     }
@@ -106,7 +106,7 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         say(Notice::Note(n.clone()));
     }
     let model = Arc::new(model::build(&loaded.scene));
-    if let Step::Auto { tolerance_m } = request.step {
+    if let DtChoice::Auto { tolerance_m } = request.dt {
         if !(tolerance_m.is_finite() && tolerance_m > 0.0) {
             return Err(Error::Tolerance(tolerance_m));
         }
@@ -122,6 +122,13 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
     })
 }
 
+/// The scene `scene` (a built-in name or a TOML file) as it is: loaded, its settings resolved
+/// and its model built, what is noted along the way left unsaid. The one way examples, tests and
+/// benchmarks that need no backend (or make their own) get a scene ready.
+pub fn planned(scene: &str) -> Result<Planned> {
+    plan(&Request::named(scene, Device::cpu()), &mut |_| {})
+}
+
 /// [`plan`], a warning when the step looks unstable, and the backend. The backend comes before
 /// anything is written: a missing GPU or a scene beyond its limits fails first.
 pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepared> {
@@ -133,12 +140,7 @@ pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepare
     if let Some(w) = crate::stability::dt_warning(&model, &settings) {
         say(Notice::AboveStableLimit(w));
     }
-    let backend = request.device.create(
-        model.clone(),
-        settings.integrator,
-        settings.dt_secs,
-        settings.options,
-    )?;
+    let backend = request.device.create(model.clone(), settings.step())?;
     Ok(Prepared {
         loaded,
         settings,

@@ -83,7 +83,6 @@ fn sample_frame(model: &Model, frame: u64, strain_range: f32, spacing: f32) -> S
 pub fn estimate(
     model: &Arc<Model>,
     settings: &Settings,
-    strain_range: f32,
     opts: RecordOptions,
 ) -> Result<RecordingSize> {
     let rerun_error = |e: RerunError| Error::rerun_while("estimating the recording's size", e);
@@ -97,7 +96,7 @@ pub fn estimate(
             .map_err(|e| rerun_error(e.into()))?
             .len() as u64)
     };
-    let mut recorder = Recorder::new(rec.clone(), model.clone(), strain_range, opts);
+    let mut recorder = Recorder::new(rec.clone(), model.clone(), opts);
     recorder
         .log_static("estimate", "", settings, "estimate")
         .map_err(|e| rerun_error(e.into()))?;
@@ -110,7 +109,7 @@ pub fn estimate(
     let spacing = if spacing.is_finite() { spacing } else { 0.01 };
     let mut log = |frame| {
         recorder
-            .log_snapshot(&sample_frame(model, frame, strain_range, spacing))
+            .log_snapshot(&sample_frame(model, frame, opts.strain_range, spacing))
             .map_err(|e| rerun_error(e.into()))
     };
     log(0)?;

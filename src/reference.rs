@@ -6,8 +6,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cpu::{MassGrid, PAIR_STICK_SHARE, PARALLEL_MIN_MASSES, contact_force, spring_force};
+use crate::cpu::{MassGrid, PARALLEL_MIN_MASSES, contact_force, spring_force};
 use crate::model::{MassContact, Model};
+use crate::physics::PAIR_STICK_SHARE;
 
 pub struct Reference {
     model: std::sync::Arc<Model>,

@@ -7,6 +7,7 @@
 //! message, so that what is on disk stays a readable recording, and tells the run what failed
 //! and which frames are complete in the file.
 
+use std::fmt;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -34,8 +35,9 @@ pub struct CreateError {
 #[derive(Debug, Clone)]
 pub struct WriteFailure {
     pub path: PathBuf,
-    /// The operating system's words for it ("No space left on device (os error 28)").
-    pub cause: String,
+    /// What failed: the operating system's error ("No space left on device (os error 28)"), or
+    /// the encoder's.
+    pub cause: WriteCause,
     /// What would let the next run through.
     pub advice: &'static str,
     /// Frames 0 to this one are complete in the file; `None` when not even frame 0 is.
@@ -162,7 +164,8 @@ impl Shared {
                 w.frames.saw(msg);
             }
             Err(e) => {
-                self.fail(&mut w, cause(&e), advice(&e), false);
+                let advice = advice(&e);
+                self.fail(&mut w, cause(e), advice, false);
             }
         }
     }
@@ -171,7 +174,7 @@ impl Shared {
     fn fail(
         &self,
         w: &mut Writer,
-        cause: String,
+        cause: WriteCause,
         advice: &'static str,
         at_index: bool,
     ) -> WriteFailure {
@@ -198,11 +201,23 @@ impl Shared {
     }
 }
 
-fn cause(e: &EncodeError) -> String {
-    match e {
-        EncodeError::Write(io) => io.to_string(),
-        other => format!("encoding a message failed ({other})"),
+/// Why a write failed, shared by every copy of the failure.
+#[derive(Debug, Clone)]
+pub struct WriteCause(Arc<EncodeError>);
+
+impl fmt::Display for WriteCause {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0.as_ref() {
+            EncodeError::Write(io) => write!(f, "{io}"),
+            other => write!(f, "encoding a message failed ({other})"),
+        }
     }
+}
+
+impl std::error::Error for WriteCause {}
+
+fn cause(e: EncodeError) -> WriteCause {
+    WriteCause(Arc::new(e))
 }
 
 /// What to do about a failed write, from the operating system's error number.
@@ -250,7 +265,10 @@ pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), Creat
     )
     .map_err(|e| CreateError {
         path: path.to_owned(),
-        cause: std::io::Error::other(cause(&e)),
+        cause: match e {
+            EncodeError::Write(io) => io,
+            other => std::io::Error::other(cause(other)),
+        },
     })?;
     if !footer {
         encoder.do_not_emit_footer();
@@ -318,7 +336,10 @@ impl RrdFile {
                 w.file = None;
                 Ok(())
             }
-            Err(e) => Err(self.shared.fail(&mut w, cause(&e), advice(&e), true)),
+            Err(e) => {
+                let advice = advice(&e);
+                Err(self.shared.fail(&mut w, cause(e), advice, true))
+            }
         }
     }
 }

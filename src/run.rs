@@ -6,12 +6,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::model::Model;
 use crate::pacing::{Paced, Pacer};
+use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
 use crate::record::{RecordOptions, Recorder};
 use crate::rrd_file::RrdFile;
-use crate::scene::LoadedScene;
 use crate::settings::Settings;
 use crate::sim::{self, Delivery};
 use crate::state::Snapshot;
@@ -57,21 +56,20 @@ pub struct RunSummary {
 /// Run a scene into `rec`. On divergence every good frame is recorded and flushed before the
 /// error is returned.
 pub fn run(
-    loaded: &LoadedScene,
-    model: Arc<Model>,
-    be: Box<dyn Backend>,
-    settings: &Settings,
+    prepared: Prepared,
     rec: rerun::RecordingStream,
     opts: &RunOptions,
     cancel: Arc<AtomicBool>,
 ) -> Result<RunSummary> {
+    let Prepared {
+        loaded,
+        settings,
+        model,
+        backend: be,
+    } = prepared;
+    let settings = &settings;
     let backend_name = be.describe();
-    let mut recorder = Recorder::new(
-        rec.clone(),
-        model.clone(),
-        loaded.scene.view.strain_range,
-        opts.record,
-    );
+    let mut recorder = Recorder::new(rec.clone(), model, opts.record);
     recorder
         .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
         .map_err(|e| Error::Rerun(e.into()))?;
@@ -285,20 +283,23 @@ mod tests {
             Ok(None)
         }
         fn state(&mut self) -> Result<State, BackendError> {
-            Err(BackendError::Device("no state".to_owned()))
+            Err(BackendError::Internal(
+                crate::backend::Internal::SnapshotMissing,
+            ))
         }
     }
 
     #[test]
     fn a_panicking_simulation_thread_is_reported_as_one_with_its_message() {
-        let loaded = crate::scene::load("hair").expect("the built-in hair scene loads");
-        let model = Arc::new(crate::model::build(&loaded.scene));
-        let overrides = Overrides {
-            frames: Some(2),
-            substeps: Some(3),
-            ..Overrides::default()
+        let request = crate::prepare::Request {
+            overrides: Overrides {
+                frames: Some(2),
+                substeps: Some(3),
+                ..Overrides::default()
+            },
+            ..crate::prepare::Request::named("hair", crate::select::Device::cpu())
         };
-        let settings = Settings::resolve(&loaded.scene, &overrides).expect("settings resolve");
+        let planned = crate::prepare::plan(&request, &mut |_| {}).expect("the hair scene plans");
         let (rec, _storage) = rerun::RecordingStreamBuilder::new("hooke-test")
             .memory()
             .expect("an in-memory recording");
@@ -311,15 +312,13 @@ mod tests {
             file: None,
         };
         let cancel = Arc::new(AtomicBool::new(false));
-        let result = run(
-            &loaded,
-            model,
-            Box::new(PanicsWhenStepped),
-            &settings,
-            rec,
-            &opts,
-            cancel,
-        );
+        let prepared = Prepared {
+            loaded: planned.loaded,
+            settings: planned.settings,
+            model: planned.model,
+            backend: Box::new(PanicsWhenStepped),
+        };
+        let result = run(prepared, rec, &opts, cancel);
         let Err(e) = result else {
             panic!("a run whose backend panics must fail");
         };

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use crate::backend::{Backend, BackendError};
-use crate::integrator::{Integrator, StepOptions};
+use crate::integrator::Step;
 use crate::model::Model;
 
 /// Which backend steps the simulation.
@@ -34,55 +34,22 @@ impl Device {
         }
     }
 
-    /// A backend of this kind stepping `model` by `dt_secs` with `integrator`.
-    pub fn create(
-        &self,
-        model: Arc<Model>,
-        integrator: Integrator,
-        dt_secs: f64,
-        options: StepOptions,
-    ) -> Result<Box<dyn Backend>, BackendError> {
-        create_with(
-            self.kind,
-            model,
-            (integrator, dt_secs, options),
-            self.adapter.as_deref(),
-        )
+    /// A backend of this kind stepping `model` as `step` says.
+    pub fn create(&self, model: Arc<Model>, step: Step) -> Result<Box<dyn Backend>, BackendError> {
+        create(self.kind, model, step, self.adapter.as_deref())
     }
 }
 
-/// A backend of `kind` stepping `model`; a GPU one on the adapter whose name contains `adapter`
-/// (the best one when `None`).
+/// A backend of `kind` stepping `model` as `step` says; a GPU one on the adapter whose name
+/// contains `adapter` (the best one when `None`).
 pub fn create(
     kind: BackendKind,
     model: Arc<Model>,
-    integrator: Integrator,
-    dt_secs: f64,
-    adapter: Option<&str>,
-) -> Result<Box<dyn Backend>, BackendError> {
-    create_with(
-        kind,
-        model,
-        (integrator, dt_secs, StepOptions::default()),
-        adapter,
-    )
-}
-
-/// [`create`] with the integrator's options.
-pub fn create_with(
-    kind: BackendKind,
-    model: Arc<Model>,
-    (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+    step: Step,
     adapter: Option<&str>,
 ) -> Result<Box<dyn Backend>, BackendError> {
     Ok(match kind {
-        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::with_options(
-            model, integrator, dt_secs, options,
-        )),
-        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::with_options(
-            model,
-            (integrator, dt_secs, options),
-            adapter,
-        )?),
+        BackendKind::Cpu => Box::new(crate::cpu::CpuBackend::new(model, step)),
+        BackendKind::Gpu => Box::new(crate::gpu::GpuBackend::new(model, step, adapter)?),
     })
 }

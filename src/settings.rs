@@ -1,12 +1,43 @@
 //! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
 
-use crate::integrator::{DEFAULT_XPBD_ITERATIONS, Integrator, StepOptions};
+use crate::integrator::{DEFAULT_XPBD_ITERATIONS, Integrator, Step, StepOptions, Unsupported};
 use crate::scene::Scene;
 
 /// A value the run cannot use, and what would fix it.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("invalid setting: {0}")]
-pub struct SettingsError(pub String);
+pub enum SettingsError {
+    #[error("invalid setting: --dt must be a positive number of seconds, got {0}")]
+    Dt(f64),
+    #[error(
+        "invalid setting: --integrator {} does not support {} ([{}] in this scene): use {}",
+        integrator.name(), why.effect(), why.scene_field(), why.instead("")
+    )]
+    Unsupported {
+        integrator: Integrator,
+        why: Unsupported,
+    },
+    #[error(
+        "invalid setting: --xpbd-iterations must be at least 1 (each substep projects every spring that many times)"
+    )]
+    NoXpbdIterations,
+    #[error("invalid setting: --substeps must be at least 1")]
+    NoSubsteps,
+    #[error(
+        "invalid setting: --dt {dt_secs} s and --substeps {substeps} disagree: at {frame_rate_hz} frames/s, {substeps} substeps means dt = {:.6e} s; give only one",
+        1.0 / frame_rate_hz / f64::from(*substeps)
+    )]
+    DtAndSubsteps {
+        dt_secs: f64,
+        substeps: u32,
+        frame_rate_hz: f64,
+    },
+    #[error("invalid setting: dt = {dt_secs} s would need {substeps} substeps per frame")]
+    TooManySubsteps { dt_secs: f64, substeps: f64 },
+    #[error("invalid setting: --frames must be at least 1")]
+    NoFrames,
+    #[error("invalid setting: --duration must be a positive number of seconds, got {0}")]
+    Duration(f64),
+}
 
 type Result<T> = std::result::Result<T, SettingsError>;
 
@@ -40,24 +71,18 @@ fn check_overrides(scene: &Scene, o: &Overrides) -> Result<()> {
     if let Some(dt) = o.dt_secs
         && !(dt.is_finite() && dt > 0.0)
     {
-        return Err(SettingsError(format!(
-            "--dt must be a positive number of seconds, got {dt}"
-        )));
+        return Err(SettingsError::Dt(dt));
     }
-    if o.integrator == Some(Integrator::Implicit) && scene.effects.self_collision.is_some() {
-        return Err(SettingsError(
-            "--integrator implicit does not support mass–mass contact ([effects.self_collision] in this scene): \
-             use semi-implicit, verlet or rk4"
-                .into(),
-        ));
+    if let Some(i) = o.integrator
+        && let Err(why) = i.supports(&scene.effects)
+    {
+        return Err(SettingsError::Unsupported { integrator: i, why });
     }
     if o.xpbd_iterations == Some(0) {
-        return Err(SettingsError(
-            "--xpbd-iterations must be at least 1 (each substep projects every spring that many times)".into(),
-        ));
+        return Err(SettingsError::NoXpbdIterations);
     }
     if o.substeps == Some(0) {
-        return Err(SettingsError("--substeps must be at least 1".into()));
+        return Err(SettingsError::NoSubsteps);
     }
     Ok(())
 }
@@ -80,10 +105,11 @@ impl Settings {
         let substeps = match (dt_req, sub_req) {
             (Some(dt), Some(n)) => {
                 if ((dt * fps * f64::from(n)) - 1.0).abs() > 1e-6 {
-                    return Err(SettingsError(format!(
-                        "--dt {dt} s and --substeps {n} disagree: at {fps} frames/s, {n} substeps means dt = {:.6e} s; give only one",
-                        frame_secs / f64::from(n)
-                    )));
+                    return Err(SettingsError::DtAndSubsteps {
+                        dt_secs: dt,
+                        substeps: n,
+                        frame_rate_hz: fps,
+                    });
                 }
                 n
             }
@@ -92,9 +118,10 @@ impl Settings {
                 let exact = frame_secs / dt;
                 let n = (exact - 1e-9).ceil().max(1.0);
                 if n > f64::from(u32::MAX) {
-                    return Err(SettingsError(format!(
-                        "dt = {dt} s would need {n} substeps per frame"
-                    )));
+                    return Err(SettingsError::TooManySubsteps {
+                        dt_secs: dt,
+                        substeps: n,
+                    });
                 }
                 let n = n as u32;
                 if (exact - f64::from(n)).abs() > 1e-6 * exact {
@@ -115,7 +142,7 @@ impl Settings {
             (None, None, None, None) => duration_frames(DEFAULT_DURATION_SECS, fps)?,
         };
         if frames == 0 {
-            return Err(SettingsError("--frames must be at least 1".into()));
+            return Err(SettingsError::NoFrames);
         }
         Ok(Self {
             integrator: o.integrator.unwrap_or(s.integrator),
@@ -133,6 +160,11 @@ impl Settings {
         })
     }
 
+    /// The backends' view: integrator, dt and options.
+    pub fn step(&self) -> Step {
+        Step::new(self.integrator, self.dt_secs).with_options(self.options)
+    }
+
     pub fn duration_secs(&self) -> f64 {
         self.frames as f64 / self.frame_rate_hz
     }
@@ -140,9 +172,7 @@ impl Settings {
 
 fn duration_frames(d: f64, fps: f64) -> Result<u64> {
     if !(d.is_finite() && d > 0.0) {
-        return Err(SettingsError(format!(
-            "--duration must be a positive number of seconds, got {d}"
-        )));
+        return Err(SettingsError::Duration(d));
     }
     Ok((d * fps).round().max(1.0) as u64)
 }

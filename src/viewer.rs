@@ -5,7 +5,9 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use rerun::sink::{GrpcSink, GrpcSinkConnectionState, LogSink, SinkFlushError};
+use rerun::sink::{
+    GrpcSink, GrpcSinkConnectionFailure, GrpcSinkConnectionState, LogSink, SinkFlushError,
+};
 
 /// How long a viewer may take to accept the connection before it counts as absent.
 pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
@@ -44,7 +46,18 @@ pub enum LinkState {
     /// Still connecting, within [`CONNECT_TIMEOUT`].
     Connecting,
     /// Gone, and why.
-    Gone(String),
+    Gone(Gone),
+}
+
+/// Why the viewer is gone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Gone {
+    #[error("no viewer accepted the connection within {} s", CONNECT_TIMEOUT.as_secs())]
+    NeverAccepted,
+    #[error("the viewer closed the connection")]
+    Closed,
+    #[error("the connection broke: {0}")]
+    Broke(GrpcSinkConnectionFailure),
 }
 
 impl ViewerLink {
@@ -81,20 +94,13 @@ impl ViewerLink {
             GrpcSinkConnectionState::Connected => LinkState::Up,
             GrpcSinkConnectionState::Connecting { started } => {
                 if started.elapsed() > CONNECT_TIMEOUT {
-                    LinkState::Gone(format!(
-                        "no viewer accepted the connection within {} s",
-                        CONNECT_TIMEOUT.as_secs()
-                    ))
+                    LinkState::Gone(Gone::NeverAccepted)
                 } else {
                     LinkState::Connecting
                 }
             }
-            GrpcSinkConnectionState::Disconnected(Ok(())) => {
-                LinkState::Gone("the viewer closed the connection".to_owned())
-            }
-            GrpcSinkConnectionState::Disconnected(Err(e)) => {
-                LinkState::Gone(format!("the connection broke: {e}"))
-            }
+            GrpcSinkConnectionState::Disconnected(Ok(())) => LinkState::Gone(Gone::Closed),
+            GrpcSinkConnectionState::Disconnected(Err(e)) => LinkState::Gone(Gone::Broke(e)),
         }
     }
 }

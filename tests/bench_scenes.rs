@@ -4,23 +4,20 @@
 //! neighbours (2d(d − 1)), shear springs on both diagonals (2(d − 1)²) and bending springs two
 //! apart (2d(d − 2)), all k = 1000 N/m and 10 N·s/m, stepped at 1/60 s in 16 substeps.
 
-use hooke::settings::{Overrides, Settings};
-
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bench/scenes");
 
 #[test]
 fn warp_cloth_scenes_load_build_and_match_warps_cloth() {
     for d in [32usize, 64, 128] {
         let path = format!("{DIR}/warp-cloth-{d}.toml");
-        let loaded = hooke::scene::load(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-        let settings = Settings::resolve(&loaded.scene, &Overrides::default())
-            .unwrap_or_else(|e| panic!("{path}: {e}"));
+        let hooke::prepare::Planned {
+            settings, model, ..
+        } = hooke::prepare::planned(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
         assert!(
             (settings.dt_secs - 1.0 / 960.0).abs() < 1e-12,
             "{path}: dt {}",
             settings.dt_secs
         );
-        let model = hooke::model::build(&loaded.scene);
         assert_eq!(model.mass_count(), d * d, "{path}");
         assert!(
             model.mass_kg.iter().all(|m| (m - 0.1).abs() < 1e-6),

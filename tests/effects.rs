@@ -13,7 +13,7 @@ use glam::Vec3;
 use hooke::backend::Backend;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{
     Collider, ContactModel, Effects, Model, ModelBuilder, NO_LIMITS, Path, Shape, SpringKindTag,
     SpringLimits,
@@ -21,13 +21,14 @@ use hooke::model::{
 
 /// The CPU backend, and the GPU backend where there is an adapter.
 fn backends(model: &Arc<Model>, integrator: Integrator, dt: f64) -> Vec<Box<dyn Backend>> {
-    let mut out: Vec<Box<dyn Backend>> =
-        vec![Box::new(CpuBackend::new(model.clone(), integrator, dt))];
+    let mut out: Vec<Box<dyn Backend>> = vec![Box::new(CpuBackend::new(
+        model.clone(),
+        Step::new(integrator, dt),
+    ))];
     if gpu_available() {
         out.push(Box::new(ok(GpuBackend::new(
             model.clone(),
-            integrator,
-            dt,
+            Step::new(integrator, dt),
             None,
         ))));
     }
@@ -195,15 +196,11 @@ fn a_spring_breaks_past_its_limit_and_then_exerts_nothing() {
 }
 
 fn tear_model() -> (Arc<Model>, f64, u32) {
-    let loaded = ok(hooke::scene::load("tear"));
-    let settings = ok(hooke::settings::Settings::resolve(
-        &loaded.scene,
-        &Default::default(),
-    ));
+    let planned = ok(hooke::prepare::planned("tear"));
     (
-        Arc::new(hooke::model::build(&loaded.scene)),
-        settings.dt_secs,
-        settings.substeps,
+        planned.model,
+        planned.settings.dt_secs,
+        planned.settings.substeps,
     )
 }
 
@@ -465,14 +462,11 @@ fn every_collider_bounces_a_mass_back_with_its_restitution() {
 fn the_ramp_cube_yields_where_it_hits() {
     // The built-in scene that uses plasticity: the cube's impact on the block squeezes springs
     // past yield, and the energy their flow let go is in the ledger.
-    let loaded = ok(hooke::scene::load("ramp"));
-    let settings = ok(hooke::settings::Settings::resolve(
-        &loaded.scene,
-        &Default::default(),
-    ));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = ok(hooke::prepare::planned("ramp"));
     assert!(model.effects.plasticity);
-    let mut be = CpuBackend::new(model, settings.integrator, settings.dt_secs);
+    let mut be = CpuBackend::new(model, Step::new(settings.integrator, settings.dt_secs));
     ok(be.advance(settings.substeps * settings.frames as u32));
     let e = ok(be.snapshot(1, Default::default())).energies;
     println!("ramp: plastic flow let go {} J", e.ledger.plastic_j);

@@ -10,7 +10,7 @@ use common::gravity;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{Model, ModelBuilder};
 use hooke::select::BackendKind;
 
@@ -57,7 +57,7 @@ fn energies_over(
     steps: u64,
     every: u64,
 ) -> Vec<hooke::state::Energies> {
-    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
     let mut out = vec![
         be.snapshot(0, Default::default())
             .unwrap_or_else(|e| panic!("{e}"))
@@ -213,21 +213,18 @@ fn built_in_scenes_run_to_their_end_on_lavapipe() {
 }
 
 fn to_the_end(name: &str, kind: BackendKind) {
-    use hooke::settings::{Overrides, Settings};
     {
         let b = hooke::scene::BUILT_IN
             .iter()
             .find(|b| b.name == name)
             .unwrap_or_else(|| panic!("no scene {name}"));
-        let loaded = hooke::scene::load(b.name).unwrap_or_else(|e| panic!("{e}"));
-        let settings = Settings::resolve(&loaded.scene, &Overrides::default())
-            .unwrap_or_else(|e| panic!("{e}"));
-        let model = Arc::new(hooke::model::build(&loaded.scene));
+        let hooke::prepare::Planned {
+            settings, model, ..
+        } = hooke::prepare::planned(b.name).unwrap_or_else(|e| panic!("{e}"));
         let mut be = hooke::select::create(
             kind,
             model.clone(),
-            settings.integrator,
-            settings.dt_secs,
+            Step::new(settings.integrator, settings.dt_secs),
             None,
         )
         .unwrap_or_else(|e| panic!("{e}"));

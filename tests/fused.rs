@@ -10,8 +10,8 @@ use std::sync::Arc;
 use common::{model_of, ok};
 use glam::Vec3;
 use hooke::backend::{Backend as _, BackendError};
-use hooke::cpu::{CpuBackend, Kernel};
-use hooke::integrator::Integrator;
+use hooke::cpu::{CpuBackend, Simd};
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{Model, ModelBuilder};
 use hooke::state::State;
 
@@ -68,23 +68,23 @@ springs.bending = { stiffness_n_per_m = 500.0, damping_n_s_per_m = 0.1 }
 }
 
 /// Every kernel this machine can run (AVX2 resolves to SSE2 where the CPU lacks it).
-const KERNELS: [Kernel; 5] = [
-    Kernel::Best,
-    Kernel::Avx2,
-    Kernel::Sse2,
-    Kernel::Portable,
-    Kernel::Scalar,
+const KERNELS: [Simd; 5] = [
+    Simd::Best,
+    Simd::Avx2,
+    Simd::Sse2,
+    Simd::Portable,
+    Simd::Scalar,
 ];
 
 fn run(
     model: &Arc<Model>,
     integrator: Integrator,
     dt: f64,
-    kernel: Option<Kernel>,
+    kernel: Option<Simd>,
 ) -> Result<State, BackendError> {
-    let mut be = CpuBackend::new(model.clone(), integrator, dt);
-    be.set_kernel(kernel);
-    assert_eq!(be.kernel().is_some(), kernel.is_some(), "{kernel:?}");
+    let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
+    be.set_simd(kernel);
+    assert_eq!(be.simd().is_some(), kernel.is_some(), "{kernel:?}");
     for _ in 0..4 {
         be.advance(25)?;
     }
@@ -153,8 +153,8 @@ fn every_kernel_gives_the_general_paths_bits() {
 
 #[test]
 fn a_grids_interior_runs_in_lanes() {
-    let mut be = CpuBackend::new(cloth(80, 64), Integrator::SemiImplicit, 1e-4);
-    be.set_kernel(Some(Kernel::Sse2));
+    let mut be = CpuBackend::new(cloth(80, 64), Step::new(Integrator::SemiImplicit, 1e-4));
+    be.set_simd(Some(Simd::Sse2));
     let share = be.lane_share().unwrap_or(0.0);
     // In every row the masses of columns 2..78 (of 80) share a stencil (edge rows too: theirs
     // lacks the springs beyond the edge, the same for the whole row); two columns at each side
@@ -166,24 +166,24 @@ fn a_grids_interior_runs_in_lanes() {
 fn the_fused_step_serves_only_what_it_computes_exactly() {
     let jello = built_in("jello");
     assert!(
-        CpuBackend::new(jello, Integrator::SemiImplicit, 1e-4)
-            .kernel()
+        CpuBackend::new(jello, Step::new(Integrator::SemiImplicit, 1e-4))
+            .simd()
             .is_none()
     );
     let c = cloth(10, 10);
     assert!(
-        CpuBackend::new(c.clone(), Integrator::Rk4, 1e-4)
-            .kernel()
+        CpuBackend::new(c.clone(), Step::new(Integrator::Rk4, 1e-4))
+            .simd()
             .is_none()
     );
     assert!(
-        CpuBackend::new(c.clone(), Integrator::Xpbd, 1e-4)
-            .kernel()
+        CpuBackend::new(c.clone(), Step::new(Integrator::Xpbd, 1e-4))
+            .simd()
             .is_none()
     );
     assert_eq!(
-        CpuBackend::new(c, Integrator::SemiImplicit, 1e-4).kernel(),
-        Some(Kernel::Best.resolve())
+        CpuBackend::new(c, Step::new(Integrator::SemiImplicit, 1e-4)).simd(),
+        Some(Simd::Best.resolve())
     );
 }
 
@@ -246,7 +246,7 @@ fn the_fused_step_is_the_same_on_one_thread_and_two() {
                 &model,
                 Integrator::SemiImplicit,
                 2e-4,
-                Some(Kernel::Best),
+                Some(Simd::Best),
             ))
         })
     };

@@ -2,147 +2,21 @@
 //! bit-for-bit determinism, and clear errors. On CI (HOOKE_REQUIRE_ADAPTER=1, Mesa lavapipe) a
 //! missing adapter fails these tests; on a developer machine without one they skip, saying so.
 
+mod common;
+
 use std::sync::Arc;
 
+use common::parity::{assert_parity, parity_dt, run_both, run_both_with};
+use common::{gpu_available, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
-use hooke::gpu::{GpuBackend, REQUIRE_ADAPTER_ENV};
-use hooke::integrator::{Integrator, StepOptions};
-use hooke::model::Model;
+use hooke::gpu::GpuBackend;
+use hooke::integrator::{Integrator, Step, StepOptions};
 use hooke::state::State;
-
-fn have_adapter() -> bool {
-    if !hooke::gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var(REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!(
-            "no GPU adapter, and {REQUIRE_ADAPTER_ENV}=1: install mesa-vulkan-drivers (lavapipe)"
-        );
-    }
-    eprintln!(
-        "SKIPPED: no GPU adapter on this machine (set {REQUIRE_ADAPTER_ENV}=1 to make this a failure)"
-    );
-    false
-}
-
-fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
-    r.unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn scene_model(name: &str) -> (Arc<Model>, f64) {
-    let loaded = ok(hooke::scene::load(name));
-    let settings = ok(hooke::settings::Settings::resolve(
-        &loaded.scene,
-        &Default::default(),
-    ));
-    (
-        Arc::new(hooke::model::build(&loaded.scene)),
-        settings.dt_secs,
-    )
-}
-
-/// Each integrator at the scene's dt, or at half its estimated stable dt where that is smaller
-/// (explicit Euler and RK2 need far smaller steps than the scenes use).
-fn parity_dt(model: &Model, scene_dt: f64, integrator: Integrator) -> f64 {
-    let limit = hooke::stability::stable_dts(model)
-        .into_iter()
-        .find(|(i, _)| *i == integrator)
-        .and_then(|l| l.1);
-    match limit {
-        Some(l) => scene_dt.min(0.5 * l),
-        None => scene_dt / 20.0,
-    }
-}
-
-fn run_both(
-    model: &Arc<Model>,
-    integrator: Integrator,
-    dt: f64,
-    frames: u32,
-    substeps: u32,
-) -> (State, State, f64) {
-    run_both_with(
-        model,
-        integrator,
-        dt,
-        (frames, substeps),
-        StepOptions::default(),
-    )
-}
-
-fn run_both_with(
-    model: &Arc<Model>,
-    integrator: Integrator,
-    dt: f64,
-    (frames, substeps): (u32, u32),
-    options: StepOptions,
-) -> (State, State, f64) {
-    let mut cpu = CpuBackend::with_options(model.clone(), integrator, dt, options);
-    let mut gpu = ok(GpuBackend::with_options(
-        model.clone(),
-        (integrator, dt, options),
-        None,
-    ));
-    let mut worst = 0.0f64;
-    for _ in 0..frames {
-        ok(cpu.advance(substeps));
-        ok(gpu.advance(substeps));
-        let (c, g) = (
-            ok(cpu.snapshot(0, Default::default())),
-            ok(gpu.snapshot(0, Default::default())),
-        );
-        for (a, b) in c.positions.iter().zip(&g.positions) {
-            worst = worst.max(f64::from(a.distance(*b)));
-        }
-    }
-    (ok(cpu.state()), ok(gpu.state()), worst)
-}
-
-/// Stated tolerance. Mesa lavapipe reproduces the CPU bit for bit (both evaluate the same f32
-/// operations in the same order); a GPU that fuses multiply-adds differs by rounding, which this
-/// allows for over a few hundred steps.
-const PARITY_X_M: f64 = 1e-5;
-const PARITY_V_M_PER_S: f64 = 1e-3;
-
-fn assert_parity(what: &str, c: &State, g: &State, worst_x: f64) {
-    let worst_v =
-        c.v.iter()
-            .zip(&g.v)
-            .map(|(a, b)| f64::from(a.distance(*b)))
-            .fold(0.0, f64::max);
-    assert!(
-        worst_x <= PARITY_X_M,
-        "{what}: GPU positions differ from the CPU by {worst_x:.3e} m"
-    );
-    assert!(
-        worst_v <= PARITY_V_M_PER_S,
-        "{what}: GPU velocities differ from the CPU by {worst_v:.3e} m/s"
-    );
-    // Ledgers: per-mass f32 on the GPU, per-chunk f64 on the CPU.
-    let (lc, lg) = (c.ledger.dissipated_j(), g.ledger.dissipated_j());
-    assert!(
-        (lc - lg).abs() <= 1e-4 * lc.abs().max(1e-3),
-        "{what}: dissipated {lc} J on CPU, {lg} J on GPU"
-    );
-    let (wc, wg) = (c.ledger.collider_work_j, g.ledger.collider_work_j);
-    assert!(
-        (wc - wg).abs() <= 1e-4 * wc.abs().max(1e-3),
-        "{what}: collider work {wc} J on CPU, {wg} J on GPU"
-    );
-    println!(
-        "{what}: |Δx| {worst_x:.2e} m, |Δv| {worst_v:.2e} m/s{}",
-        if worst_x == 0.0 && worst_v == 0.0 {
-            " (bit-identical)"
-        } else {
-            ""
-        }
-    );
-}
 
 #[test]
 fn gpu_matches_cpu_for_every_built_in_scene_and_integrator() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     for b in hooke::scene::BUILT_IN {
@@ -183,7 +57,7 @@ fn gpu_matches_cpu_for_every_built_in_scene_and_integrator() {
 /// the explicit integrators (on lavapipe: bit-identical). Several sweeps per substep, too.
 #[test]
 fn gpu_xpbd_matches_the_cpu_for_every_built_in_scene() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     for b in hooke::scene::BUILT_IN {
@@ -214,7 +88,7 @@ fn gpu_xpbd_matches_the_cpu_for_every_built_in_scene() {
 
 #[test]
 fn gpu_matches_cpu_through_a_moving_sphere_impact() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     // 0.6 s of jello-sphere: the sphere reaches the cube at about 0.3 s and shoves it.
@@ -230,12 +104,16 @@ fn gpu_matches_cpu_through_a_moving_sphere_impact() {
 
 #[test]
 fn gpu_energies_match_the_cpu() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("cloth");
-    let mut cpu = CpuBackend::new(model.clone(), Integrator::Rk4, dt);
-    let mut gpu = ok(GpuBackend::new(model.clone(), Integrator::Rk4, dt, None));
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::Rk4, dt));
+    let mut gpu = ok(GpuBackend::new(
+        model.clone(),
+        Step::new(Integrator::Rk4, dt),
+        None,
+    ));
     for _ in 0..20 {
         ok(cpu.advance(30));
         ok(gpu.advance(30));
@@ -269,12 +147,16 @@ fn gpu_energies_match_the_cpu() {
 
 #[test]
 fn gpu_runs_are_bit_identical() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("jello-sphere");
     let run = || {
-        let mut gpu = ok(GpuBackend::new(model.clone(), Integrator::Rk4, dt, None));
+        let mut gpu = ok(GpuBackend::new(
+            model.clone(),
+            Step::new(Integrator::Rk4, dt),
+            None,
+        ));
         for _ in 0..15 {
             ok(gpu.advance(40));
         }
@@ -291,11 +173,15 @@ fn gpu_runs_are_bit_identical() {
 
 #[test]
 fn an_unknown_adapter_name_is_a_clear_error() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("hair");
-    let err = match GpuBackend::new(model, Integrator::SemiImplicit, dt, Some("no-such-gpu-xyz")) {
+    let err = match GpuBackend::new(
+        model,
+        Step::new(Integrator::SemiImplicit, dt),
+        Some("no-such-gpu-xyz"),
+    ) {
         Ok(_) => panic!("accepted an unknown adapter"),
         Err(e) => e.to_string(),
     };
@@ -308,7 +194,7 @@ fn an_unknown_adapter_name_is_a_clear_error() {
 
 #[test]
 fn hooke_run_uses_the_gpu_by_default_and_records() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let path = std::env::temp_dir().join(format!("hooke-gpu-run-{}.rrd", std::process::id()));
@@ -338,13 +224,17 @@ fn hooke_run_uses_the_gpu_by_default_and_records() {
 
 #[test]
 fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     use hooke::backend::BackendError;
     // The hair scene under forward Euler at its own dt, 19 times its stable step.
     let (model, dt) = scene_model("hair");
-    let mut be = ok(GpuBackend::new(model, Integrator::Euler, dt, None));
+    let mut be = ok(GpuBackend::new(
+        model,
+        Step::new(Integrator::Euler, dt),
+        None,
+    ));
     let (tx, rx) = crossbeam_channel::unbounded();
     let out = hooke::sim::simulate(
         &mut be,
@@ -376,7 +266,7 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
     };
     // The GPU names the first bad step, as the CPU's per-step check does (bit-identical on
     // lavapipe; within 1% where a GPU fuses multiply-adds).
-    let mut cpu = CpuBackend::new(scene_model("hair").0, Integrator::Euler, dt);
+    let mut cpu = CpuBackend::new(scene_model("hair").0, Step::new(Integrator::Euler, dt));
     let cpu_step = loop {
         match cpu.advance(20) {
             Ok(_) => continue,
@@ -393,7 +283,7 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
 
 #[test]
 fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let limits = hooke::gpu::adapters()[0].limits();
@@ -418,7 +308,7 @@ fn a_scene_beyond_the_adapters_limits_is_refused_with_the_numbers() {
         );
     }
     let model = Arc::new(mb.build());
-    let err = match GpuBackend::new(model, Integrator::SemiImplicit, 1e-3, None) {
+    let err = match GpuBackend::new(model, Step::new(Integrator::SemiImplicit, 1e-3), None) {
         Ok(_) => panic!("a scene over the limit was accepted"),
         Err(e) => e.to_string(),
     };
@@ -480,12 +370,16 @@ impl hooke::backend::Backend for LosesDevice {
 /// every frame produced before the loss reaches the recorder, in order.
 #[test]
 fn a_lost_device_ends_the_run_clearly_and_keeps_the_frames_before_it() {
-    if !have_adapter() {
+    if !gpu_available() {
         return;
     }
     let (model, dt) = scene_model("hair");
     let mut be = LosesDevice {
-        gpu: ok(GpuBackend::new(model, Integrator::SemiImplicit, dt, None)),
+        gpu: ok(GpuBackend::new(
+            model,
+            Step::new(Integrator::SemiImplicit, dt),
+            None,
+        )),
         at: 8,
         requested: 0,
         lost: false,
@@ -503,9 +397,10 @@ fn a_lost_device_ends_the_run_clearly_and_keeps_the_frames_before_it() {
     );
     drop(tx);
     let frames: Vec<u64> = rx.iter().map(|s| s.frame).collect();
-    let Some(hooke::backend::BackendError::Device(msg)) = out.failed else {
+    let Some(hooke::backend::BackendError::Device(e)) = out.failed else {
         panic!("expected a device error, got {:?}", out.failed);
     };
+    let msg = e.to_string();
     assert!(
         msg.contains("device was destroyed") && msg.contains("--backend cpu"),
         "{msg}"

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use common::{gpu_available, model_of, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::gpu::{ExplicitPath, GpuBackend, ImplicitPath};
-use hooke::integrator::{Integrator, StepOptions};
+use hooke::integrator::{Integrator, Step};
 use hooke::model::Model;
 use hooke::state::State;
 
@@ -31,7 +31,7 @@ const SUBMISSIONS: [u32; 6] = [1, 3, 2, 5, 4, 7];
 fn run(model: &Arc<Model>, integrator: Integrator, dt: f64, path: ExplicitPath) -> (State, u32) {
     let mut gpu = ok(GpuBackend::with_paths(
         model.clone(),
-        (integrator, dt, StepOptions::default()),
+        Step::new(integrator, dt),
         None,
         (ImplicitPath::Passes, path),
     ));

@@ -8,7 +8,7 @@ use common::{gpu_available as have_adapter, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
-use hooke::integrator::{Integrator, StepOptions};
+use hooke::integrator::{Integrator, Step};
 
 /// Implicit Euler on the GPU against the CPU, at one step per frame. Both stop their solves at the
 /// same relative residual (1e-4), but their dot products round differently (f32 per workgroup,
@@ -58,7 +58,7 @@ fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
         let start = |m| {
             ok(GpuBackend::with_paths(
                 m,
-                (Integrator::Implicit, dt, StepOptions::default()),
+                Step::new(Integrator::Implicit, dt),
                 None,
                 (ImplicitPath::Passes, ExplicitPath::Fused),
             ))
@@ -66,7 +66,7 @@ fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
         let (mut roomy, mut tight) = (start(model.clone()), start(model));
         let starved = ImplicitBudgets {
             newton: 1,
-            cg: [1; hooke::cpu::NEWTON_MAX_ITERATIONS as usize],
+            cg: [1; hooke::physics::NEWTON_MAX_ITERATIONS as usize],
         };
         for frame in 1..=6 {
             tight.set_implicit_budgets(starved);
@@ -140,10 +140,10 @@ fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() 
 fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
     let (model, _) = scene_model(name);
     let dt = 1.0 / 60.0;
-    let mut cpu = CpuBackend::new(model.clone(), Integrator::Implicit, dt);
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::Implicit, dt));
     let mut gpu = ok(GpuBackend::with_paths(
         model.clone(),
-        (Integrator::Implicit, dt, StepOptions::default()),
+        Step::new(Integrator::Implicit, dt),
         None,
         (path, hooke::gpu::ExplicitPath::Fused),
     ));
@@ -155,7 +155,7 @@ fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
         let sg = ok(gpu.snapshot(frame, sg)).stats;
         for (what, s) in [("cpu", sc), ("gpu", sg)] {
             assert!(
-                s.solver_iterations > 0 && s.solver_residual <= hooke::cpu::CG_TOLERANCE,
+                s.solver_iterations > 0 && s.solver_residual <= hooke::physics::CG_TOLERANCE,
                 "{name} {path:?} frame {frame} {what}: {} iterations, residual {}",
                 s.solver_iterations,
                 s.solver_residual

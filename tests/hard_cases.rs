@@ -13,7 +13,7 @@ use common::{gpu_available, ok};
 
 use glam::Vec3;
 use hooke::backend::Backend;
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
 use hooke::select::BackendKind;
 
@@ -62,8 +62,7 @@ fn survive(
     let mut be: Box<dyn Backend> = ok(hooke::select::create(
         kind,
         model.clone(),
-        integrator,
-        dt,
+        Step::new(integrator, dt),
         None,
     ));
     let first = ok(be.snapshot(0, Default::default()));
@@ -345,12 +344,9 @@ fn a_cube_compressed_to_near_inversion_springs_back_without_blowing_up() {
 
 #[test]
 fn a_long_run_stays_finite_and_bounded() {
-    let loaded = ok(hooke::scene::load("hair"));
-    let settings = ok(hooke::settings::Settings::resolve(
-        &loaded.scene,
-        &Default::default(),
-    ));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = ok(hooke::prepare::planned("hair"));
     for kind in backends() {
         // One simulated hour on the CPU (4,320,000 steps of 1/1200 s); 100,000 steps on a
         // software GPU.
@@ -410,8 +406,7 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
         let mut be = ok(hooke::select::create(
             kind,
             model.clone(),
-            Integrator::Implicit,
-            dt,
+            Step::new(Integrator::Implicit, dt),
             None,
         ));
         let e0 = ok(be.snapshot(0, Default::default())).energies.total_j();
@@ -423,7 +418,7 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
             let s = ok(be.snapshot(frame, stats));
             assert!(
                 s.stats.solver_iterations > 0
-                    && s.stats.solver_residual <= hooke::cpu::CG_TOLERANCE,
+                    && s.stats.solver_residual <= hooke::physics::CG_TOLERANCE,
                 "{kind:?}, frame {frame}: {} iterations, residual {}",
                 s.stats.solver_iterations,
                 s.stats.solver_residual

@@ -4,6 +4,7 @@
 
 mod common;
 
+use hooke::integrator::Step;
 use std::path::Path;
 use std::process::Stdio;
 use std::sync::Arc;
@@ -236,8 +237,7 @@ fn chunked_frames_step_exactly_like_whole_ones() {
             let mut be = hooke::select::create(
                 kind,
                 model.clone(),
-                hooke::integrator::Integrator::Rk4,
-                1.0 / 2400.0,
+                Step::new(hooke::integrator::Integrator::Rk4, 1.0 / 2400.0),
                 None,
             )
             .unwrap_or_else(|e| panic!("{e}"));

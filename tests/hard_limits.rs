@@ -18,7 +18,7 @@ use common::{gpu_available, model_of, ok};
 
 use glam::Vec3;
 use hooke::backend::{Backend, BackendError};
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
 use hooke::select::BackendKind;
 use hooke::stability::{Limit, Modes, Source, stable_step};
@@ -95,8 +95,7 @@ fn run_checked(
     let mut be: Box<dyn Backend> = ok(hooke::select::create(
         kind,
         model.clone(),
-        Integrator::SemiImplicit,
-        dt,
+        Step::new(Integrator::SemiImplicit, dt),
         None,
     ));
     let first = ok(be.snapshot(0, Default::default()));

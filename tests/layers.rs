@@ -204,41 +204,98 @@ fn modules_import_one_way() {
     }
 }
 
+/// `code` with each chain of exactly `depth` `super::` marked `§::` and every other chain cut,
+/// so that `referenced(…, "§::")` names what those chains reach.
+fn chains_of(code: &str, depth: usize) -> String {
+    let mut out = String::with_capacity(code.len());
+    let mut rest = code;
+    while let Some(at) = rest.find("super::") {
+        out.push_str(&rest[..at]);
+        let mut tail = &rest[at..];
+        let mut chain = 0;
+        while let Some(t) = tail.strip_prefix("super::") {
+            chain += 1;
+            tail = t;
+        }
+        if chain == depth {
+            out.push_str("§::");
+        }
+        rest = tail;
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The files (by stem) and folders (by name) of `folder`, each with what it reaches among its
+/// siblings: a file through `super::`, a folder's files through `super::super::` (its mod.rs
+/// through `super::`).
+fn units(folder: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let mut out = BTreeMap::new();
+    for path in std::fs::read_dir(folder)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+    {
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if path.extension().is_some_and(|e| e == "rs") {
+            let uses = referenced(&chains_of(&seen_from_file(&code(&path)), 1), "§::");
+            out.insert(name, uses);
+        } else if path.join("mod.rs").is_file() {
+            let mut uses = BTreeSet::new();
+            for file in rust_files(&path) {
+                let depth = if file.ends_with("mod.rs") { 1 } else { 2 };
+                let seen = seen_from_file(&code(&file));
+                uses.extend(referenced(&chains_of(&seen, depth), "§::"));
+            }
+            out.insert(name, uses);
+        }
+    }
+    out
+}
+
+/// Every folder of `src/` with a mod.rs, nested ones included.
+fn folders(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for path in std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("mod.rs").is_file())
+    {
+        out.extend(folders(&path));
+        out.push(path);
+    }
+    out
+}
+
 #[test]
 fn files_of_a_folder_import_one_way() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let folders = std::fs::read_dir(&src)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.join("mod.rs").is_file());
-    for folder in folders {
-        let files: BTreeMap<String, String> = std::fs::read_dir(&folder)
-            .unwrap_or_else(|e| panic!("{e}"))
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "rs"))
-            .map(|p| {
-                let name = p.file_stem().map(|s| s.to_string_lossy().into_owned());
-                (name.unwrap_or_default(), code(&p))
-            })
-            .collect();
+    let all = folders(&src);
+    assert!(
+        all.iter().any(|f| f.ends_with("gpu/implicit")),
+        "nested folders are checked too"
+    );
+    for folder in all {
+        let units = units(&folder);
         let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-        for (name, code) in &files {
-            let mut uses = referenced(&seen_from_file(code), "super::");
-            if name == "mod" {
-                uses = files.keys().filter(|f| *f != "mod").cloned().collect();
-            }
-            // `super::Item` names an item of mod.rs itself.
-            let uses = uses
-                .into_iter()
-                .map(|u| {
-                    if files.contains_key(&u) {
-                        u
-                    } else {
-                        "mod".to_owned()
-                    }
-                })
-                .filter(|u| u != name)
-                .collect();
+        for (name, uses) in &units {
+            let uses = if name == "mod" {
+                units.keys().filter(|f| *f != "mod").cloned().collect()
+            } else {
+                // `super::Item` names an item of mod.rs itself.
+                uses.iter()
+                    .map(|u| {
+                        if units.contains_key(u) {
+                            u.clone()
+                        } else {
+                            "mod".to_owned()
+                        }
+                    })
+                    .filter(|u| u != name)
+                    .collect()
+            };
             graph.insert(name.clone(), uses);
         }
         if let Some(c) = cycle(&graph) {
@@ -246,6 +303,24 @@ fn files_of_a_folder_import_one_way() {
                 "files of {} import each other in a circle: {}",
                 folder.display(),
                 c.join(" -> ")
+            );
+        }
+    }
+}
+
+/// The two backends compute from the same physics core (`src/physics/`) and neither imports the
+/// other: what both need lives below them, and the check that every GPU kernel has a CPU
+/// namesake (`src/twins.rs`) sits above both.
+#[test]
+fn backends_import_nothing_from_each_other() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    for (backend, other) in [("gpu", "cpu"), ("cpu", "gpu")] {
+        for file in rust_files(&src.join(backend)) {
+            let uses = referenced(&code(&file), "crate::");
+            assert!(
+                !uses.contains(other),
+                "{} uses crate::{other}: move what both backends need to src/physics/",
+                file.display()
             );
         }
     }

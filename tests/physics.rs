@@ -11,12 +11,12 @@ use common::{G, gravity};
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{ContactModel, Effects, GroundCollider, Model, ModelBuilder, SpringKindTag};
 use hooke::state::State;
 
 fn run(model: &Arc<Model>, integrator: Integrator, dt: f64, steps: u64) -> State {
-    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
     let mut left = steps;
     while left > 0 {
         let n = left.min(10_000) as u32;
@@ -89,7 +89,7 @@ fn trace(
     steps: u64,
     observe: impl Fn(&State) -> f64,
 ) -> Vec<(f64, f64)> {
-    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
     let mut out = Vec::with_capacity(steps as usize);
     for _ in 0..steps {
         be.advance(1).unwrap_or_else(|d| panic!("{d}"));
@@ -379,7 +379,7 @@ fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
     let model = oscillator();
     for (dt, expect_divergence) in [(1e-3, false), (0.05, true)] {
         // Forward Euler grows by √(1 + (ωdt)²) a step: at ωdt ≈ 0.31 it runs away after ~20 frames.
-        let mut be = CpuBackend::new(model.clone(), Integrator::Euler, dt);
+        let mut be = CpuBackend::new(model.clone(), Step::new(Integrator::Euler, dt));
         let (tx, rx) = crossbeam_channel::unbounded();
         let out = simulate(
             &mut be,

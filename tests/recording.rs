@@ -5,8 +5,8 @@
 
 mod common;
 
+use hooke::integrator::Step;
 use std::collections::{BTreeMap, HashSet};
-use std::sync::Arc;
 
 use common::record::{Rows, at_frame, read_components, record, stepped};
 use common::temp_dir;
@@ -182,11 +182,15 @@ fn a_sheet_and_a_block_record_their_surface_with_the_snapshot_positions_and_stra
 #[test]
 fn a_torn_spring_removes_its_triangles_from_the_surface() {
     // tear: the sphere breaks the cloth's springs within its first second.
-    let loaded = hooke::scene::load("tear").unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
-    let mut be = hooke::cpu::CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
+    let hooke::prepare::Planned {
+        loaded,
+        settings,
+        model,
+    } = hooke::prepare::planned("tear").unwrap_or_else(|e| panic!("{e}"));
+    let mut be = hooke::cpu::CpuBackend::new(
+        model.clone(),
+        Step::new(settings.integrator, settings.dt_secs),
+    );
     let mut snaps = vec![
         be.snapshot(0, Default::default())
             .unwrap_or_else(|e| panic!("{e}")),
@@ -249,7 +253,7 @@ fn hovering_a_spring_reads_the_snapshot_strain_kind_and_rest_length() {
     let path = dir.join("jello.rrd");
     let all = RecordOptions {
         springs: Some(SpringSelection::All),
-        masses: false,
+        ..RecordOptions::default()
     };
     record(&loaded, &model, &snaps, all, &path);
     let c = read_components(&path);

@@ -5,8 +5,8 @@
 
 mod common;
 
+use hooke::integrator::Step;
 use std::collections::BTreeSet;
-use std::sync::Arc;
 
 use common::record::{at_frame, read_components, record, stepped};
 use common::{hooke, save_cpu_run, temp_dir};
@@ -46,7 +46,7 @@ fn springs_none_logs_no_lines_and_structural_only_the_structural_springs() {
     let path = dir.join("cloth.rrd");
     let opts = RecordOptions {
         springs: Some(SpringSelection::Structural),
-        masses: false,
+        ..RecordOptions::default()
     };
     record(&loaded, &model, &snaps, opts, &path);
     let c = read_components(&path);
@@ -82,14 +82,12 @@ fn a_large_sheet_leaves_its_springs_out_by_default_and_masses_are_on_demand() {
 
 #[test]
 fn realtime_never_delivers_a_frame_before_its_time() {
-    let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
+    let hooke::prepare::Planned {
+        settings, model, ..
+    } = hooke::prepare::planned("hair").unwrap_or_else(|e| panic!("{e}"));
     let be = Box::new(hooke::cpu::CpuBackend::new(
         model,
-        settings.integrator,
-        settings.dt_secs,
+        Step::new(settings.integrator, settings.dt_secs),
     ));
     let pacer = hooke::pacing::Pacer::start(settings.frame_rate_hz);
     let mut paced = hooke::pacing::Paced::new(be, pacer);

@@ -8,6 +8,7 @@
 
 mod common;
 
+use hooke::integrator::Step;
 use std::io::{Read as _, Write as _};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
@@ -242,8 +243,7 @@ fn a_slow_viewer_never_stalls_the_simulation_and_a_file_drops_nothing() {
     for delivery in [Delivery::DropWhenBusy, Delivery::Lossless] {
         let mut be = hooke::cpu::CpuBackend::new(
             model.clone(),
-            hooke::integrator::Integrator::SemiImplicit,
-            1e-3,
+            Step::new(hooke::integrator::Integrator::SemiImplicit, 1e-3),
         );
         let (tx, rx) = crossbeam_channel::bounded::<hooke::state::Snapshot>(2);
         // The "viewer": takes a frame every 5 ms, far slower than the simulation.

@@ -13,7 +13,7 @@ use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
-use hooke::integrator::Integrator;
+use hooke::integrator::{Integrator, Step};
 use hooke::model::{
     ContactModel, Effects, MassContact, Model, ModelBuilder, damping_ratio_for_restitution,
 };
@@ -68,7 +68,7 @@ struct Track {
 }
 
 fn track(model: &Arc<Model>, integrator: Integrator, dt: f64, steps: u32) -> Track {
-    let mut be = CpuBackend::new(model.clone(), integrator, dt);
+    let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
     let e0 = ok(be.snapshot(0, Default::default())).energies.balance_j();
     let mut t = Track {
         min_distance_m: f32::INFINITY,
@@ -219,7 +219,7 @@ fn the_folding_cloth_never_lets_two_masses_meet() {
     let (model, dt) = scene_model("cloth-fold");
     let radius = model.effects.self_collision.map_or(0.0, |c| c.radius_m);
     assert!(radius > 0.0, "cloth-fold has no self_collision");
-    let mut be = CpuBackend::new(model.clone(), Integrator::SemiImplicit, dt);
+    let mut be = CpuBackend::new(model.clone(), Step::new(Integrator::SemiImplicit, dt));
     let substeps = (1.0 / (60.0 * dt)).round() as u32;
     let mut closest = (f32::INFINITY, 0, 0, 0);
     for frame in 1..=90 {
@@ -274,8 +274,12 @@ fn run_both(
     frames: u32,
     substeps: u32,
 ) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
-    let mut cpu = CpuBackend::new(model.clone(), integrator, dt);
-    let mut gpu = ok(GpuBackend::new(model.clone(), integrator, dt, None));
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
+    let mut gpu = ok(GpuBackend::new(
+        model.clone(),
+        Step::new(integrator, dt),
+        None,
+    ));
     let mut worst = 0.0f64;
     let mut last = None;
     for frame in 0..frames {
@@ -360,12 +364,11 @@ fn gpu_contact_energy_matches_the_cpu_mid_impact() {
         return;
     }
     let (model, dt) = scene_model("pile");
-    let mut cpu = CpuBackend::new(model.clone(), Integrator::SemiImplicit, dt);
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::SemiImplicit, dt));
     let mut best = (0.0f64, 0.0f64);
     let mut gpu = ok(GpuBackend::new(
         model.clone(),
-        Integrator::SemiImplicit,
-        dt,
+        Step::new(Integrator::SemiImplicit, dt),
         None,
     ));
     for frame in 0..30 {
@@ -405,8 +408,7 @@ fn gpu_runs_with_mass_contact_are_bit_identical() {
     let run = || {
         let mut gpu = ok(GpuBackend::new(
             model.clone(),
-            Integrator::SemiImplicit,
-            dt,
+            Step::new(Integrator::SemiImplicit, dt),
             None,
         ));
         for _ in 0..25 {
@@ -468,13 +470,12 @@ fn gpu_hash_grid_equals_the_cpu_grid() {
     }
     for (n, extent, radius) in [(1000usize, 0.5f32, 0.02f32), (40_000, 1.5, 0.01)] {
         let model = cloud_model(n, extent, radius, n as u64);
-        let table = hooke::cpu::table_size(n);
+        let table = hooke::physics::table_size(n);
         let mut cpu = hooke::cpu::MassGrid::new(n, radius);
         cpu.build(&model.initial.x);
         let mut gpu = ok(GpuBackend::new(
             model.clone(),
-            Integrator::SemiImplicit,
-            1e-3,
+            Step::new(Integrator::SemiImplicit, 1e-3),
             None,
         ));
         let Some(hooke::gpu::GridReadBack {
@@ -501,7 +502,7 @@ fn gpu_hash_grid_equals_the_cpu_grid() {
         assert_eq!(sorted, cpu.sorted, "{n} masses: sorted masses differ");
         println!(
             "{n} masses: {table} buckets ({} scan blocks), {crowded} holding several masses: GPU grid = CPU grid",
-            table / hooke::cpu::SCAN_BLOCK
+            table / hooke::physics::SCAN_BLOCK
         );
     }
 }

@@ -2,12 +2,14 @@
 //! with the host (`src/gpu/layout.rs`) have the WGSL's layout; and the kernel table
 //! (`src/gpu/kernels.rs`) matches the WGSL and the CPU backend: every compute entry point is in
 //! the table and every row is in the WGSL, in the file the row names; every CPU namesake the
-//! table names is a function of that name in `src/cpu/`; and each WGSL file's bind group 0 has
-//! the bindings the table's group declares.
+//! table names is a function of that name in `src/cpu/`; every program binds what the bind
+//! group table (`src/gpu/bindings.rs`) declares and no WGSL file declares a binding of its own;
+//! and every library a program imports finds there the bindings and functions it names.
 
 use std::collections::BTreeSet;
 
-use hooke::gpu::kernels::{Slot, Twin, table};
+use hooke::gpu::bindings::Slot;
+use hooke::gpu::kernels::{Twin, table};
 
 fn parse(name: &str, src: &str) -> naga::Module {
     naga::front::wgsl::parse_str(src)
@@ -264,14 +266,20 @@ fn every_cpu_namesake_exists_and_shares_its_kernels_name() {
 }
 
 #[test]
-fn each_wgsl_files_bind_group_0_is_its_kernels_group() {
-    for (file, src) in hooke::gpu::programs() {
-        let module = parse(file, &src);
-        let mut declared: Vec<(u32, Slot)> = module
+fn every_program_binds_what_the_table_declares_and_no_wgsl_file_declares_a_binding() {
+    use hooke::gpu::programs::Program;
+    for p in Program::ALL {
+        let (file, src) = (p.file(), hooke::gpu::programs::Program::text(p));
+        assert!(
+            !src.contains("@group(") && !src.contains("@binding("),
+            "{file} declares a binding: bind groups are declared once, in src/gpu/bindings.rs"
+        );
+        let module = parse(file, &hooke::gpu::programs()[p as usize].1);
+        let mut declared: Vec<(u32, u32, String, Slot)> = module
             .global_variables
             .iter()
             .filter_map(|(_, g)| {
-                let b = g.binding.as_ref().filter(|b| b.group == 0)?;
+                let b = g.binding.as_ref()?;
                 let slot = match g.space {
                     naga::AddressSpace::Uniform => Slot::Uniform,
                     naga::AddressSpace::Storage { access }
@@ -281,40 +289,61 @@ fn each_wgsl_files_bind_group_0_is_its_kernels_group() {
                     }
                     _ => Slot::Read,
                 };
-                Some((b.binding, slot))
+                Some((b.group, b.binding, g.name.clone()?, slot))
             })
             .collect();
-        declared.sort_by_key(|(b, _)| *b);
-        // A file's kernels share one group 0, or (fused.wgsl) groups each of which is the one
-        // before with bindings added: each is a prefix of the declarations, the largest all.
-        let mut groups: Vec<hooke::gpu::kernels::Group> = table()
-            .iter()
-            .filter(|s| s.program.file() == file)
-            .map(|s| s.group)
+        declared.sort_by_key(|(g, b, _, _)| (*g, *b));
+        let mut expected: Vec<(u32, u32, String, Slot)> = hooke::gpu::program_groups(p)
+            .into_iter()
+            .flat_map(|g| {
+                g.bindings()
+                    .into_iter()
+                    .enumerate()
+                    .map(move |(i, b)| (g.index(), i as u32, b.name.to_owned(), b.slot))
+            })
             .collect();
-        groups.dedup();
-        groups.sort_by_key(|g| g.slots().len());
-        assert!(!groups.is_empty(), "{file}: no kernel");
-        for (k, g) in groups.iter().enumerate() {
-            let expected: Vec<(u32, Slot)> = g
-                .slots()
-                .iter()
-                .enumerate()
-                .map(|(i, s)| (i as u32, *s))
-                .collect();
-            let declared_part = &declared[..expected.len().min(declared.len())];
+        expected.sort_by_key(|(g, b, _, _)| (*g, *b));
+        assert_eq!(declared, expected, "{file}");
+        // Every kernel's own group 0 is the start of the program's: a kernel binds a prefix.
+        let program_group0 = hooke::gpu::program_groups(p)[0].bindings();
+        for s in table().iter().filter(|s| s.program == p) {
+            let own = s.group.bindings();
             assert_eq!(
-                declared_part,
-                &expected[..],
-                "{file}: group 0 against {g:?}"
+                own[..],
+                program_group0[..own.len()],
+                "{file}: {}'s group {:?}",
+                s.entry,
+                s.group
             );
-            if k + 1 == groups.len() {
-                assert_eq!(
-                    declared.len(),
-                    expected.len(),
-                    "{file}: group 0 against {g:?}"
-                );
-            }
         }
     }
+}
+
+#[test]
+fn every_library_a_program_imports_finds_its_bindings_and_functions_there() {
+    use hooke::gpu::programs::Program;
+    let missing: Vec<String> = Program::ALL
+        .into_iter()
+        .flat_map(hooke::gpu::missing)
+        .collect();
+    assert!(missing.is_empty(), "{}", missing.join("\n"));
+    // The check can fail: a program without x_in, spring_end or a library is told so.
+    let unmet = hooke::gpu::unmet(
+        "test.wgsl",
+        ["mass_force", "no_such_library"].into_iter(),
+        &[
+            "params",
+            "offsets",
+            "colliders",
+            "mass",
+            "deriv",
+            "v_in",
+            "stage",
+        ],
+        "fn main() {}",
+    );
+    assert_eq!(unmet.len(), 3, "{unmet:?}");
+    assert!(unmet[0].contains("binding 'x_in'"), "{unmet:?}");
+    assert!(unmet[1].contains("spring_end()"), "{unmet:?}");
+    assert!(unmet[2].contains("no_such_library"), "{unmet:?}");
 }

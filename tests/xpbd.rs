@@ -10,14 +10,17 @@ use common::{hooke, model_of, ok, temp_dir, text};
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
-use hooke::integrator::{Integrator, StepOptions};
+use hooke::integrator::{Integrator, Step, StepOptions};
 use hooke::model::Model;
 
 fn positions_after(model: &Arc<Model>, dt: f64, duration: f64, iterations: u32) -> Vec<Vec3> {
     let options = StepOptions {
         xpbd_iterations: iterations,
     };
-    let mut be = CpuBackend::with_options(model.clone(), Integrator::Xpbd, dt, options);
+    let mut be = CpuBackend::new(
+        model.clone(),
+        Step::new(Integrator::Xpbd, dt).with_options(options),
+    );
     let steps = (duration / dt).round() as u64;
     ok(hooke::backend::advance_steps(&mut be, steps, 1000));
     ok(be.state()).x

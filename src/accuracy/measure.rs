@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use crate::backend::{self, BackendError};
 use crate::error::{Error, Result};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::prepare::{self, Request};
 use crate::reference::Reference;
@@ -48,7 +48,7 @@ fn run(
     steps: u64,
 ) -> std::result::Result<(RunEnd, String), BackendError> {
     // XPBD at its default of one iteration per substep: the chart's dial is the substep.
-    let mut be = device.create(model.clone(), integrator, dt, Default::default())?;
+    let mut be = device.create(model.clone(), Step::new(integrator, dt))?;
     let name = be.describe();
     let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
     let start = Instant::now();
@@ -76,9 +76,7 @@ pub fn accuracy(
     let (model, scene_dt) = (&planned.model, planned.settings.dt_secs);
     let duration = opts.duration_secs;
     if !(duration.is_finite() && duration > 0.0) {
-        return Err(Error::Settings(SettingsError(format!(
-            "--duration must be a positive number of seconds, got {duration}"
-        ))));
+        return Err(Error::Settings(SettingsError::Duration(duration)));
     }
     let ladder: Vec<f64> = (0..opts.points.max(2))
         .map(|k| {
@@ -136,12 +134,10 @@ pub fn accuracy(
     Ok(result)
 }
 
-/// Implicit Euler has no mass–mass contact (validation refuses the pair): no rows for it there.
+/// An integrator that cannot simulate the scene's effects (validation refuses the pair) gets no
+/// rows.
 fn supported(model: &Model, integrator: Integrator) -> bool {
-    match integrator {
-        Integrator::Implicit => model.effects.self_collision.is_none(),
-        _ => true,
-    }
+    integrator.supports(&model.effects).is_ok()
 }
 
 /// One run of `integrator` at `dt` over the whole duration, against its reference positions.

@@ -6,7 +6,6 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::integrator::Integrator;
-use crate::settings::SettingsError;
 
 use super::chart::svg;
 use super::results::{Accuracy, Found, Row};
@@ -140,8 +139,9 @@ fn csv(r: &Accuracy) -> String {
 }
 
 pub(super) fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
-    let io = |e: std::io::Error, p: &Path| {
-        Error::Settings(SettingsError(format!("cannot write {}: {e}", p.display())))
+    let io = |source: std::io::Error, p: &Path| Error::WriteOutput {
+        path: p.to_owned(),
+        source,
     };
     std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
     for (ext, text) in [("md", markdown(r)), ("csv", csv(r)), ("svg", svg(r))] {

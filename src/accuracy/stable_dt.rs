@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use crate::backend::{self, Backend, BackendError};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::select::Device;
 
@@ -51,7 +51,7 @@ pub fn is_stable_on(
     duration: f64,
 ) -> bool {
     let steps = (duration / dt).ceil() as u64;
-    let Ok(mut be) = device.create(model.clone(), integrator, dt, Default::default()) else {
+    let Ok(mut be) = device.create(model.clone(), Step::new(integrator, dt)) else {
         return false;
     };
     run_steps(be.as_mut(), steps).is_ok_and(|change| stayed_stable(change, energy_scale(model)))

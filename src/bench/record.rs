@@ -101,14 +101,7 @@ fn bench_frames(model: &Model, frame_rate_hz: f64, count: usize) -> Vec<crate::s
                     *x + glam::Vec3::new(0.3 * w, w, -0.2 * w) * amplitude
                 })
                 .collect();
-            let strain = model
-                .springs
-                .iter()
-                .map(|s| {
-                    let len = positions[s.a as usize].distance(positions[s.b as usize]);
-                    (len - s.rest_m) / s.rest_m
-                })
-                .collect();
+            let strain = model.springs.iter().map(|s| s.strain(&positions)).collect();
             crate::state::Snapshot {
                 frame: k as u64,
                 time_secs: k as f64 / frame_rate_hz,
@@ -211,8 +204,7 @@ impl Bench<'_> {
         let mut r = Recorder::new(
             rec.clone(),
             model.clone(),
-            loaded.scene.view.strain_range,
-            self.record,
+            self.record.for_scene(&loaded.scene),
         );
         r.log_static(
             &loaded.scene.name,

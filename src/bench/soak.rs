@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use crate::error::{RerunError, Result};
-use crate::prepare::{self, Prepared, Request};
+use crate::prepare::{self, Request};
 use crate::select::Device;
 use crate::settings::Overrides;
 
@@ -62,13 +62,9 @@ pub fn soak(
         },
         ..Request::named(scene_arg, device.clone())
     };
-    let Prepared {
-        loaded,
-        settings,
-        model,
-        backend: be,
-    } = prepare::prepare(&request, &mut |_| {})?;
-    let name = be.describe();
+    let prepared = prepare::prepare(&request, &mut |_| {})?;
+    let name = prepared.backend.describe();
+    let scene_name = prepared.loaded.scene.name.clone();
     let rec = rerun::RecordingStreamBuilder::new("hooke-soak")
         .buffered()
         .map_err(|e| crate::Error::rerun_while("starting the recording", RerunError::from(e)))?;
@@ -93,24 +89,16 @@ pub fn soak(
         delivery: crate::sim::Delivery::Lossless,
         progress: crate::progress::ProgressMode::Off,
         realtime: false,
-        record: crate::record::RecordOptions::default(),
+        record: crate::record::RecordOptions::default().for_scene(&prepared.loaded.scene),
         viewer: None,
         file: Some(file),
     };
-    let summary = crate::run::run(
-        &loaded,
-        model,
-        be,
-        &settings,
-        rec,
-        &opts,
-        Arc::new(AtomicBool::new(false)),
-    );
+    let summary = crate::run::run(prepared, rec, &opts, Arc::new(AtomicBool::new(false)));
     done.store(true, Ordering::Relaxed);
     let samples = sampler.join().unwrap_or_default();
     let summary = summary?;
     Ok(Soak {
-        scene: loaded.scene.name,
+        scene: scene_name,
         backend: name,
         sim_secs: summary.sim_time_secs,
         frames: summary.frames_recorded,

@@ -82,7 +82,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
             integrator: opts.integrator,
             ..Overrides::default()
         },
-        step: prepare::Step::AsGiven,
+        dt: prepare::DtChoice::AsGiven,
         device: opts.device.clone(),
     };
     // A benchmark has no one to tell about rounded steps or stability.
@@ -154,9 +154,9 @@ type Profile = (
 );
 
 fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) -> Result<Profile> {
-    let mut gpu = crate::gpu::GpuBackend::with_options(
+    let mut gpu = crate::gpu::GpuBackend::new(
         model.clone(),
-        (settings.integrator, settings.dt_secs, settings.options),
+        settings.step(),
         opts.device.adapter.as_deref(),
     )?;
     let dispatches = crate::gpu::dispatches_per_step(

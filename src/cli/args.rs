@@ -4,7 +4,7 @@
 use clap::{Args, Parser, Subcommand};
 
 use hooke::integrator::Integrator;
-use hooke::prepare::{Request, SceneSource, Step};
+use hooke::prepare::{DtChoice, Request, SceneSource};
 use hooke::select::{BackendKind, Device};
 use hooke::settings::Overrides;
 
@@ -86,10 +86,13 @@ impl RecordingArgs {
 }
 
 impl RecordedArgs {
+    /// What the recording holds, in the default colours (`RecordOptions::for_scene` sets a
+    /// scene's).
     pub fn options(&self) -> hooke::record::RecordOptions {
         hooke::record::RecordOptions {
             springs: self.springs,
             masses: self.masses,
+            ..hooke::record::RecordOptions::default()
         }
     }
 }
@@ -284,11 +287,11 @@ impl SolverArgs {
         Request {
             scene: SceneSource::Named(scene.to_owned()),
             overrides: self.overrides(),
-            step: match self.dt {
-                Some(Dt::Auto) => Step::Auto {
+            dt: match self.dt {
+                Some(Dt::Auto) => DtChoice::Auto {
                     tolerance_m: self.tolerance,
                 },
-                _ => Step::AsGiven,
+                _ => DtChoice::AsGiven,
             },
             device: device.device(),
         }

@@ -1,11 +1,16 @@
 //! The binary's own code, above the library: the command line (`args`), where a run records
-//! (`sink`), and the commands that print (`run`, `bench`). `main.rs` parses and dispatches.
+//! (`sink`), and the commands (`run`, `check`, `scenes`, `bench`). `main.rs` parses and
+//! dispatches.
 
 mod args;
 mod bench;
+mod check;
 mod run;
+mod scenes;
 mod sink;
 
-pub use args::{Cli, Command, DeviceArgs};
+pub use args::{Cli, Command};
 pub use bench::bench;
+pub use check::check;
 pub use run::{Outcome, RunArgs, run};
+pub use scenes::scenes;

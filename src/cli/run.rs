@@ -33,7 +33,8 @@ pub struct RunArgs<'a> {
 pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     let request = args.solver.request(args.scene, args.device);
     let prepared = prepare::prepare(&request, &mut |notice| eprintln!("{notice}"))?;
-    describe(&prepared, args.recording);
+    let record = args.recording.options().for_scene(&prepared.loaded.scene);
+    describe(&prepared, &record);
     let sink = sink::open_sink(
         args.rerun,
         args.output,
@@ -41,12 +42,7 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
         &prepared.loaded.scene.name,
     )?;
     if let Some(file) = &sink.file {
-        let size = hooke::recording_size::estimate(
-            &prepared.model,
-            &prepared.settings,
-            prepared.loaded.scene.view.strain_range,
-            args.recording.options(),
-        )?;
+        let size = hooke::recording_size::estimate(&prepared.model, &prepared.settings, record)?;
         eprintln!(
             "{}",
             hooke::recording_size::describe_for_file(&size, prepared.settings.frames, file.path())
@@ -56,26 +52,12 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
         delivery: sink.delivery,
         progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
         realtime: args.recording.realtime,
-        record: args.recording.options(),
+        record,
         viewer: sink.viewer.clone(),
         file: sink.file.clone(),
     };
     let interrupts = Interrupts::install();
-    let Prepared {
-        loaded,
-        settings,
-        model,
-        backend,
-    } = prepared;
-    let result = hooke::run::run(
-        &loaded,
-        model,
-        backend,
-        &settings,
-        sink.rec.clone(),
-        &opts,
-        interrupts.cancel.clone(),
-    );
+    let result = hooke::run::run(prepared, sink.rec.clone(), &opts, interrupts.cancel.clone());
     say_where_saved(&sink, &result);
     let summary = result?;
     report(&summary);
@@ -89,7 +71,7 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
 }
 
 /// The run about to start, and what its recording holds.
-fn describe(p: &Prepared, recording: &RecordingArgs) {
+fn describe(p: &Prepared, record: &hooke::record::RecordOptions) {
     eprintln!(
         "hooke: '{}' with {} masses and {} springs on {}, {}, dt = {:.3e} s × {} substeps, {} frames",
         p.loaded.scene.name,
@@ -101,7 +83,7 @@ fn describe(p: &Prepared, recording: &RecordingArgs) {
         p.settings.substeps,
         p.settings.frames
     );
-    for line in hooke::record::describe(&p.model, &recording.options()) {
+    for line in hooke::record::describe(&p.model, record) {
         eprintln!("  recording {line}");
     }
 }

@@ -15,14 +15,7 @@ use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::grid::{MassGrid, grid_cell};
 use super::law::contact_force;
 use crate::model::{MassContact, Model};
-
-/// Share of a pair's tangential sliding that its friction may stop within one step. A contact
-/// with a collider may stop a mass's sliding outright (`contact_force`), but a mass can touch
-/// several others at once and each pair's friction acts on it: were each to stop the whole
-/// sliding, four or more together would reverse it every step, leaving the mass jittering and
-/// the ledger counting energy that never left. A quarter keeps eight simultaneous pairs from
-/// overshooting; sticking then takes a few steps instead of one.
-pub const PAIR_STICK_SHARE: f32 = 0.25;
+use crate::physics::PAIR_STICK_SHARE;
 
 /// Contact force on mass `a` of the pair (a, b) and the power its damping and friction
 /// dissipate, or `None` if they do not touch (or sit exactly on each other, with no normal, or

@@ -25,7 +25,7 @@ use crate::state::Power;
 /// Which lanes the fused step computes with. `Best` is what the CPU offers; the others exist so
 /// that tests can hold every kernel to the same result on one machine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kernel {
+pub enum Simd {
     /// AVX2 where the CPU has it, else SSE2 (x86-64), else the portable lanes.
     Best,
     /// 8 lanes; falls back to `Best` on a CPU without AVX2.
@@ -38,21 +38,21 @@ pub enum Kernel {
     Scalar,
 }
 
-impl Kernel {
+impl Simd {
     /// What `self` runs on this CPU.
-    pub fn resolve(self) -> Kernel {
+    pub fn resolve(self) -> Simd {
         #[cfg(target_arch = "x86_64")]
         {
             let avx2 = std::arch::is_x86_feature_detected!("avx2");
             match self {
-                Kernel::Best | Kernel::Avx2 if avx2 => Kernel::Avx2,
-                Kernel::Best | Kernel::Avx2 => Kernel::Sse2,
+                Simd::Best | Simd::Avx2 if avx2 => Simd::Avx2,
+                Simd::Best | Simd::Avx2 => Simd::Sse2,
                 k => k,
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         match self {
-            Kernel::Best | Kernel::Avx2 | Kernel::Sse2 => Kernel::Portable,
+            Simd::Best | Simd::Avx2 | Simd::Sse2 => Simd::Portable,
             k => k,
         }
     }
@@ -84,7 +84,7 @@ impl Soa {
 #[derive(Debug)]
 pub struct FusedStep {
     stencils: Stencils,
-    kernel: Kernel,
+    kernel: Simd,
     /// The state at the step's start and the one it writes.
     now: Soa,
     next: Soa,
@@ -106,7 +106,7 @@ impl FusedStep {
             && e.self_collision.is_none()
     }
 
-    pub(crate) fn new(model: &Model, integrator: Integrator, kernel: Kernel) -> Self {
+    pub(crate) fn new(model: &Model, integrator: Integrator, kernel: Simd) -> Self {
         Self {
             stencils: Stencils::new(model),
             kernel: kernel.resolve(),
@@ -117,7 +117,7 @@ impl FusedStep {
     }
 
     /// The kernel this step runs.
-    pub fn kernel(&self) -> Kernel {
+    pub fn simd(&self) -> Simd {
         self.kernel
     }
 
@@ -229,7 +229,7 @@ struct Output<'a> {
 }
 
 fn run_chunk(
-    kernel: Kernel,
+    kernel: Simd,
     stencils: &Stencils,
     input: &Input,
     out: &mut Output,
@@ -237,11 +237,11 @@ fn run_chunk(
 ) -> ChunkOut {
     match kernel {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Kernel::resolve` gives Avx2 only where the CPU has AVX2.
-        Kernel::Avx2 => unsafe { chunk_avx2(stencils, input, out, c) },
+        // SAFETY: `Simd::resolve` gives Avx2 only where the CPU has AVX2.
+        Simd::Avx2 => unsafe { chunk_avx2(stencils, input, out, c) },
         #[cfg(target_arch = "x86_64")]
-        Kernel::Sse2 => chunk::<super::lanes::Sse2>(stencils, input, out, c),
-        Kernel::Scalar => chunk::<f32>(stencils, input, out, c),
+        Simd::Sse2 => chunk::<super::lanes::Sse2>(stencils, input, out, c),
+        Simd::Scalar => chunk::<f32>(stencils, input, out, c),
         _ => chunk::<Portable>(stencils, input, out, c),
     }
 }

@@ -21,25 +21,11 @@ use glam::Vec3;
 use super::forces::{Gather, compute_forces};
 use super::law::Real;
 use crate::model::{ContactModel, Model, Spring, poses_at};
+use crate::physics::{
+    CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
+    NEWTON_TOLERANCE,
+};
 use crate::state::{Power, State};
-
-/// Relative residual |r| / |b| at which each linear solve stops (f32 vectors: near their floor
-/// on stiff systems, whose condition number reaches k·dt²/m).
-pub const CG_TOLERANCE: f64 = 1e-4;
-/// Newton stops when the update is this small relative to Δv (or Δv is below 1e-7 m/s).
-pub const NEWTON_TOLERANCE: f64 = 1e-4;
-/// Newton iteration cap per step.
-pub const NEWTON_MAX_ITERATIONS: u32 = 10;
-/// Newton also stops once its residual |h f − M Δv| is below this share of the step's first
-/// and the last update did not halve it (`NEWTON_STALL`): the residual has reached the floor of
-/// f32 forces (a stiff spring's tension cancelling gravity leaves |b| about 3e-3 of the first on
-/// the hair scene), where further updates are rounding noise. Without this rule such a step ran
-/// all NEWTON_MAX_ITERATIONS iterations, each moving Δv by noise.
-pub const NEWTON_FLOOR: f64 = 1e-2;
-/// See `NEWTON_FLOOR`.
-pub const NEWTON_STALL: f64 = 0.5;
-/// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
-pub const CG_MAX_ITERATIONS: u32 = 200;
 
 /// How one implicit step's linear solve went.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -413,10 +399,9 @@ mod tests {
     /// once the residual stops falling.
     #[test]
     fn newton_stops_at_the_floor_of_f32_forces_on_hair() {
-        let loaded = crate::scene::load("hair").expect("the built-in hair scene loads");
-        let settings = crate::settings::Settings::resolve(&loaded.scene, &Default::default())
-            .expect("the hair scene's settings resolve");
-        let model = crate::model::build(&loaded.scene);
+        let crate::prepare::Planned {
+            settings, model, ..
+        } = crate::prepare::planned("hair").expect("the built-in hair scene is planned");
         let mut gather = Gather::new(&model);
         let mut work = ImplicitWork::new(&model);
         let mut state = model.initial.clone();

@@ -16,8 +16,7 @@ pub fn compute_strain(springs: &[Spring], x: &[Vec3], out: &mut Vec<f32>) {
         if s.is_broken() {
             return f32::NAN;
         }
-        let len = x[s.a as usize].distance(x[s.b as usize]);
-        (len - s.rest_m) / s.rest_m.max(f32::MIN_POSITIVE)
+        s.strain(x)
     }));
 }
 

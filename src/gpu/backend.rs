@@ -6,21 +6,21 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::context::{DeviceError, GpuContext};
+use super::context::{DeviceError, GpuContext, ReadBackOf};
+use super::dispatch::{Dispatch, SLOTS_PER_STEP};
 use super::encode::{Dispatcher, in_pass};
-use super::implicit::{Budgets, ImplicitStep};
+use super::implicit::{self, Budgets, ImplicitStep, Path, SolverHome};
 use super::layout::FrameSolve;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
-use super::plan::implicit::{Path, SolverHome};
-use super::plan::{self, Dispatch, ExplicitPath, SLOTS_PER_STEP, fused_step_plan, step_plan};
+use super::plan::{self, ExplicitPath, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
 use super::shaders::constants;
 use super::stages::{Clock, StageSlots};
-use crate::backend::{Backend, BackendError, RUNAWAY_SPEED_M_PER_S, find_divergence};
+use crate::backend::{Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, find_divergence};
 use crate::divergence::Divergence;
-use crate::integrator::{Integrator, StepOptions};
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
@@ -59,43 +59,32 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    pub fn new(
-        model: Arc<Model>,
-        integrator: Integrator,
-        dt_secs: f64,
-        adapter: Option<&str>,
-    ) -> Result<Self, BackendError> {
-        Self::with_options(
-            model,
-            (integrator, dt_secs, StepOptions::default()),
-            adapter,
-        )
-    }
-
-    /// [`GpuBackend::new`] with the integrator's options (XPBD's iterations).
-    pub fn with_options(
-        model: Arc<Model>,
-        step: (Integrator, f64, StepOptions),
-        adapter: Option<&str>,
-    ) -> Result<Self, BackendError> {
-        let path = plan::implicit::path(&model);
+    /// The GPU backend stepping `model` as `step` says, on the adapter whose name contains
+    /// `adapter` (the best one when `None`).
+    pub fn new(model: Arc<Model>, step: Step, adapter: Option<&str>) -> Result<Self, BackendError> {
+        let path = implicit::path(&model);
         Self::with_paths(model, step, adapter, (path, ExplicitPath::Fused))
     }
 
-    /// As `with_options`, with implicit Euler's steps taken by `implicit` whatever the system's
+    /// As `new`, with implicit Euler's steps taken by `implicit` whatever the system's
     /// size, and explicit steps fused where the run allows it (`ExplicitPath::Fused`) or never
     /// (`General`): the tests compare the paths on one scene.
     #[doc(hidden)]
     pub fn with_paths(
         model: Arc<Model>,
-        (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+        step: Step,
         adapter: Option<&str>,
         (path, explicit): (Path, ExplicitPath),
     ) -> Result<Self, BackendError> {
+        let Step {
+            integrator,
+            dt_secs,
+            ..
+        } = step;
         let implicit = integrator == Integrator::Implicit;
-        if implicit && model.effects.self_collision.is_some() {
-            return Err(DeviceError::ImplicitWithMassContact.into());
-        }
+        integrator
+            .supports(&model.effects)
+            .map_err(DeviceError::Unsupported)?;
         let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
@@ -114,7 +103,7 @@ impl GpuBackend {
         let layouts = Layouts::new(device, needed);
         // The per-pass kernels' grid; the one-workgroup step has none.
         let grid = |path| match path {
-            Path::Passes => plan::implicit::solver_groups(model.mass_count(), ctx.info.device_type),
+            Path::Passes => implicit::solver_groups(model.mass_count(), ctx.info.device_type),
             Path::InGroup => 1,
         };
         let resources = Resources::new(
@@ -122,11 +111,11 @@ impl GpuBackend {
             &ctx.limits,
             (&layouts, links.as_ref()),
             &model,
-            (integrator, dt_secs, options),
+            step,
             needed.implicit.map(|path| (path, grid(path))),
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
-        let group_threads = plan::implicit::group_threads(ctx.info.device_type);
+        let group_threads = implicit::group_threads(ctx.info.device_type);
         let home = match needed.implicit {
             Some(path) => {
                 SolverHome::of(&model, path, ctx.limits.max_compute_workgroup_storage_size)
@@ -273,7 +262,7 @@ impl GpuBackend {
         self.prepare_stages(substeps);
         let post = self.step_plan(false, false);
         let Some(solver) = self.resources.solver.as_ref() else {
-            return Err(DeviceError::Internal("no implicit solver".to_owned()).into());
+            return Err(BackendError::Internal(Internal::NoImplicitSolver));
         };
         let step = ImplicitStep {
             ctx: &self.ctx,
@@ -318,7 +307,7 @@ impl GpuBackend {
     ) -> Result<(usize, wgpu::SubmissionIndex), BackendError> {
         let k = (0..2)
             .find(|k| self.pending.iter().all(|p| p.staging != *k))
-            .ok_or_else(|| DeviceError::Internal("both snapshot buffers are in use".to_owned()))?;
+            .ok_or(BackendError::Internal(Internal::SnapshotBuffersBusy))?;
         // The reductions' stage slot: the current time, after the stepping slots.
         let slot = self.stages.last();
         let stage = self.clock.stage_at(&self.model, self.clock.time_secs);
@@ -349,11 +338,11 @@ impl GpuBackend {
     ) -> Result<ReadBack, BackendError> {
         let staging = &self.resources.staging[k];
         let slice = staging.slice(..);
-        self.ctx.map_and_wait(&slice, index)?;
+        self.ctx.map_and_wait(&slice, index, ReadBackOf::Snapshot)?;
         let out = {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| self.ctx.read_back_failed(e))?;
+                .map_err(|e| self.ctx.read_back_failed(ReadBackOf::Snapshot, e))?;
             let flags = (with_velocity, self.model.effects.tearing);
             readback::decode(&data, self.staging_layout(), flags, buffers)
         };

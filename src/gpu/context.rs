@@ -55,34 +55,92 @@ pub enum AdapterError {
 /// What stops a run on an open device, or before the GPU backend takes a run at all.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
-    #[error(
-        "implicit Euler does not support mass–mass contact ([effects.self_collision]): \
-         use semi-implicit, verlet or rk4"
-    )]
-    ImplicitWithMassContact,
-    /// An asynchronous error, or the device lost (the first reported, as `describe_error` and
-    /// `describe_loss` put it).
-    #[error("the GPU reported an error on {adapter}: {cause}")]
-    Reported { adapter: String, cause: String },
+    /// The run's integrator cannot simulate one of its effects (`Integrator::supports`).
+    #[error("{0} ([{field}]): use {instead}", field = .0.scene_field(), instead = .0.instead(""))]
+    Unsupported(#[from] crate::integrator::Unsupported),
+    /// An asynchronous error, or the device lost (the first reported).
+    #[error("the GPU reported an error on {adapter}: {fault}")]
+    Reported { adapter: String, fault: Fault },
     #[error("waiting for {adapter} failed: {cause}")]
-    Wait { adapter: String, cause: String },
-    /// `what`: "back from <adapter>", "the solver status from <adapter>", "timestamps", ….
-    #[error("reading {what} failed: {cause}")]
-    ReadBack { what: String, cause: String },
-    /// A bug in Hooke rather than a problem with the device.
-    #[error("internal: {0}")]
-    Internal(String),
+    Wait {
+        adapter: String,
+        cause: wgpu::PollError,
+    },
+    #[error("reading {what} back from {adapter} failed: {cause}")]
+    ReadBack {
+        what: ReadBackOf,
+        adapter: String,
+        cause: ReadBackCause,
+    },
+}
+
+/// What the device reported on its own: an error its callback caught, or its loss. Its message
+/// says what the user can do about it.
+#[derive(Debug)]
+pub enum Fault {
+    Error(wgpu::Error),
+    Lost {
+        reason: wgpu::DeviceLostReason,
+        /// The driver's own words.
+        message: String,
+    },
+}
+
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::Error(e) => f.write_str(&describe_error(e)),
+            Fault::Lost { reason, message } => f.write_str(&describe_loss(*reason, message)),
+        }
+    }
+}
+
+/// What a read-back was for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReadBackOf {
+    /// A frame's snapshot (positions, strain, energies, counters).
+    Snapshot,
+    /// Implicit Euler's solve record of a frame.
+    SolverStatus,
+    /// The per-kernel timestamps of `bench throughput`.
+    Timestamps,
+    /// The hash grid (a test hook).
+    Grid,
+}
+
+impl std::fmt::Display for ReadBackOf {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ReadBackOf::Snapshot => "a snapshot",
+            ReadBackOf::SolverStatus => "the solver status",
+            ReadBackOf::Timestamps => "timestamps",
+            ReadBackOf::Grid => "the grid",
+        })
+    }
+}
+
+/// Why a read-back failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadBackCause {
+    #[error(transparent)]
+    Poll(#[from] wgpu::PollError),
+    #[error("the mapping never completed ({0})")]
+    Callback(#[from] std::sync::mpsc::RecvError),
+    #[error(transparent)]
+    Map(#[from] wgpu::BufferAsyncError),
+    #[error(transparent)]
+    Range(#[from] wgpu::MapRangeError),
 }
 
 impl From<DeviceError> for BackendError {
     fn from(e: DeviceError) -> Self {
-        BackendError::Device(e.to_string())
+        BackendError::Device(Box::new(e))
     }
 }
 
 impl From<AdapterError> for BackendError {
     fn from(e: AdapterError) -> Self {
-        BackendError::Device(e.to_string())
+        BackendError::Device(Box::new(e))
     }
 }
 
@@ -93,7 +151,7 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
-    errors: Arc<Mutex<Vec<String>>>,
+    errors: Arc<Mutex<Vec<Fault>>>,
 }
 
 /// Set to 1 (as CI does) to turn "no adapter" from a skip into a failure in the GPU tests.
@@ -189,14 +247,14 @@ impl GpuContext {
         let sink = errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             if let Ok(mut v) = sink.lock() {
-                v.push(describe_error(&e));
+                v.push(Fault::Error(e));
             }
         }));
         // A reset driver, a removed card or a destroyed device: later calls fail; say why first.
         let sink = errors.clone();
         device.set_device_lost_callback(move |reason, message| {
             if let Ok(mut v) = sink.lock() {
-                v.insert(0, describe_loss(reason, &message));
+                v.insert(0, Fault::Lost { reason, message });
             }
         });
         Ok(Self {
@@ -219,7 +277,7 @@ impl GpuContext {
     }
 
     /// The first error the device reported since the last call, if any.
-    pub fn take_error(&self) -> Option<String> {
+    pub fn take_error(&self) -> Option<Fault> {
         self.errors.lock().ok().and_then(|mut v| {
             if v.is_empty() {
                 None
@@ -239,10 +297,10 @@ impl GpuContext {
         }
     }
 
-    fn reported(&self, cause: String) -> BackendError {
+    fn reported(&self, fault: Fault) -> BackendError {
         DeviceError::Reported {
             adapter: self.describe(),
-            cause,
+            fault,
         }
         .into()
     }
@@ -251,9 +309,9 @@ impl GpuContext {
     pub fn wait_idle(&self) -> Result<(), BackendError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DeviceError::Wait {
+            .map_err(|cause| DeviceError::Wait {
                 adapter: self.describe(),
-                cause: e.to_string(),
+                cause,
             })?;
         self.check()
     }
@@ -264,32 +322,39 @@ impl GpuContext {
         &self,
         slice: &wgpu::BufferSlice<'_>,
         index: wgpu::SubmissionIndex,
+        what: ReadBackOf,
     ) -> Result<(), BackendError> {
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
         // A lost device fails the mapping; its own message says more than the mapping's.
-        let lost = |e: String| match self.take_error() {
-            Some(cause) => self.reported(cause),
-            None => self.read_back_failed(e),
+        let lost = |e: ReadBackCause| match self.take_error() {
+            Some(fault) => self.reported(fault),
+            None => self.read_back_failed(what, e),
         };
         self.device
             .poll(wgpu::PollType::Wait {
                 submission_index: Some(index),
                 timeout: None,
             })
-            .map_err(|e| lost(e.to_string()))?;
+            .map_err(|e| lost(e.into()))?;
         rx.recv()
-            .map_err(|e| lost(e.to_string()))?
-            .map_err(|e| lost(e.to_string()))?;
+            .map_err(|e| lost(e.into()))?
+            .map_err(|e| lost(e.into()))?;
         self.check()
     }
 
-    pub fn read_back_failed(&self, e: impl std::fmt::Display) -> BackendError {
+    /// Reading `what` back failed for `cause`.
+    pub fn read_back_failed(
+        &self,
+        what: ReadBackOf,
+        cause: impl Into<ReadBackCause>,
+    ) -> BackendError {
         DeviceError::ReadBack {
-            what: format!("back from {}", self.describe()),
-            cause: e.to_string(),
+            what,
+            adapter: self.describe(),
+            cause: cause.into(),
         }
         .into()
     }

@@ -1,12 +1,11 @@
 //! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
 //! count, all as the kernel table says.
 
-use super::context::DeviceError;
+use super::dispatch::{Dispatch, SLOTS_PER_STEP};
 use super::pipelines::Pipelines;
-use super::plan::{Dispatch, SLOTS_PER_STEP};
 use super::resources::Resources;
 use super::stages::StageSlots;
-use crate::backend::BackendError;
+use crate::backend::{BackendError, Internal, Misplanned};
 
 /// What recording a dispatch needs of the backend.
 #[derive(Clone, Copy)]
@@ -26,11 +25,11 @@ impl Dispatcher<'_> {
         base: u32,
     ) -> Result<(), BackendError> {
         let spec = d.kernel.spec();
-        let internal = |why: &str| {
-            BackendError::from(DeviceError::Internal(format!(
-                "kernel {} {why}",
-                spec.entry
-            )))
+        let internal = |why| {
+            BackendError::Internal(Internal::Dispatch {
+                kernel: spec.entry,
+                why,
+            })
         };
         let pipeline = self.pipelines.get(d.kernel);
         // XPBD's projection binds its colour's group and runs over its colour's springs.
@@ -48,7 +47,7 @@ impl Dispatcher<'_> {
             ),
         };
         let (Some(pipeline), Some(group0), Some(groups)) = (pipeline, group0, groups) else {
-            return Err(internal("asked for without its effect or its colour"));
+            return Err(internal(Misplanned::WithoutEffect));
         };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group0, &[]);
@@ -59,14 +58,14 @@ impl Dispatcher<'_> {
                 let flow = self
                     .resources
                     .flow(f)
-                    .ok_or_else(|| internal("planned with a state flow the run lacks"))?;
+                    .ok_or_else(|| internal(Misplanned::NoSuchFlow))?;
                 pass.set_bind_group(1, flow, &[]);
                 // The step's end slot, for the projection's collider poses.
                 let end = slot / SLOTS_PER_STEP * SLOTS_PER_STEP + SLOTS_PER_STEP - 1;
                 self.stages.bind_as(pass, 3, end);
             }
             (false, false, None, None) => {}
-            _ => return Err(internal("planned with the wrong state")),
+            _ => return Err(internal(Misplanned::WrongState)),
         }
         self.stages.bind_as(pass, 2, slot);
         pass.dispatch_workgroups(groups.0, groups.1, 1);

@@ -1,13 +1,14 @@
 //! Hooks for tests: the GPU's hash grid read back, and a device lost on purpose.
 
 use super::backend::GpuBackend;
-use super::context::DeviceError;
+use super::context::ReadBackOf;
+use super::dispatch::StateIn;
 use super::encode::in_pass;
-use super::plan::{StateIn, grid_build};
+use super::plan::grid_build;
 use crate::backend::BackendError;
 
 /// The GPU's hash grid as read back for tests: bucket b holds
-/// `sorted[cell_start[b]..cell_start[b + 1]]` (as `crate::cpu::MassGrid`).
+/// `sorted[cell_start[b]..cell_start[b + 1]]` (as the CPU backend's `MassGrid`).
 #[doc(hidden)]
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct GridReadBack {
@@ -48,14 +49,11 @@ impl GpuBackend {
         enc.copy_buffer_to_buffer(&g.sorted, 0, &read, starts, masses);
         let index = self.ctx.queue.submit([enc.finish()]);
         let slice = read.slice(..);
-        self.ctx.map_and_wait(&slice, index)?;
+        self.ctx.map_and_wait(&slice, index, ReadBackOf::Grid)?;
         let out = {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| DeviceError::ReadBack {
-                    what: "the grid".to_owned(),
-                    cause: e.to_string(),
-                })?;
+                .map_err(|e| self.ctx.read_back_failed(ReadBackOf::Grid, e))?;
             let words: &[u32] = bytemuck::cast_slice(&data);
             let (a, b) = words.split_at(starts as usize / 4);
             GridReadBack {

@@ -3,105 +3,10 @@
 //! `src/cpu/` computing the same thing, of the same name) or why it has none, and, for the
 //! kernels a step plan holds, the compulsory memory traffic of one dispatch. The `Kernel` enum,
 //! the pipelines (`pipelines.rs`) and the dispatch plans (`plan.rs`) follow from it; the build
-//! fails if a namesake is missing, and `tests/shaders.rs` checks the table against the WGSL.
+//! fails if a namesake is missing (`crate::twins`), and `tests/shaders.rs` checks the table against the WGSL.
 
-use super::shaders::Program;
-
-/// Bind group 0 of a kernel; what each binds is in [`Group::slots`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Group {
-    ForcesModel,
-    Integrate,
-    Collide,
-    Reduce,
-    Solve,
-    Springs,
-    Grid,
-    CollideMasses,
-    XpbdSolve,
-    Fused,
-    FusedMid,
-}
-
-/// Binding kinds, in binding order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Slot {
-    Uniform,
-    Read,
-    ReadWrite,
-}
-
-impl Group {
-    pub const ALL: [Group; 11] = [
-        Group::ForcesModel,
-        Group::Integrate,
-        Group::Collide,
-        Group::Reduce,
-        Group::Solve,
-        Group::Springs,
-        Group::Grid,
-        Group::CollideMasses,
-        Group::XpbdSolve,
-        Group::Fused,
-        Group::FusedMid,
-    ];
-
-    /// The group's bindings, as the WGSL declares them (the buffers are bound in this order in
-    /// `resources.rs`).
-    pub fn slots(self) -> &'static [Slot] {
-        use Slot::*;
-        match self {
-            // params, springs, offsets, neighbours, colliders, mass, deriv.
-            Group::ForcesModel => &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
-            // params, x, v, xt, vt, deriv, sums, ledger, counters.
-            Group::Integrate => &[
-                Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, Read, ReadWrite, ReadWrite,
-                ReadWrite,
-            ],
-            // params, colliders, mass, x, v, ledger, counters.
-            Group::Collide => &[
-                Uniform, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-            ],
-            // params, springs, colliders, mass, x, v, ledger, strain, partials.
-            Group::Reduce => &[
-                Uniform, Read, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
-            ],
-            // params, springs, offsets, neighbours, colliders, mass, deriv, x, v, xt, vt, work,
-            // ledger, counters, scratch, each CSR entry's spring terms: implicit_step does the
-            // whole step in one dispatch.
-            Group::Solve => &[
-                Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-                ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-            ],
-            // params, springs, limits, x, released, partials.
-            Group::Springs => &[Uniform, ReadWrite, Read, Read, ReadWrite, ReadWrite],
-            // params, contact, cell counts, cell starts, block sums, mass buckets, sorted masses.
-            Group::Grid => &[
-                Uniform, Uniform, ReadWrite, ReadWrite, ReadWrite, ReadWrite, ReadWrite,
-            ],
-            // params, contact, mass, mass bodies, cell starts, sorted masses, deriv, partials:
-            // with the state's x and v, the 8 storage buffers a stage may bind.
-            Group::CollideMasses => &[
-                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite,
-            ],
-            // params, colour, springs, constants, colour order, mass, x, dx (xt), lambda.
-            Group::XpbdSolve => &[
-                Uniform, Uniform, Read, Read, Read, Read, Read, ReadWrite, ReadWrite,
-            ],
-            // params, spring kinds, offsets, links, colliders, mass, deriv, sums, ledger,
-            // counters; the state flows through bind group 1 (x, v in; x, v out).
-            Group::Fused => &[
-                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite,
-                ReadWrite,
-            ],
-            // The same, and the step's starting x and v (RK4's middle stages).
-            Group::FusedMid => &[
-                Uniform, Uniform, Read, Read, Read, Read, ReadWrite, ReadWrite, ReadWrite,
-                ReadWrite, Read, Read,
-            ],
-        }
-    }
-}
+use super::bindings::Group;
+use super::programs::Program;
 
 /// How many threads a kernel runs: one per mass, per spring, per mass or spring (the energy
 /// sums), per bucket of the hash grid, per block of its prefix sum, per spring of one XPBD
@@ -116,8 +21,16 @@ pub enum Threads {
     Colour,
     OneGroup,
     /// Implicit Euler's per-pass kernels: a fixed grid of workgroups striding over the masses
-    /// (`plan::implicit::solver_groups`).
+    /// (`implicit::solver_groups`).
     SolverGrid,
+}
+
+/// How an implicit step runs (`implicit::path` chooses): the whole step in one workgroup, or a
+/// dispatch per pass. It decides which of the solver's kernels a run compiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Path {
+    InGroup,
+    Passes,
 }
 
 /// Which runs compile a kernel (absent effects cost nothing).
@@ -228,8 +141,6 @@ macro_rules! kernels {
                 }
             }
         }
-
-        $(kernels!(@check $entry $twin);)*
     };
     (@state) => { false };
     (@state state) => { true };
@@ -246,239 +157,242 @@ macro_rules! kernels {
         Twin::Cpu(concat!("cpu", $("::", stringify!($module),)+ "::", stringify!($entry)))
     };
     (@twin $entry:ident $reason:literal) => { Twin::None($reason) };
-    // The namesake must exist: naming it here fails the build otherwise.
-    (@check $entry:ident ($($module:ident)::+)) => {
-        const _: () = {
-            let _ = crate::cpu::$($module::)+$entry;
-        };
+}
+
+/// The table's rows, handed to `$callback` (`kernels!` here; `twins.rs`, above both backends,
+/// checks that every named CPU namesake exists, so that this backend imports nothing from the
+/// other).
+macro_rules! kernel_table {
+    ($callback:ident) => {
+        $callback! {
+            // ---- forces.wgsl ----
+            /// The full force on every mass (springs, gravity, drag, contact), as accelerations and the
+            /// ledger's rates.
+            ComputeForces = compute_forces in Forces {
+                group: ForcesModel + state, threads: Masses, needs: Always, cpu: (forces),
+                // x, v in; offsets; neighbours and springs; acceleration and rates out.
+                bytes: |z| z.n * (16 + 16 + 4 + 8 + 32) + z.ns * (2 * 8 + 20) + z.colliders,
+            }
+
+            // ---- integrate.wgsl: x, v read and written; derivatives read; ledger read and written ----
+            EulerUpdate = euler_update in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
+            }
+            SemiImplicitUpdate = semi_implicit_update in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
+            }
+            Rk2Stage = rk2_stage in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 8),
+            }
+            Rk2Final = rk2_final in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (5 * 16 + 32 + 2 * 16 + 8),
+            }
+            Rk4Begin = rk4_begin in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 3 * 16 + 8),
+            }
+            Rk4Mid = rk4_mid in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (3 * 16 + 32 + 2 * 16 + 2 * 3 * 16 + 8),
+            }
+            Rk4Final = rk4_final in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (5 * 16 + 32 + 3 * 16 + 2 * 16 + 8),
+            }
+            VerletDrift = verlet_drift in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
+            }
+            VerletKick = verlet_kick in Integrate {
+                group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
+                bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
+            }
+            // ---- implicit.wgsl: implicit Euler, a whole step in one workgroup (small systems) ----
+            ImplicitStep = implicit_step in Implicit {
+                group: Solve, threads: OneGroup, needs: ImplicitInGroup, cpu: (implicit),
+            }
+
+            XpbdPredict = xpbd_predict in Integrate {
+                group: Integrate, threads: Masses, needs: Xpbd, cpu: (integrate),
+                // v and deriv read; v, dx (xt) and ledger written.
+                bytes: |z| z.n * (16 + 32 + 2 * 16 + 2 * 16),
+            }
+            XpbdUpdateVelocity = xpbd_update_velocity in Integrate {
+                group: Integrate, threads: Masses, needs: Xpbd, cpu: (xpbd),
+                // dx (xt) read; x read and written; v written.
+                bytes: |z| z.n * (4 * 16),
+            }
+
+            // ---- xpbd.wgsl: XPBD's springs, projected colour by colour ----
+            /// Dispatched once per colour and sweep; its bytes are per sweep over all colours.
+            XpbdSolveSpring = xpbd_solve_spring in Xpbd {
+                group: XpbdSolve, threads: Colour, needs: Xpbd, cpu: (xpbd),
+                // Spring, constants, index and multiplier; both ends' mass, x and dx read, dx written.
+                bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
+            }
+
+            // ---- implicit.wgsl: the same step a dispatch per pass (larger systems), on the solver's
+            // grid of workgroups, two dispatches per CG iteration ----
+            ImplicitBegin = implicit_begin in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
+            }
+            ImplicitIterate = implicit_iterate in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
+            }
+            ImplicitFinal = implicit_final in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
+            }
+            SolverBegin = solver_begin in Implicit {
+                group: Solve, threads: OneGroup, needs: ImplicitPasses,
+                cpu: "resets the solver's status, which the CPU keeps in locals of its solve",
+            }
+            ForcesAndRhs = forces_and_rhs in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+                cpu: "compute_forces and implicit_rhs in one pass; the CPU runs them in turn",
+            }
+            CgBegin = cg_begin in Implicit {
+                group: Solve, threads: OneGroup, needs: ImplicitPasses,
+                cpu: "sums the per-workgroup partials of forces_and_rhs; the CPU takes the dot products whole",
+            }
+            CgApply = cg_apply in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+                cpu: "β from the last pass's partials, then apply_system on the next direction z + βp, \
+                      taken on the fly; the CPU runs cg_direction and apply_system in turn",
+            }
+            CgAdvance = cg_advance in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses,
+                cpu: "α from cg_apply's partials, then cg_direction and cg_update in one pass; the CPU \
+                      runs them in turn",
+            }
+            NewtonUpdate = newton_update in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
+            }
+            NewtonEnd = newton_end in Implicit {
+                group: Solve, threads: OneGroup, needs: ImplicitPasses,
+                cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
+            }
+
+            // ---- fused.wgsl: the explicit steps with every per-mass pass fused into the force gather ----
+            /// Euler or semi-implicit Euler, the whole step.
+            FusedStep = fused_step in Fused {
+                group: Fused + flow, threads: Masses, needs: Fused, cpu: (fused::FusedStep),
+                // x, v in and out; offsets; mass; ledger read and written; links (8 B an end).
+                bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+            FusedVerletDrift = fused_verlet_drift in Fused {
+                group: Fused + flow, threads: Masses, needs: Fused,
+                cpu: "verlet_drift writing the drifted state beside the step's start, for the kick to read",
+                // x, v in and out; a(x_n) and rates in; half kick and rates out.
+                bytes: |z| z.n * (4 * 16 + 32 + 2 * 16),
+            }
+            FusedVerletKick = fused_verlet_kick in Fused {
+                group: Fused + flow, threads: Masses, needs: Fused,
+                cpu: "compute_forces, verlet_kick and project_contacts in one pass; the CPU runs them in turn",
+                // x, v in and out; offsets; mass; a and rates out; half kick and rates in; ledger; links.
+                bytes: |z| z.n * (4 * 16 + 4 + 8 + 32 + 2 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+            FusedRk4Begin = fused_rk4_begin in Fused {
+                group: Fused + flow, threads: Masses, needs: Fused,
+                cpu: "compute_forces and rk4_begin in one pass; the CPU runs them in turn",
+                // x, v in; stage point out; offsets; mass; three sums out; links.
+                bytes: |z| z.n * (4 * 16 + 4 + 8 + 3 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+            FusedRk4Mid = fused_rk4_mid in Fused {
+                group: FusedMid + flow, threads: Masses, needs: Fused,
+                cpu: "compute_forces and rk4_mid in one pass; the CPU runs them in turn",
+                // Stage state in; the step's start in; next stage point out; offsets; mass; three sums
+                // read and written; links.
+                bytes: |z| z.n * (6 * 16 + 4 + 8 + 2 * 3 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+            FusedRk4Final = fused_rk4_final in Fused {
+                group: Fused + flow, threads: Masses, needs: Fused,
+                cpu: "compute_forces, rk4_final and project_contacts in one pass; the CPU runs them in turn",
+                // Stage state in; x, v read and written; offsets; mass; three sums in; ledger; links.
+                bytes: |z| z.n * (6 * 16 + 4 + 8 + 3 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+
+            // ---- collide.wgsl ----
+            /// The post-step safeguard against tunnelling.
+            ProjectContacts = project_contacts in Collide {
+                group: Collide, threads: Masses, needs: Always, cpu: (collide),
+                bytes: |z| z.n * (4 * 16 + 8) + z.colliders,
+            }
+
+            // ---- reduce.wgsl: what a snapshot logs ----
+            ComputeStrain = compute_strain in Reduce {
+                group: Reduce, threads: Springs, needs: Always, cpu: (reduce),
+            }
+            ComputeEnergies = compute_energies in Reduce {
+                group: Reduce, threads: Energies, needs: Always, cpu: (reduce),
+            }
+
+            // ---- springs.wgsl: plasticity and tearing ----
+            UpdateSprings = update_springs in Springs {
+                group: Springs, threads: Springs, needs: SpringsChange, cpu: (springs),
+                // Spring and limits read; two ends; rest length and released energy written.
+                bytes: |z| z.ns * (20 + 16 + 2 * 16 + 4 + 2 * 4),
+            }
+            SumSpringWork = sum_spring_work in Springs {
+                group: Springs, threads: Energies, needs: SpringsChange,
+                cpu: "per-workgroup sums of the energy update_springs let go, which the CPU's sums whole",
+            }
+
+            // ---- grid.wgsl: mass–mass contact's hash grid, a counting sort by bucket ----
+            GridCount = grid_count in Grid {
+                group: Grid + state, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
+                // x in; each mass's bucket out; one atomic count per mass.
+                bytes: |z| z.n * (16 + 4 + 4),
+            }
+            GridScanBlocks = grid_scan_blocks in Grid {
+                group: Grid, threads: ScanBlocks, needs: MassContact,
+                cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+                // Counts in, starts out; block sums.
+                bytes: |z| z.table * 8 + z.blocks * 4,
+            }
+            GridScanSums = grid_scan_sums in Grid {
+                group: Grid, threads: OneGroup, needs: MassContact,
+                cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+                bytes: |z| z.blocks * 8 + 4,
+            }
+            GridScanAdd = grid_scan_add in Grid {
+                group: Grid, threads: Buckets, needs: MassContact,
+                cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
+                bytes: |z| z.table * 8 + z.blocks * 4,
+            }
+            GridScatter = grid_scatter in Grid {
+                group: Grid, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
+                // Bucket, count and start per mass; the sorted index out.
+                bytes: |z| z.n * 16,
+            }
+            GridSortCells = grid_sort_cells in Grid {
+                group: Grid, threads: Buckets, needs: MassContact,
+                cpu: "restores the mass order the GPU's atomic scatter loses; the CPU scatters in order",
+                // Starts; each bucket's masses read and written.
+                bytes: |z| z.table * 8 + z.n * 8,
+            }
+
+            // ---- collide_masses.wgsl ----
+            CollideMasses = collide_masses in CollideMasses {
+                group: CollideMasses + state, threads: Masses, needs: MassContact, cpu: (collide_masses),
+                // x, v, mass, body per mass and per candidate (cached); starts; deriv in and out.
+                bytes: |z| z.n * (16 + 16 + 8 + 4 + 4 + 2 * 32) + z.table * 4,
+            }
+            /// At snapshot time only.
+            MassContactEnergy = mass_contact_energy in CollideMasses {
+                group: CollideMasses + state, threads: Masses, needs: MassContact,
+                cpu: (collide_masses),
+                bytes: |z| z.n * (16 + 8 + 4 + 4) + z.table * 4,
+            }
+        }
     };
-    (@check $entry:ident $reason:literal) => {};
 }
+pub(crate) use kernel_table;
 
-kernels! {
-    // ---- forces.wgsl ----
-    /// The full force on every mass (springs, gravity, drag, contact), as accelerations and the
-    /// ledger's rates.
-    ComputeForces = compute_forces in Forces {
-        group: ForcesModel + state, threads: Masses, needs: Always, cpu: (forces),
-        // x, v in; offsets; neighbours and springs; acceleration and rates out.
-        bytes: |z| z.n * (16 + 16 + 4 + 8 + 32) + z.ns * (2 * 8 + 20) + z.colliders,
-    }
-
-    // ---- integrate.wgsl: x, v read and written; derivatives read; ledger read and written ----
-    EulerUpdate = euler_update in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
-    }
-    SemiImplicitUpdate = semi_implicit_update in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16 + 8),
-    }
-    Rk2Stage = rk2_stage in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 8),
-    }
-    Rk2Final = rk2_final in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (5 * 16 + 32 + 2 * 16 + 8),
-    }
-    Rk4Begin = rk4_begin in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 3 * 16 + 8),
-    }
-    Rk4Mid = rk4_mid in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (3 * 16 + 32 + 2 * 16 + 2 * 3 * 16 + 8),
-    }
-    Rk4Final = rk4_final in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (5 * 16 + 32 + 3 * 16 + 2 * 16 + 8),
-    }
-    VerletDrift = verlet_drift in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (3 * 16 + 32 + 16 + 2 * 16 + 8),
-    }
-    VerletKick = verlet_kick in Integrate {
-        group: Integrate, threads: Masses, needs: Always, cpu: (integrate),
-        bytes: |z| z.n * (2 * 16 + 32 + 2 * 16 + 2 * 16 + 8),
-    }
-    // ---- implicit.wgsl: implicit Euler, a whole step in one workgroup (small systems) ----
-    ImplicitStep = implicit_step in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitInGroup, cpu: (implicit),
-    }
-
-    XpbdPredict = xpbd_predict in Integrate {
-        group: Integrate, threads: Masses, needs: Xpbd, cpu: (integrate),
-        // v and deriv read; v, dx (xt) and ledger written.
-        bytes: |z| z.n * (16 + 32 + 2 * 16 + 2 * 16),
-    }
-    XpbdUpdateVelocity = xpbd_update_velocity in Integrate {
-        group: Integrate, threads: Masses, needs: Xpbd, cpu: (xpbd),
-        // dx (xt) read; x read and written; v written.
-        bytes: |z| z.n * (4 * 16),
-    }
-
-    // ---- xpbd.wgsl: XPBD's springs, projected colour by colour ----
-    /// Dispatched once per colour and sweep; its bytes are per sweep over all colours.
-    XpbdSolveSpring = xpbd_solve_spring in Xpbd {
-        group: XpbdSolve, threads: Colour, needs: Xpbd, cpu: (xpbd),
-        // Spring, constants, index and multiplier; both ends' mass, x and dx read, dx written.
-        bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
-    }
-
-    // ---- implicit.wgsl: the same step a dispatch per pass (larger systems), on the solver's
-    // grid of workgroups, two dispatches per CG iteration ----
-    ImplicitBegin = implicit_begin in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
-    }
-    ImplicitIterate = implicit_iterate in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
-    }
-    ImplicitFinal = implicit_final in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
-    }
-    SolverBegin = solver_begin in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "resets the solver's status, which the CPU keeps in locals of its solve",
-    }
-    ForcesAndRhs = forces_and_rhs in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
-        cpu: "compute_forces and implicit_rhs in one pass; the CPU runs them in turn",
-    }
-    CgBegin = cg_begin in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "sums the per-workgroup partials of forces_and_rhs; the CPU takes the dot products whole",
-    }
-    CgApply = cg_apply in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
-        cpu: "β from the last pass's partials, then apply_system on the next direction z + βp, \
-              taken on the fly; the CPU runs cg_direction and apply_system in turn",
-    }
-    CgAdvance = cg_advance in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses,
-        cpu: "α from cg_apply's partials, then cg_direction and cg_update in one pass; the CPU \
-              runs them in turn",
-    }
-    NewtonUpdate = newton_update in Implicit {
-        group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
-    }
-    NewtonEnd = newton_end in Implicit {
-        group: Solve, threads: OneGroup, needs: ImplicitPasses,
-        cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
-    }
-
-    // ---- fused.wgsl: the explicit steps with every per-mass pass fused into the force gather ----
-    /// Euler or semi-implicit Euler, the whole step.
-    FusedStep = fused_step in Fused {
-        group: Fused + flow, threads: Masses, needs: Fused, cpu: (fused::FusedStep),
-        // x, v in and out; offsets; mass; ledger read and written; links (8 B an end).
-        bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
-    }
-    FusedVerletDrift = fused_verlet_drift in Fused {
-        group: Fused + flow, threads: Masses, needs: Fused,
-        cpu: "verlet_drift writing the drifted state beside the step's start, for the kick to read",
-        // x, v in and out; a(x_n) and rates in; half kick and rates out.
-        bytes: |z| z.n * (4 * 16 + 32 + 2 * 16),
-    }
-    FusedVerletKick = fused_verlet_kick in Fused {
-        group: Fused + flow, threads: Masses, needs: Fused,
-        cpu: "compute_forces, verlet_kick and project_contacts in one pass; the CPU runs them in turn",
-        // x, v in and out; offsets; mass; a and rates out; half kick and rates in; ledger; links.
-        bytes: |z| z.n * (4 * 16 + 4 + 8 + 32 + 2 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
-    }
-    FusedRk4Begin = fused_rk4_begin in Fused {
-        group: Fused + flow, threads: Masses, needs: Fused,
-        cpu: "compute_forces and rk4_begin in one pass; the CPU runs them in turn",
-        // x, v in; stage point out; offsets; mass; three sums out; links.
-        bytes: |z| z.n * (4 * 16 + 4 + 8 + 3 * 16) + z.ns * 2 * 8 + z.colliders,
-    }
-    FusedRk4Mid = fused_rk4_mid in Fused {
-        group: FusedMid + flow, threads: Masses, needs: Fused,
-        cpu: "compute_forces and rk4_mid in one pass; the CPU runs them in turn",
-        // Stage state in; the step's start in; next stage point out; offsets; mass; three sums
-        // read and written; links.
-        bytes: |z| z.n * (6 * 16 + 4 + 8 + 2 * 3 * 16) + z.ns * 2 * 8 + z.colliders,
-    }
-    FusedRk4Final = fused_rk4_final in Fused {
-        group: Fused + flow, threads: Masses, needs: Fused,
-        cpu: "compute_forces, rk4_final and project_contacts in one pass; the CPU runs them in turn",
-        // Stage state in; x, v read and written; offsets; mass; three sums in; ledger; links.
-        bytes: |z| z.n * (6 * 16 + 4 + 8 + 3 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
-    }
-
-    // ---- collide.wgsl ----
-    /// The post-step safeguard against tunnelling.
-    ProjectContacts = project_contacts in Collide {
-        group: Collide, threads: Masses, needs: Always, cpu: (collide),
-        bytes: |z| z.n * (4 * 16 + 8) + z.colliders,
-    }
-
-    // ---- reduce.wgsl: what a snapshot logs ----
-    ComputeStrain = compute_strain in Reduce {
-        group: Reduce, threads: Springs, needs: Always, cpu: (reduce),
-    }
-    ComputeEnergies = compute_energies in Reduce {
-        group: Reduce, threads: Energies, needs: Always, cpu: (reduce),
-    }
-
-    // ---- springs.wgsl: plasticity and tearing ----
-    UpdateSprings = update_springs in Springs {
-        group: Springs, threads: Springs, needs: SpringsChange, cpu: (springs),
-        // Spring and limits read; two ends; rest length and released energy written.
-        bytes: |z| z.ns * (20 + 16 + 2 * 16 + 4 + 2 * 4),
-    }
-    SumSpringWork = sum_spring_work in Springs {
-        group: Springs, threads: Energies, needs: SpringsChange,
-        cpu: "per-workgroup sums of the energy update_springs let go, which the CPU's sums whole",
-    }
-
-    // ---- grid.wgsl: mass–mass contact's hash grid, a counting sort by bucket ----
-    GridCount = grid_count in Grid {
-        group: Grid + state, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
-        // x in; each mass's bucket out; one atomic count per mass.
-        bytes: |z| z.n * (16 + 4 + 4),
-    }
-    GridScanBlocks = grid_scan_blocks in Grid {
-        group: Grid, threads: ScanBlocks, needs: MassContact,
-        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
-        // Counts in, starts out; block sums.
-        bytes: |z| z.table * 8 + z.blocks * 4,
-    }
-    GridScanSums = grid_scan_sums in Grid {
-        group: Grid, threads: OneGroup, needs: MassContact,
-        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
-        bytes: |z| z.blocks * 8 + 4,
-    }
-    GridScanAdd = grid_scan_add in Grid {
-        group: Grid, threads: Buckets, needs: MassContact,
-        cpu: "the GPU's prefix sum over the table, in three passes; one loop in MassGrid's build",
-        bytes: |z| z.table * 8 + z.blocks * 4,
-    }
-    GridScatter = grid_scatter in Grid {
-        group: Grid, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
-        // Bucket, count and start per mass; the sorted index out.
-        bytes: |z| z.n * 16,
-    }
-    GridSortCells = grid_sort_cells in Grid {
-        group: Grid, threads: Buckets, needs: MassContact,
-        cpu: "restores the mass order the GPU's atomic scatter loses; the CPU scatters in order",
-        // Starts; each bucket's masses read and written.
-        bytes: |z| z.table * 8 + z.n * 8,
-    }
-
-    // ---- collide_masses.wgsl ----
-    CollideMasses = collide_masses in CollideMasses {
-        group: CollideMasses + state, threads: Masses, needs: MassContact, cpu: (collide_masses),
-        // x, v, mass, body per mass and per candidate (cached); starts; deriv in and out.
-        bytes: |z| z.n * (16 + 16 + 8 + 4 + 4 + 2 * 32) + z.table * 4,
-    }
-    /// At snapshot time only.
-    MassContactEnergy = mass_contact_energy in CollideMasses {
-        group: CollideMasses + state, threads: Masses, needs: MassContact,
-        cpu: (collide_masses),
-        bytes: |z| z.n * (16 + 8 + 4 + 4) + z.table * 4,
-    }
-}
+kernel_table!(kernels);
 
 impl Kernel {
     pub fn spec(self) -> &'static Spec {

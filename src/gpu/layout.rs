@@ -102,7 +102,7 @@ pub struct SolverStatus {
 
 /// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.
 pub const MAX_NEWTON_SLOTS: usize = 16;
-const _: () = assert!(crate::cpu::NEWTON_MAX_ITERATIONS as usize <= MAX_NEWTON_SLOTS);
+const _: () = assert!(crate::physics::NEWTON_MAX_ITERATIONS as usize <= MAX_NEWTON_SLOTS);
 
 /// What implicit Euler's per-pass kernels learn of a frame (`FrameSolve` in
 /// shaders/implicit.wgsl), after the two statuses in the solver's scratch: the host writes the
@@ -130,7 +130,7 @@ impl FrameSolve {
     pub const SIZE: u64 = std::mem::size_of::<FrameSolve>() as u64;
 }
 
-pub use crate::cpu::XpbdSpring;
+pub use crate::physics::XpbdSpring;
 
 /// The colour one dispatch of `xpbd_solve_spring` solves (`XpbdColour` in WGSL): its springs are
 /// `colour_order[start..start + count]`; `first` on a substep's first sweep.

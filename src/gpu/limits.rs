@@ -64,7 +64,7 @@ pub fn check_fits(
         (
             "mass-contact hash grid",
             model.effects.self_collision.map_or(0, |_| {
-                4 * (u64::from(crate::cpu::table_size(n as usize)) + 1)
+                4 * (u64::from(crate::physics::table_size(n as usize)) + 1)
             }),
         ),
     ];

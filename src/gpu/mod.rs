@@ -1,4 +1,4 @@
-//! The wgpu compute backend: the same physics as `crate::cpu`, each kernel named as the CPU
+//! The wgpu compute backend: the same physics as the CPU backend, each kernel named as the CPU
 //! function computing the same thing (the table in `kernels.rs` says which, and why some have
 //! none). The modules, lowest first:
 //!
@@ -16,12 +16,14 @@
 //! - `backend`: `GpuBackend`; `profile` and `inspect` add to it (bench timings, test hooks).
 
 mod backend;
+#[doc(hidden)]
+pub mod bindings;
 mod buffers;
 mod context;
+mod dispatch;
 mod encode;
 mod implicit;
 mod inspect;
-#[doc(hidden)]
 pub mod kernels;
 pub mod layout;
 mod limits;
@@ -29,6 +31,7 @@ mod links;
 mod pipelines;
 mod plan;
 mod profile;
+pub mod programs;
 mod readback;
 mod resources;
 mod shaders;
@@ -37,11 +40,12 @@ mod xpbd;
 
 pub use backend::GpuBackend;
 pub use context::{
-    AdapterError, DeviceError, GpuContext, REQUIRE_ADAPTER_ENV, adapters, describe_error,
+    AdapterError, DeviceError, Fault, GpuContext, REQUIRE_ADAPTER_ENV, ReadBackCause, ReadBackOf,
+    adapters, describe_error,
 };
 pub use implicit::Budgets as ImplicitBudgets;
+pub use implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
 pub use inspect::GridReadBack;
 pub use limits::adapter_report;
-pub use plan::implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
-pub use shaders::programs;
+pub use shaders::{missing, program_groups, programs, unmet};

@@ -1,14 +1,15 @@
 //! Bind group layouts and compute pipelines, made from the kernel table: a pipeline for every
 //! kernel the run needs, each WGSL file compiled once, only if one of its kernels is needed.
 
-use super::kernels::{Group, Kernel, Needs, Slot};
-use super::plan::implicit::Path;
-use super::shaders::Program;
+use super::bindings::{Group, Slot};
+use super::kernels::{Kernel, Needs, Path};
+use super::programs::Program;
+use super::shaders::source;
 
 /// Bind group 0 of every kernel group the run needs (implicit Euler's binds more storage buffers
 /// than other runs may have); 1, the state a force evaluation reads (x and v), or for a fused
 /// step the state it reads and the one it writes; 2, the stage slot (a dynamic uniform offset);
-/// 3, a fused step's end slot (the same buffer).
+/// 3, a fused step's end slot (the same buffer). Each as `bindings.rs` declares it.
 pub struct Layouts {
     groups: Vec<Option<wgpu::BindGroupLayout>>,
     pub state: wgpu::BindGroupLayout,
@@ -16,49 +17,39 @@ pub struct Layouts {
     pub stage: wgpu::BindGroupLayout,
 }
 
-fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty,
-        count: None,
-    }
-}
-
-fn buffer(ty: wgpu::BufferBindingType, has_dynamic_offset: bool) -> wgpu::BindingType {
-    wgpu::BindingType::Buffer {
-        ty,
-        has_dynamic_offset,
-        min_binding_size: None,
-    }
-}
-
-fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = slots
+/// The layout of `g`, as the table (`bindings.rs`) declares it.
+fn layout(device: &wgpu::Device, g: Group) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = g
+        .bindings()
         .iter()
         .enumerate()
-        .map(|(i, s)| {
-            let ty = match s {
+        .map(|(i, b)| {
+            let ty = match b.slot {
                 Slot::Uniform => wgpu::BufferBindingType::Uniform,
                 Slot::Read | Slot::ReadWrite => wgpu::BufferBindingType::Storage {
-                    read_only: *s == Slot::Read,
+                    read_only: b.slot == Slot::Read,
                 },
             };
-            entry(i as u32, buffer(ty, false))
+            wgpu::BindGroupLayoutEntry {
+                binding: i as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty,
+                    has_dynamic_offset: b.dynamic,
+                    min_binding_size: None,
+                },
+                count: None,
+            }
         })
         .collect();
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
+        label: Some(&format!("{g:?}")),
         entries: &entries,
     })
 }
 
 impl Layouts {
     pub fn new(device: &wgpu::Device, needed: Needed) -> Self {
-        let stage = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("stage"),
-            entries: &[entry(0, buffer(wgpu::BufferBindingType::Uniform, true))],
-        });
         Self {
             groups: Group::ALL
                 .iter()
@@ -66,16 +57,13 @@ impl Layouts {
                     let used = Kernel::ALL
                         .iter()
                         .any(|k| k.spec().group == g && needed.has(k.spec().needs));
-                    used.then(|| layout(device, &format!("{g:?}"), g.slots()))
+                    used.then(|| layout(device, g))
                 })
                 .collect(),
-            state: layout(device, "forces state", &[Slot::Read, Slot::Read]),
-            flow: layout(
-                device,
-                "state flow",
-                &[Slot::Read, Slot::Read, Slot::ReadWrite, Slot::ReadWrite],
-            ),
-            stage,
+            state: layout(device, Group::State),
+            flow: layout(device, Group::Flow),
+            // A fused step's end slot (group 3) has the stage slot's layout.
+            stage: layout(device, Group::StageSlot),
         }
     }
 
@@ -133,7 +121,7 @@ impl Pipelines {
                 used.then(|| {
                     device.create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(p.file()),
-                        source: wgpu::ShaderSource::Wgsl(p.source().into()),
+                        source: wgpu::ShaderSource::Wgsl(source(p).into()),
                     })
                 })
             })

@@ -1,31 +1,12 @@
 //! The step plans: which kernels a step dispatches, in order, on which state and at which stage
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
+use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps};
+use super::implicit;
 use super::kernels::Kernel;
 use super::shaders::effect_constants;
 use crate::integrator::Integrator;
 use crate::model::{Effects, Model};
-
-/// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
-pub const SLOTS_PER_STEP: u32 = 4;
-
-/// Which state a kernel reads through bind group 1.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StateIn {
-    XV,
-    XtVt,
-    XVt,
-}
-
-/// The state a fused kernel reads and the one it writes (bind group 1): A is the run's x and v,
-/// B its xt and vt, C the second stage point RK4's middle stages alternate with B.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Flow {
-    AB,
-    BA,
-    BC,
-    CB,
-}
 
 /// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
 /// folded into its force gathers, the state ping-ponging between A and B) or a pass per stage.
@@ -88,70 +69,6 @@ pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Di
         ],
         // why_unfused keeps the others off the fused path.
         _ => Vec::new(),
-    }
-}
-
-/// One sweep of XPBD's projection over one colour of springs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ColourPass {
-    pub colour: u32,
-    /// The substep's first sweep, which starts the multipliers from zero.
-    pub first: bool,
-}
-
-/// XPBD's sweeps of a substep: the springs' colours, and the sweeps over all of them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Sweeps {
-    pub colours: u32,
-    pub iterations: u32,
-}
-
-/// One dispatch: a kernel, the state it reads (for the kernels that read one) or the states it
-/// reads and writes (the fused kernels), its stage slot relative to its step's first, and for
-/// XPBD's projection the colour it solves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Dispatch {
-    pub kernel: Kernel,
-    pub state: Option<StateIn>,
-    pub flow: Option<Flow>,
-    pub slot: u32,
-    pub colour: Option<ColourPass>,
-}
-
-impl Dispatch {
-    /// A kernel that reads no state.
-    pub const fn at(kernel: Kernel, slot: u32) -> Self {
-        Self {
-            kernel,
-            state: None,
-            flow: None,
-            slot,
-            colour: None,
-        }
-    }
-
-    /// A kernel that reads `state`.
-    pub const fn reading(kernel: Kernel, state: StateIn, slot: u32) -> Self {
-        Self {
-            state: Some(state),
-            ..Self::at(kernel, slot)
-        }
-    }
-
-    /// A fused kernel, reading and writing the states of `flow`.
-    pub const fn flowing(kernel: Kernel, flow: Flow, slot: u32) -> Self {
-        Self {
-            flow: Some(flow),
-            ..Self::at(kernel, slot)
-        }
-    }
-
-    /// XPBD's projection of one colour.
-    pub const fn colour(pass: ColourPass) -> Self {
-        Self {
-            colour: Some(pass),
-            ..Self::at(Kernel::XpbdSolveSpring, 0)
-        }
     }
 }
 
@@ -252,160 +169,6 @@ fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
     }
 }
 
-/// An implicit step's passes. A small system's whole step is one dispatch of `implicit_step` (one
-/// workgroup, no host wait). A larger one runs, in order: BEGIN, then per Newton iteration
-/// NEWTON_BEGIN, CG_ITERATION repeated, NEWTON_END; then END, each a dispatch over the solver's
-/// grid of workgroups (`solver_groups`) or one workgroup. Every dispatch of a step reads the same
-/// slot.
-pub mod implicit {
-    use super::super::layout::SOLVER_VECTORS;
-    use super::{Dispatch, Kernel::*};
-    use crate::model::Model;
-
-    /// The most masses the one-workgroup step takes: 32 per thread. Beyond that, a dispatch per
-    /// pass spreads the masses over the device.
-    pub const IN_GROUP_MAX_MASSES: usize = 2048;
-
-    /// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL, at most 64). On a CPU adapter
-    /// (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and each
-    /// further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
-    /// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU keeps 64.
-    pub fn group_threads(device: wgpu::DeviceType) -> u32 {
-        match device {
-            wgpu::DeviceType::Cpu => 8,
-            _ => 64,
-        }
-    }
-
-    /// Workgroup memory the one-workgroup step's sums take (`sum_sh`, `part_sh`, `total_sh`,
-    /// `flag_sh` in shaders/implicit.wgsl), rounded up.
-    const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16;
-
-    /// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
-    /// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the
-    /// sums in `workgroup_bytes` (the adapter's limit), else in the `work` and `terms` buffers.
-    /// The passes read them many times a step; on lavapipe a storage-buffer load costs a
-    /// descriptor read, a bounds check and a branch per lane, a workgroup-memory load neither
-    /// (hair's steps 12% faster, BENCHMARKS.md).
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub enum SolverHome {
-        Buffers,
-        /// The arrays' lengths in vec4s.
-        Workgroup {
-            vectors: u32,
-            terms: u32,
-        },
-    }
-
-    impl SolverHome {
-        pub fn of(model: &Model, path: Path, workgroup_bytes: u32) -> Self {
-            let vectors = SOLVER_VECTORS * model.mass_count() as u64;
-            let terms = 2 * model.adjacency.entries.len() as u64;
-            let bytes = 16 * (vectors + terms) + SUM_SCRATCH_BYTES;
-            match (path, u32::try_from(vectors), u32::try_from(terms)) {
-                (Path::InGroup, Ok(vectors), Ok(terms))
-                    if bytes <= u64::from(workgroup_bytes) && terms > 0 =>
-                {
-                    SolverHome::Workgroup { vectors, terms }
-                }
-                _ => SolverHome::Buffers,
-            }
-        }
-
-        /// The workgroup arrays' lengths (vectors, terms) for `shaders::constants`, if any.
-        pub fn workgroup_arrays(self) -> Option<[u32; 2]> {
-            match self {
-                SolverHome::Workgroup { vectors, terms } => Some([vectors, terms]),
-                SolverHome::Buffers => None,
-            }
-        }
-    }
-
-    /// How an implicit step runs.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub enum Path {
-        InGroup,
-        Passes,
-    }
-
-    /// The path for `model`: one workgroup for a small system, contacts or not. (Contact scenes
-    /// took the per-pass path until 2026-11-23: on Mesa 22's lavapipe the one-workgroup step left
-    /// the CPU's solution on jello-sphere. On Mesa 25, with sums in two levels, it agrees with
-    /// the CPU as the per-pass path does, `tests/gpu_implicit.rs`, and runs jello 1.35x faster.)
-    pub fn path(model: &Model) -> Path {
-        if model.mass_count() <= IN_GROUP_MAX_MASSES {
-            Path::InGroup
-        } else {
-            Path::Passes
-        }
-    }
-
-    /// The most workgroups of the per-pass kernels' grid on a CPU adapter (lavapipe), and on a
-    /// GPU. Every workgroup of a pass sums the partials of all (the grid's size squared, in
-    /// loads): a CPU runs few workgroups at once, and each load of a partial costs it a
-    /// descriptor read and a bounds check; a GPU needs enough threads in flight to hide memory
-    /// latency, and reads the partials from its cache.
-    const SOLVER_GROUPS_CPU: u32 = 64;
-    const SOLVER_GROUPS_GPU: u32 = 1024;
-
-    /// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL): one per 64 masses, at
-    /// most the device's cap.
-    pub fn solver_groups(masses: usize, device: wgpu::DeviceType) -> u32 {
-        let cap = match device {
-            wgpu::DeviceType::Cpu => SOLVER_GROUPS_CPU,
-            _ => SOLVER_GROUPS_GPU,
-        };
-        let wanted = masses
-            .div_ceil(super::super::shaders::WORKGROUP as usize)
-            .max(1);
-        u32::try_from(wanted).map_or(cap, |w| w.min(cap))
-    }
-
-    const fn at(k: super::Kernel) -> Dispatch {
-        Dispatch::at(k, 0)
-    }
-
-    pub const IN_GROUP: [Dispatch; 1] = [at(ImplicitStep)];
-    pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
-    /// The Newton iterate, its forces and right-hand side, and the first half of the solve's first
-    /// CG iteration (`cg_apply` with p = z).
-    pub const NEWTON_BEGIN: [Dispatch; 4] = [
-        at(ImplicitIterate),
-        at(ForcesAndRhs),
-        at(CgBegin),
-        at(CgApply),
-    ];
-    /// The rest of a CG iteration and the first half of the next: each half sums the partials
-    /// the other left, so a dot product costs no dispatch of its own.
-    pub const CG_ITERATION: [Dispatch; 2] = [at(CgAdvance), at(CgApply)];
-    pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
-    pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
-
-    /// For `hooke check`: the passes of one implicit step, the repeated parts in brackets.
-    pub fn passes(path: Path) -> String {
-        let names = |ds: &[Dispatch]| {
-            ds.iter()
-                .map(|d| d.kernel.name())
-                .collect::<Vec<_>>()
-                .join(" → ")
-        };
-        match path {
-            Path::InGroup => format!(
-                "{} (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
-                names(&IN_GROUP)
-            ),
-            Path::Passes => format!(
-                "{} → [Newton: {} → [CG: {}] → {}] → {}",
-                names(&BEGIN),
-                names(&NEWTON_BEGIN),
-                names(&CG_ITERATION),
-                names(&NEWTON_END),
-                names(&END)
-            ),
-        }
-    }
-}
-
 /// The path a run's explicit steps take on an adapter allowing `storage_buffers` storage buffers
 /// per stage, and why when it is not the fused one.
 pub fn explicit_path(
@@ -498,7 +261,7 @@ pub fn dispatches_per_step(
     let sweeps = Sweeps {
         colours: match integrator {
             Integrator::Xpbd => {
-                crate::cpu::colour_springs(&model.springs, &model.inv_mass).colours() as u32
+                crate::physics::colour_springs(&model.springs, &model.inv_mass).colours() as u32
             }
             _ => 0,
         },
@@ -530,6 +293,7 @@ pub fn dispatches_per_step(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::dispatch::SLOTS_PER_STEP;
     use crate::model::{ContactModel, MassContact};
 
     const FUSED: [Integrator; 4] = [

@@ -2,7 +2,7 @@
 //! compulsory memory traffic of a step, from the kernel table.
 
 use super::backend::GpuBackend;
-use super::context::DeviceError;
+use super::context::ReadBackOf;
 use crate::backend::BackendError;
 
 impl GpuBackend {
@@ -54,10 +54,7 @@ impl GpuBackend {
         {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| DeviceError::ReadBack {
-                    what: "timestamps".to_owned(),
-                    cause: e.to_string(),
-                })?;
+                .map_err(|e| self.ctx.read_back_failed(ReadBackOf::Timestamps, e))?;
             let ticks: &[u64] = bytemuck::cast_slice(&data);
             for (q, d) in dispatches.iter().enumerate() {
                 let ms = ticks[2 * q + 1].saturating_sub(ticks[2 * q]) as f64 * ns_per_tick * 1e-6;

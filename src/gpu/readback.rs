@@ -6,9 +6,10 @@ use std::time::Instant;
 
 use glam::Vec3;
 
+use super::dispatch::{Dispatch, StateIn};
 use super::encode::Dispatcher;
 use super::kernels::Kernel;
-use super::plan::{Dispatch, StateIn, grid_build};
+use super::plan::grid_build;
 use super::resources::Resources;
 use crate::backend::BackendError;
 use crate::state::StepStats;

@@ -2,16 +2,16 @@
 //! upload), the state's, and those of the effects a scene has (plasticity and tearing, mass–mass
 //! contact, implicit Euler's solver).
 
+use super::bindings::{Group, GroupBuffers, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::kernels::{Group, Sizes, Threads};
+use super::dispatch::{Flow, StateIn};
+use super::kernels::{Path, Sizes, Threads};
 use super::layout::{FrameSolve, MassContact};
 use super::links::Links;
 use super::pipelines::Layouts;
-use super::plan::implicit::Path;
-use super::plan::{Flow, StateIn};
 use super::shaders::{WORKGROUP, groups_for};
 use super::xpbd::{XpbdBuffers, XpbdSetup};
-use crate::integrator::{Integrator, StepOptions};
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 
 /// Workgroup counts of each kind of dispatch.
@@ -24,7 +24,7 @@ pub struct Workgroups {
     /// Mass–mass contact only: over the hash grid's buckets, and one per block of its prefix sum.
     pub buckets: (u32, u32),
     pub scan_blocks: (u32, u32),
-    /// Implicit Euler's per-pass kernels (`plan::implicit::solver_groups`).
+    /// Implicit Euler's per-pass kernels (`implicit::solver_groups`).
     pub solver: (u32, u32),
 }
 
@@ -98,25 +98,17 @@ pub struct Resources {
     pub memory_bytes: u64,
 }
 
-fn bind_group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    label: &str,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
+/// `compute_forces`' group, which implicit Euler's extends.
+fn forces_model(b: &Bufs) -> buffers::ForcesModel<'_> {
+    buffers::ForcesModel {
+        params: &b.params,
+        springs: &b.springs,
+        offsets: &b.offsets,
+        neighbors: &b.neighbors,
+        colliders: &b.colliders,
+        mass: &b.mass,
+        deriv: &b.deriv,
+    }
 }
 
 /// Bind group 0 of each kernel group, as they are made.
@@ -127,72 +119,50 @@ struct GroupSet<'a> {
 }
 
 impl GroupSet<'_> {
-    /// Bind `buffers` in order as group `g`.
-    fn set(&mut self, g: Group, buffers: &[&wgpu::Buffer]) {
-        debug_assert_eq!(buffers.len(), g.slots().len(), "{g:?}");
-        let label = format!("{g:?}");
+    /// Bind `buffers` as their group.
+    fn set<'b, G: GroupBuffers<'b>>(&mut self, buffers: G) {
+        let g = G::GROUP;
         // A group no kernel of the run uses has no layout, and is never bound.
         self.groups[g as usize] = self
             .layouts
             .group(g)
-            .map(|layout| bind_group(self.device, layout, &label, buffers));
+            .map(|layout| bind_group(self.device, layout, &buffers));
     }
 
     /// The groups every run binds.
     fn common(&mut self, b: &Bufs) {
-        use Group::*;
-        self.set(
-            ForcesModel,
-            &[
-                &b.params,
-                &b.springs,
-                &b.offsets,
-                &b.neighbors,
-                &b.colliders,
-                &b.mass,
-                &b.deriv,
-            ],
-        );
-        self.set(
-            Integrate,
-            &[
-                &b.params,
-                &b.x,
-                &b.v,
-                &b.xt,
-                &b.vt,
-                &b.deriv,
-                &b.sums,
-                &b.ledger,
-                &b.counters,
-            ],
-        );
-        self.set(
-            Collide,
-            &[
-                &b.params,
-                &b.colliders,
-                &b.mass,
-                &b.x,
-                &b.v,
-                &b.ledger,
-                &b.counters,
-            ],
-        );
-        self.set(
-            Reduce,
-            &[
-                &b.params,
-                &b.springs,
-                &b.colliders,
-                &b.mass,
-                &b.x,
-                &b.v,
-                &b.ledger,
-                &b.strain,
-                &b.partials,
-            ],
-        );
+        self.set(forces_model(b));
+        self.set(buffers::Integrate {
+            params: &b.params,
+            x: &b.x,
+            v: &b.v,
+            xt: &b.xt,
+            vt: &b.vt,
+            deriv: &b.deriv,
+            sums: &b.sums,
+            ledger: &b.ledger,
+            counters: &b.counters,
+        });
+        self.set(buffers::Collide {
+            params: &b.params,
+            colliders: &b.colliders,
+            mass: &b.mass,
+            x: &b.x,
+            v: &b.v,
+            ledger: &b.ledger,
+            counters: &b.counters,
+        });
+        self.set(buffers::Reduce {
+            params: &b.params,
+            springs: &b.springs,
+            colliders: &b.colliders,
+            mass: &b.mass,
+            x: &b.x,
+            v: &b.v,
+            ledger: &b.ledger,
+            strain: &b.strain,
+            partials: &b.partials,
+        });
     }
 
     /// The fused steps: their model groups (the compact links), and the state flows, by
@@ -207,36 +177,39 @@ impl GroupSet<'_> {
     ) -> Vec<Option<wgpu::BindGroup>> {
         let kinds = a.uniform("spring kinds", bytemuck::bytes_of(links.kinds.as_ref()));
         let entries = a.model("links", bytemuck::cast_slice(&links.entries));
-        let model_buffers = [
-            &b.params,
-            &kinds,
-            &b.offsets,
-            &entries,
-            &b.colliders,
-            &b.mass,
-            &b.deriv,
-            &b.sums,
-            &b.ledger,
-            &b.counters,
-        ];
-        self.set(Group::Fused, &model_buffers);
+        let fused = || buffers::Fused {
+            params: &b.params,
+            kinds: &kinds,
+            offsets: &b.offsets,
+            links: &entries,
+            colliders: &b.colliders,
+            mass: &b.mass,
+            deriv: &b.deriv,
+            sums: &b.sums,
+            ledger: &b.ledger,
+            counters: &b.counters,
+        };
+        self.set(fused());
         let rk4 = integrator == Integrator::Rk4;
         let c = rk4.then(|| {
             let n = model.mass_count();
             (a.zeros("x2", 16 * n), a.zeros("v2", 16 * n))
         });
         if c.is_some() {
-            let mut with_base = model_buffers.to_vec();
-            with_base.extend([&b.x, &b.v]);
-            self.set(Group::FusedMid, &with_base);
+            self.set(buffers::FusedMid {
+                base: fused(),
+                x_base: &b.x,
+                v_base: &b.v,
+            });
         }
         let flow = |from: (&wgpu::Buffer, &wgpu::Buffer), to: (&wgpu::Buffer, &wgpu::Buffer)| {
-            bind_group(
-                self.device,
-                &self.layouts.flow,
-                "state flow",
-                &[from.0, from.1, to.0, to.1],
-            )
+            let flow = buffers::Flow {
+                x_in: from.0,
+                v_in: from.1,
+                x_out: to.0,
+                v_out: to.1,
+            };
+            bind_group(self.device, &self.layouts.flow, &flow)
         };
         let (pa, pb) = ((&b.x, &b.v), (&b.xt, &b.vt));
         let mut flows = vec![Some(flow(pa, pb)), Some(flow(pb, pa))];
@@ -262,10 +235,14 @@ impl GroupSet<'_> {
             bytemuck::cast_slice(&model.spring_limits(dt_secs)),
         );
         let released = a.zeros("released", 4 * model.spring_count());
-        self.set(
-            Group::Springs,
-            &[&b.params, &b.springs, &limits, &b.x, &released, &b.partials],
-        );
+        self.set(buffers::Springs {
+            params: &b.params,
+            springs: &b.springs,
+            limits: &limits,
+            x: &b.x,
+            released: &released,
+            partials: &b.partials,
+        });
         released
     }
 }
@@ -278,9 +255,14 @@ impl Resources {
         limits: &wgpu::Limits,
         (layouts, links): (&Layouts, Option<&Links>),
         model: &Model,
-        (integrator, dt_secs, options): (Integrator, f64, StepOptions),
+        step: Step,
         implicit: Option<(Path, u32)>,
     ) -> Self {
+        let Step {
+            integrator,
+            dt_secs,
+            options,
+        } = step;
         let mut a = Alloc { device, bytes: 0 };
         let (n, ns) = (model.mass_count(), model.spring_count());
         let max_dim = limits.max_compute_workgroups_per_dimension;
@@ -338,7 +320,7 @@ impl Resources {
             (16 * n + 16 * n + 4 * ns.max(1)) as u64 + 48 * workgroups.partial_count() + 16;
         let staging = [0, 1].map(|_| a.read_back("staging", staging_size));
         let states = [(&b.x, &b.v), (&b.xt, &b.vt), (&b.x, &b.vt)]
-            .map(|(x, v)| bind_group(device, &layouts.state, "state", &[x, v]));
+            .map(|(x_in, v_in)| bind_group(device, &layouts.state, &buffers::State { x_in, v_in }));
         let flows = links
             .map(|links| groups.fused(&mut a, &b, (model, integrator), links))
             .unwrap_or_default();
@@ -400,27 +382,19 @@ impl SolverBuffers {
         let status = a.read_back("frame solve", FrameSolve::SIZE);
         // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
         let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
-        groups.set(
-            Group::Solve,
-            &[
-                &b.params,
-                &b.springs,
-                &b.offsets,
-                &b.neighbors,
-                &b.colliders,
-                &b.mass,
-                &b.deriv,
-                &b.x,
-                &b.v,
-                &b.xt,
-                &b.vt,
-                &b.sums,
-                &b.ledger,
-                &b.counters,
-                &scratch,
-                &terms,
-            ],
-        );
+        // The Newton iterate is the xt, vt pair; the solver's vectors live in `sums`.
+        groups.set(buffers::Solve {
+            base: forces_model(b),
+            x: &b.x,
+            v: &b.v,
+            x_in: &b.xt,
+            v_in: &b.vt,
+            work: &b.sums,
+            ledger: &b.ledger,
+            counters: &b.counters,
+            scratch: &scratch,
+            terms: &terms,
+        });
         Self {
             scratch,
             status,
@@ -440,11 +414,11 @@ impl GridBuffers {
         groups: &mut GroupSet<'_>,
     ) -> Self {
         let n = model.mass_count();
-        let table_size = crate::cpu::table_size(n);
-        let block_count = table_size / crate::cpu::SCAN_BLOCK;
+        let table_size = crate::physics::table_size(n);
+        let block_count = table_size / crate::physics::SCAN_BLOCK;
         let contact = MassContact {
             radius: c.radius_m,
-            inv_cell: crate::cpu::inv_cell_per_m(c.radius_m),
+            inv_cell: crate::physics::inv_cell_per_m(c.radius_m),
             table_mask: table_size - 1,
             block_count,
             stiffness: c.contact.stiffness_n_per_m,
@@ -460,31 +434,25 @@ impl GridBuffers {
         let block_sums = a.zeros("block sums", 4 * block_count as usize);
         let mass_cell = a.zeros("mass cell", 4 * n);
         let sorted = a.zeros("sorted masses", 4 * n);
-        groups.set(
-            Group::Grid,
-            &[
-                &b.params,
-                &contact,
-                &cell_count,
-                &cell_start,
-                &block_sums,
-                &mass_cell,
-                &sorted,
-            ],
-        );
-        groups.set(
-            Group::CollideMasses,
-            &[
-                &b.params,
-                &contact,
-                &b.mass,
-                &bodies,
-                &cell_start,
-                &sorted,
-                &b.deriv,
-                &b.partials,
-            ],
-        );
+        groups.set(buffers::Grid {
+            params: &b.params,
+            contact: &contact,
+            cell_count: &cell_count,
+            cell_start: &cell_start,
+            block_sums: &block_sums,
+            mass_cell: &mass_cell,
+            sorted: &sorted,
+        });
+        groups.set(buffers::CollideMasses {
+            params: &b.params,
+            contact: &contact,
+            mass: &b.mass,
+            mass_body: &bodies,
+            cell_start: &cell_start,
+            sorted: &sorted,
+            deriv: &b.deriv,
+            partials: &b.partials,
+        });
         Self {
             cell_start,
             sorted,

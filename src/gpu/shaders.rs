@@ -1,92 +1,97 @@
-//! The WGSL programs and the override constants they are compiled with. Each file is compiled
-//! after `common.wgsl` and the function libraries it calls; the effects a scene lacks are
-//! specialised away through `override` constants.
+//! The WGSL programs as compiled, and the override constants they are compiled with. Each file
+//! is compiled after `common.wgsl`, the declarations of the bind groups its kernels bind (from
+//! `bindings.rs`: no WGSL file declares a binding) and the libraries it imports; the effects a
+//! scene lacks are specialised away through `override` constants.
 
+use super::bindings::Group;
+use super::kernels::Kernel;
+use super::programs::{COMMON, Program, directive, library};
 use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
-const COMMON: &str = include_str!("../../shaders/common.wgsl");
-/// Libraries: functions over bindings that each file calling them declares.
-const MASS_FORCE: &str = include_str!("../../shaders/mass_force.wgsl");
-const STATE_CHECK: &str = include_str!("../../shaders/state_check.wgsl");
-const IMPLICIT_TERMS: &str = include_str!("../../shaders/implicit_terms.wgsl");
-const SPRING_RECORDS: &str = include_str!("../../shaders/spring_records.wgsl");
-const CONTACT_PROJECTION: &str = include_str!("../../shaders/contact_projection.wgsl");
-
-/// A WGSL file of kernels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Program {
-    Forces,
-    Integrate,
-    Collide,
-    Reduce,
-    Implicit,
-    Springs,
-    Grid,
-    CollideMasses,
-    Xpbd,
-    Fused,
-}
-
-impl Program {
-    pub const ALL: [Program; 10] = [
-        Program::Forces,
-        Program::Integrate,
-        Program::Collide,
-        Program::Reduce,
-        Program::Implicit,
-        Program::Springs,
-        Program::Grid,
-        Program::CollideMasses,
-        Program::Xpbd,
-        Program::Fused,
-    ];
-
-    pub fn file(self) -> &'static str {
-        self.file_and_source().0
-    }
-
-    /// `common.wgsl`, the libraries the file calls, then the file.
-    pub fn source(self) -> String {
-        let libraries: &[&str] = match self {
-            Program::Forces => &[MASS_FORCE, SPRING_RECORDS],
-            Program::Integrate => &[STATE_CHECK],
-            Program::Collide => &[CONTACT_PROJECTION],
-            Program::Implicit => &[MASS_FORCE, SPRING_RECORDS, STATE_CHECK, IMPLICIT_TERMS],
-            Program::Fused => &[MASS_FORCE, STATE_CHECK, CONTACT_PROJECTION],
-            _ => &[],
-        };
-        format!(
-            "{COMMON}\n{}\n{}",
-            libraries.join("\n"),
-            self.file_and_source().1
-        )
-    }
-
-    fn file_and_source(self) -> (&'static str, &'static str) {
-        macro_rules! file {
-            ($name:literal) => {
-                ($name, include_str!(concat!("../../shaders/", $name)))
-            };
-        }
-        match self {
-            Program::Forces => file!("forces.wgsl"),
-            Program::Integrate => file!("integrate.wgsl"),
-            Program::Collide => file!("collide.wgsl"),
-            Program::Reduce => file!("reduce.wgsl"),
-            Program::Implicit => file!("implicit.wgsl"),
-            Program::Springs => file!("springs.wgsl"),
-            Program::Grid => file!("grid.wgsl"),
-            Program::CollideMasses => file!("collide_masses.wgsl"),
-            Program::Xpbd => file!("xpbd.wgsl"),
-            Program::Fused => file!("fused.wgsl"),
-        }
-    }
-}
-
-/// Every shader program as compiled: (file name, common + file).
+/// Every shader program as compiled: (file name, source).
 pub fn programs() -> [(&'static str, String); 10] {
-    Program::ALL.map(|p| (p.file(), p.source()))
+    Program::ALL.map(|p| (p.file(), source(p)))
+}
+
+/// The bind groups `p`'s kernels bind, in group order: the widest group 0 among them (a group
+/// that extends another declares both), the state they read or flow between (group 1), the stage
+/// slot and, when the state flows, the step's end slot.
+pub fn program_groups(p: Program) -> Vec<Group> {
+    let specs: Vec<_> = Kernel::ALL
+        .iter()
+        .map(|k| k.spec())
+        .filter(|s| s.program == p)
+        .collect();
+    let widest = specs
+        .iter()
+        .map(|s| s.group)
+        .max_by_key(|g| g.bindings().len());
+    let mut groups: Vec<Group> = widest.into_iter().collect();
+    if specs.iter().any(|s| s.flows) {
+        groups.extend([Group::Flow, Group::StageSlot, Group::StageEnd]);
+    } else {
+        if specs.iter().any(|s| s.reads_state) {
+            groups.push(Group::State);
+        }
+        groups.push(Group::StageSlot);
+    }
+    groups
+}
+
+/// `p` as compiled: `common.wgsl`, the declarations of the groups it binds (`bindings.rs`), the
+/// libraries its file imports (`// #import`, in order), then the file.
+pub fn source(p: Program) -> String {
+    let declarations: String = program_groups(p).into_iter().map(Group::wgsl).collect();
+    let libraries: Vec<&str> = p.imports().filter_map(library).collect();
+    format!(
+        "{COMMON}\n{declarations}\n{}\n{}",
+        libraries.join("\n"),
+        p.text()
+    )
+}
+
+/// What `p`'s composition lacks, one line each: an import that names no library, a binding a
+/// library uses (`// #uses`) that the program does not declare, a function a library calls
+/// (`// #calls`) that no piece of the program defines. Empty when it is whole
+/// (`tests/shaders.rs` holds every program to that).
+pub fn missing(p: Program) -> Vec<String> {
+    let declared: Vec<&str> = program_groups(p)
+        .into_iter()
+        .flat_map(Group::bindings)
+        .map(|b| b.name)
+        .collect();
+    unmet(p.file(), p.imports(), &declared, &source(p))
+}
+
+/// [`missing`] for a file named `file` importing `imports`, whose program declares the bindings
+/// `declared` and reads `full` in all.
+pub fn unmet<'a>(
+    file: &str,
+    imports: impl Iterator<Item = &'a str>,
+    declared: &[&str],
+    full: &str,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    for name in imports {
+        let Some(lib) = library(name) else {
+            out.push(format!("{file}: imports '{name}', which is no library"));
+            continue;
+        };
+        for used in directive(lib, "uses").filter(|u| !declared.contains(u)) {
+            out.push(format!(
+                "{file}: library {name} uses binding '{used}', which the program does not bind"
+            ));
+        }
+        for called in directive(lib, "calls") {
+            if !full.contains(&format!("fn {called}(")) {
+                out.push(format!(
+                    "{file}: library {name} calls {called}(), which the program does not define"
+                ));
+            }
+        }
+    }
+    out
 }
 
 pub const WORKGROUP: u32 = 64;
@@ -104,20 +109,20 @@ pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
 
 // The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
 // (`SCAN_BLOCK` in shaders/common.wgsl).
-const _: () = assert!(crate::cpu::SCAN_BLOCK == 4 * WORKGROUP);
+const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 
 /// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
 /// solver's stopping rules (the CPU's, so both backends stop alike), and where the fused steps'
 /// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
-/// workgroup memory (`plan::implicit::SolverHome`), those arrays' lengths in vec4s.
+/// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s.
 pub fn constants(
     model: &Model,
     integrator: Integrator,
     kind_shift: u32,
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
 ) -> Vec<(&'static str, f64)> {
-    use crate::cpu::{
+    use crate::physics::{
         CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
         NEWTON_TOLERANCE,
     };
@@ -132,7 +137,10 @@ pub fn constants(
         ),
         ("KIND_SHIFT", f64::from(kind_shift)),
         ("CG_TOLERANCE", CG_TOLERANCE),
-        ("PAIR_STICK_SHARE", f64::from(crate::cpu::PAIR_STICK_SHARE)),
+        (
+            "PAIR_STICK_SHARE",
+            f64::from(crate::physics::PAIR_STICK_SHARE),
+        ),
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),

@@ -2,8 +2,9 @@
 //! collider's pose then, computed on the host as the CPU backend computes them. A submission of
 //! k steps uses slots 4k..4k+3 for step k, and the last slot for the snapshot's reductions.
 
+use super::bindings::{bind_group, buffers};
+use super::dispatch::SLOTS_PER_STEP;
 use super::layout::{MAX_COLLIDERS, Pose, Stage};
-use super::plan::SLOTS_PER_STEP;
 use crate::model::Model;
 
 /// The run's time: its dt, where it is, and the steps since the last snapshot was asked for.
@@ -120,18 +121,16 @@ impl StageSlots {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("stage"),
-            layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &buffer,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(std::mem::size_of::<Stage>() as u64),
-                }),
-            }],
-        });
+        // One slot's window; the dispatch gives its offset. The same group serves as a fused
+        // step's end slot (group 3, `StageEnd`), whose layout is the same.
+        let slot = buffers::StageSlot {
+            stage: wgpu::BufferBinding {
+                buffer: &buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(std::mem::size_of::<Stage>() as u64),
+            },
+        };
+        let bind_group = bind_group(device, layout, &slot);
         (buffer, bind_group)
     }
 

@@ -2,13 +2,13 @@
 //! CPU backend's functions, so the two backends solve alike), each spring's multiplier, and one
 //! bind group per colour and kind of sweep for `xpbd_solve_spring` (shaders/xpbd.wgsl).
 
+use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::kernels::Group;
+use super::dispatch::{ColourPass, Sweeps};
 use super::layout::XpbdColour;
-use super::plan::{ColourPass, Sweeps};
 use super::shaders::groups_for;
-use crate::cpu::{colour_springs, xpbd_constants};
 use crate::model::Model;
+use crate::physics::{colour_springs, xpbd_constants};
 
 pub struct XpbdBuffers {
     /// Bind group 0 of `xpbd_solve_spring` for colour c: [2c] a later sweep, [2c + 1] the first.
@@ -58,29 +58,23 @@ impl XpbdBuffers {
         let size = wgpu::BufferSize::new(std::mem::size_of::<XpbdColour>() as u64);
         let groups = (0..2 * colours)
             .map(|k| {
-                let colour = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                let colour = wgpu::BufferBinding {
                     buffer: &uniform,
                     offset: (k * stride) as u64,
                     size,
-                });
-                let buffers = [
-                    &b.springs, &constants, &order, &b.mass, &b.x, &b.xt, &lambda,
-                ];
-                debug_assert_eq!(buffers.len() + 2, Group::XpbdSolve.slots().len());
-                let entries: Vec<wgpu::BindGroupEntry<'_>> = [b.params.as_entire_binding(), colour]
-                    .into_iter()
-                    .chain(buffers.iter().map(|b| b.as_entire_binding()))
-                    .enumerate()
-                    .map(|(i, resource)| wgpu::BindGroupEntry {
-                        binding: i as u32,
-                        resource,
-                    })
-                    .collect();
-                a.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("XpbdSolve"),
-                    layout: s.layout,
-                    entries: &entries,
-                })
+                };
+                let group = buffers::XpbdSolve {
+                    params: &b.params,
+                    colour,
+                    springs: &b.springs,
+                    constants: &constants,
+                    colour_order: &order,
+                    mass: &b.mass,
+                    x: &b.x,
+                    dx: &b.xt,
+                    lambda: &lambda,
+                };
+                bind_group(a.device, s.layout, &group)
             })
             .collect();
         let workgroups = (0..colours)

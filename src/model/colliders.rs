@@ -6,6 +6,7 @@ use std::ops::{Div, Mul, Sub};
 use glam::Vec3;
 
 use crate::contact_law::damping_ratio_for_restitution;
+use crate::integrator::AskedEffects;
 use crate::real::{Real, Vector};
 use crate::scene;
 
@@ -217,6 +218,12 @@ pub struct Effects {
     /// Some body's springs may break.
     pub tearing: bool,
     pub self_collision: Option<MassContact>,
+}
+
+impl AskedEffects for Effects {
+    fn mass_contact(&self) -> bool {
+        self.self_collision.is_some()
+    }
 }
 
 impl Effects {

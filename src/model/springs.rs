@@ -19,6 +19,15 @@ impl Spring {
     pub fn is_broken(&self) -> bool {
         self.stiffness_n_per_m == 0.0 && self.damping_n_s_per_m == 0.0
     }
+
+    /// (|x_b − x_a| − L) / L with the masses at `x`: what the recording colours, the divergence
+    /// message names and `compute_strain` (CPU and WGSL) computes. A zero rest length divides by
+    /// the least positive f32 instead of by zero, as the shader does.
+    #[inline]
+    pub fn strain(&self, x: &[glam::Vec3]) -> f32 {
+        let len = x[self.a as usize].distance(x[self.b as usize]);
+        (len - self.rest_m) / self.rest_m.max(f32::MIN_POSITIVE)
+    }
 }
 
 /// What may happen to one spring during a run: plastic flow past `yield_strain` and breaking

@@ -33,7 +33,7 @@ mod statics;
 pub mod surface;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
-pub use error::RecordError;
+pub use error::{LayoutError, RecordError};
 pub use options::{RecordOptions, describe};
 pub use palette::{Rgb, strain_color};
 pub use recorder::Recorder;

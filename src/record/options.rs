@@ -3,9 +3,11 @@
 use super::springs::{self, SpringSelection};
 use super::surface;
 use crate::model::Model;
+use crate::scene::{Scene, View};
 
-/// What a recording holds beyond its defaults (`hooke run --springs … --masses`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// What a recording holds beyond its defaults (`hooke run --springs … --masses`), and the
+/// strain its colours span (the scene's `[view] strain_range`).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecordOptions {
     /// Which springs are logged as lines; `None`: each body's default for its size
     /// ([`springs::DEFAULT_MAX_SPRINGS`]).
@@ -13,6 +15,29 @@ pub struct RecordOptions {
     /// Log the masses of sheets and blocks as points every frame (their surface's vertices are
     /// the same positions; strands always log theirs).
     pub masses: bool,
+    /// Strain at the ends of the colour scale: −strain_range fully blue, +strain_range fully red.
+    pub strain_range: f32,
+}
+
+impl Default for RecordOptions {
+    /// The defaults of a scene with no `[view]` table.
+    fn default() -> Self {
+        Self {
+            springs: None,
+            masses: false,
+            strain_range: View::default().strain_range,
+        }
+    }
+}
+
+impl RecordOptions {
+    /// These options in the colours `scene` asks for (its `[view] strain_range`).
+    pub fn for_scene(self, scene: &Scene) -> Self {
+        Self {
+            strain_range: scene.view.strain_range,
+            ..self
+        }
+    }
 }
 
 /// What each body logs under `opts`, for the start of a run: one line per body.

@@ -60,12 +60,7 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    pub fn new(
-        rec: RecordingStream,
-        model: std::sync::Arc<Model>,
-        strain_range: f32,
-        opts: RecordOptions,
-    ) -> Self {
+    pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, opts: RecordOptions) -> Self {
         let mut counts = std::collections::HashMap::new();
         let collider_paths = model
             .effects
@@ -108,7 +103,7 @@ impl Recorder {
         Self {
             rec,
             model,
-            strain_range,
+            strain_range: opts.strain_range,
             bodies,
             implicit: false,
             collider_paths,

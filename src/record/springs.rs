@@ -161,26 +161,25 @@ fn strips_array(
     coords: Vec<f32>,
     offsets: Vec<i32>,
 ) -> Result<arrow::array::ArrayRef, super::error::RecordError> {
-    let unexpected =
-        |what: String| super::error::RecordError::Layout(format!("line strips: {what}"));
+    use super::error::LayoutError;
     let arrow::datatypes::DataType::List(list_field) =
         rerun::components::LineStrip3D::arrow_datatype()
     else {
-        return Err(unexpected("LineStrip3D is not an arrow list".into()));
+        return Err(LayoutError::NotAList.into());
     };
     let arrow::datatypes::DataType::FixedSizeList(point_field, 3) = list_field.data_type().clone()
     else {
-        return Err(unexpected("LineStrip3D points are not 3 floats".into()));
+        return Err(LayoutError::NotThreeFloats.into());
     };
     let points =
         FixedSizeListArray::try_new(point_field, 3, Arc::new(Float32Array::from(coords)), None)
-            .map_err(|e| unexpected(e.to_string()))?;
+            .map_err(LayoutError::from)?;
     let strips = ListArray::try_new(
         list_field,
         OffsetBuffer::new(ScalarBuffer::from(offsets)),
         Arc::new(points),
         None,
     )
-    .map_err(|e| unexpected(e.to_string()))?;
+    .map_err(LayoutError::from)?;
     Ok(Arc::new(strips))
 }

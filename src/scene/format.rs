@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::integrator::Integrator;
+use crate::integrator::{AskedEffects, Integrator};
 
 /// A whole scene file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -85,6 +85,12 @@ pub struct Effects {
     /// Contact between mass points, of one body with itself and between bodies.
     #[serde(default)]
     pub self_collision: Option<SelfCollision>,
+}
+
+impl AskedEffects for Effects {
+    fn mass_contact(&self) -> bool {
+        self.self_collision.is_some()
+    }
 }
 
 /// How a collider pushes back: a penalty spring along the contact normal, damped so that an

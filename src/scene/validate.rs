@@ -2,7 +2,6 @@
 //! [`super::from_toml`] adds the file position.
 
 use super::format::{Body, Keyframe, Scene, SelfCollision, SpringKind};
-use crate::integrator::Integrator;
 
 type Check = Result<(), (String, String)>;
 
@@ -270,11 +269,14 @@ fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
             );
         }
     }
-    if scene.solver.integrator == Integrator::Implicit {
+    if let Err(why) = scene.solver.integrator.supports(&scene.effects) {
+        let field = why.scene_field();
         return fail(
             "solver.integrator",
-            "implicit Euler does not support mass–mass contact (effects.self_collision): \
-             use \"semi-implicit\", \"verlet\" or \"rk4\", or remove [effects.self_collision]",
+            format!(
+                "{why} ({field}): use {}, or remove [{field}]",
+                why.instead("\"")
+            ),
         );
     }
     Ok(())

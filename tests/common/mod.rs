@@ -2,6 +2,7 @@
 //! (Each test file compiles this module on its own, so not every file uses every helper.)
 #![allow(dead_code)]
 
+pub mod parity;
 pub mod record;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -78,8 +79,7 @@ pub fn model_of(toml: &str) -> std::sync::Arc<hooke::model::Model> {
 
 /// A built-in scene's model and its own dt, prepared as `hooke run` prepares it.
 pub fn scene_model(name: &str) -> (std::sync::Arc<hooke::model::Model>, f64) {
-    let request = hooke::prepare::Request::named(name, hooke::select::Device::cpu());
-    let planned = ok(hooke::prepare::plan(&request, &mut |_| {}));
+    let planned = ok(hooke::prepare::planned(name));
     (planned.model, planned.settings.dt_secs)
 }
 
@@ -103,10 +103,16 @@ pub fn temp_dir(name: &str) -> PathBuf {
 pub fn gpu_available() -> bool {
     let gpu = !hooke::gpu::adapters().is_empty();
     if !gpu && std::env::var(hooke::gpu::REQUIRE_ADAPTER_ENV).is_ok_and(|v| v == "1") {
-        panic!("no GPU adapter, and {}=1", hooke::gpu::REQUIRE_ADAPTER_ENV);
+        panic!(
+            "no GPU adapter, and {}=1: install mesa-vulkan-drivers (lavapipe)",
+            hooke::gpu::REQUIRE_ADAPTER_ENV
+        );
     }
     if !gpu {
-        eprintln!("SKIPPED on the GPU: no adapter on this machine");
+        eprintln!(
+            "SKIPPED on the GPU: no adapter on this machine (set {}=1 to make this a failure)",
+            hooke::gpu::REQUIRE_ADAPTER_ENV
+        );
     }
     gpu
 }

@@ -1,6 +1,7 @@
 //! Recordings made in-process by hooke's recorder, and read back component by component with
 //! Rerun's own decoder.
 
+use hooke::integrator::Step;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -72,11 +73,15 @@ pub fn at_frame<'a>(
 
 /// A scene's model, stepped `frames` frames on the CPU, and the snapshots of frame 0 and the last.
 pub fn stepped(scene: &str, frames: u64) -> (hooke::scene::LoadedScene, Arc<Model>, Vec<Snapshot>) {
-    let loaded = hooke::scene::load(scene).unwrap_or_else(|e| panic!("{e}"));
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let model = Arc::new(hooke::model::build(&loaded.scene));
-    let mut be = hooke::cpu::CpuBackend::new(model.clone(), settings.integrator, settings.dt_secs);
+    let hooke::prepare::Planned {
+        loaded,
+        settings,
+        model,
+    } = hooke::prepare::planned(scene).unwrap_or_else(|e| panic!("{e}"));
+    let mut be = hooke::cpu::CpuBackend::new(
+        model.clone(),
+        Step::new(settings.integrator, settings.dt_secs),
+    );
     let first = be
         .snapshot(0, Default::default())
         .unwrap_or_else(|e| panic!("{e}"));
@@ -103,12 +108,7 @@ pub fn record(
     let rec = rerun::RecordingStreamBuilder::new("hooke-test")
         .save(path)
         .unwrap_or_else(|e| panic!("{e}"));
-    let mut r = Recorder::new(
-        rec.clone(),
-        model.clone(),
-        loaded.scene.view.strain_range,
-        opts,
-    );
+    let mut r = Recorder::new(rec.clone(), model.clone(), opts.for_scene(&loaded.scene));
     r.log_static(&loaded.scene.name, &loaded.text, &settings, "test")
         .unwrap_or_else(|e| panic!("{e}"));
     for s in snaps {

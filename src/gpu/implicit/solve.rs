@@ -1,6 +1,6 @@
 //! Implicit Euler on the GPU, the host's side of `shaders/implicit.wgsl`: the same Newton
-//! iterations and conjugate-gradient solves as `crate::cpu`'s `implicit_step`, with the same
-//! stopping rules, taken one of two ways (`plan::implicit::path`):
+//! iterations and conjugate-gradient solves as the CPU backend's `implicit_step`, with the same
+//! stopping rules, taken one of two ways (`plan::path`):
 //! - a small system's step is one dispatch of `implicit_step`, one workgroup deciding every
 //!   stopping rule on the device;
 //! - a larger one's step is a dispatch per pass, two per CG iteration. The host cannot know how
@@ -16,13 +16,14 @@
 //! Either way nothing waits inside a frame, each step books its CG iterations and residual on the
 //! device, and the frame's snapshot reads them back (`readback.rs`).
 
-use super::context::{DeviceError, GpuContext};
-use super::encode::{Dispatcher, in_pass};
-use super::layout::FrameSolve;
-use super::plan::{Dispatch, SLOTS_PER_STEP, implicit::*};
-use super::resources::SolverBuffers;
-use crate::backend::BackendError;
-use crate::cpu::{CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS};
+use super::super::context::{GpuContext, ReadBackOf};
+use super::super::dispatch::{Dispatch, SLOTS_PER_STEP};
+use super::super::encode::{Dispatcher, in_pass};
+use super::super::layout::FrameSolve;
+use super::super::resources::SolverBuffers;
+use super::plan::*;
+use crate::backend::{BackendError, Internal};
+use crate::physics::{CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS};
 
 const NEWTON_SLOTS: usize = NEWTON_MAX_ITERATIONS as usize;
 
@@ -174,11 +175,9 @@ impl ImplicitStep<'_> {
                 });
             }
             if !budgets.can_raise(took.overran) {
-                return Err(DeviceError::Internal(format!(
-                    "implicit Euler's solve flagged a budget already at its maximum ({:#x}, {budgets:?})",
-                    took.overran
-                ))
-                .into());
+                return Err(BackendError::Internal(Internal::BudgetAtMaximum {
+                    overran: took.overran,
+                }));
             }
             budgets = budgets.raised(took.overran);
             replays += 1;
@@ -234,11 +233,12 @@ impl ImplicitStep<'_> {
         );
         let index = self.ctx.queue.submit([enc.finish()]);
         let slice = s.status.slice(..);
-        self.ctx.map_and_wait(&slice, index)?;
+        self.ctx
+            .map_and_wait(&slice, index, ReadBackOf::SolverStatus)?;
         let record = {
             let data = slice
                 .get_mapped_range()
-                .map_err(|e| self.ctx.read_back_failed(e))?;
+                .map_err(|e| self.ctx.read_back_failed(ReadBackOf::SolverStatus, e))?;
             bytemuck::pod_read_unaligned::<FrameSolve>(&data[..FrameSolve::SIZE as usize])
         };
         s.status.unmap();

@@ -2,9 +2,46 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{Collider, Model, Path, Shape, SpringKindTag};
-use crate::settings::Settings;
-use crate::stability::{Modes, dt_warning, stable_steps};
+use hooke::model::{Collider, Model, Path, Shape, SpringKindTag};
+use hooke::prepare::Planned;
+use hooke::select::BackendKind;
+use hooke::settings::Settings;
+use hooke::stability::{Modes, dt_warning, stable_steps};
+
+use super::args::DeviceArgs;
+
+/// `hooke check`: the model, its stable steps, the recording's size and the device, on standard
+/// output.
+pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
+    let Planned {
+        loaded,
+        settings,
+        model,
+    } = planned;
+    print!("{}", report(&loaded.scene.name, model, settings));
+    let size = hooke::recording_size::estimate(
+        model,
+        settings,
+        hooke::record::RecordOptions::default().for_scene(&loaded.scene),
+    )?;
+    println!(
+        "recording (estimated from sample frames, default --springs): about {} per frame, {} for all {} frames",
+        hooke::rrd_file::human_bytes(size.bytes_per_frame),
+        hooke::rrd_file::human_bytes(size.total(settings.frames)),
+        settings.frames + 1
+    );
+    match device.backend {
+        BackendKind::Cpu => println!("backend: cpu ({} threads)", rayon::current_num_threads()),
+        BackendKind::Gpu => {
+            match hooke::gpu::adapter_report(device.adapter.as_deref(), model, settings.integrator)
+            {
+                Ok(line) => println!("{line}"),
+                Err(e) => println!("warning: {e}"),
+            }
+        }
+    }
+    Ok(())
+}
 
 pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     let mut s = String::new();
@@ -115,7 +152,7 @@ fn effects(s: &mut String, model: &Model) {
             c.contact.stiffness_n_per_m,
             c.contact.friction,
             c.contact.damping_ratio,
-            crate::cpu::table_size(model.mass_count())
+            hooke::physics::table_size(model.mass_count())
         );
         any = true;
     }
@@ -219,14 +256,14 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                     (1.0 / (settings.frame_rate_hz * dt)).ceil()
                 );
             }
-            Some(_) if i == crate::integrator::Integrator::Xpbd => {
+            Some(_) if i == hooke::integrator::Integrator::Xpbd => {
                 let _ = writeln!(
                     s,
                     "    {:<14} any for one spring in theory (a projection is a backward-Euler step of it); coupled springs at large substeps stay stretched, and their energy swings: `hooke bench accuracy` measures it{mark}",
                     i.name()
                 );
             }
-            Some(_) if i == crate::integrator::Integrator::Implicit => {
+            Some(_) if i == hooke::integrator::Integrator::Implicit => {
                 let _ = writeln!(
                     s,
                     "    {:<14} any in theory (A-stable on linear springs; it damps, so accuracy still wants small steps){mark}",
@@ -257,13 +294,13 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
 
 /// The passes one GPU step runs, and the effects compiled into its kernels.
 fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
-    let (passes, why_unfused, effects) = crate::gpu::step_passes(model, settings.integrator);
+    let (passes, why_unfused, effects) = hooke::gpu::step_passes(model, settings.integrator);
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
     if let Some(why) = why_unfused {
         let _ = writeln!(s, "  not the fused step: {why}");
     }
-    if settings.integrator == crate::integrator::Integrator::Xpbd {
-        let colours = crate::cpu::colour_springs(&model.springs, &model.inv_mass).colours();
+    if settings.integrator == hooke::integrator::Integrator::Xpbd {
+        let colours = hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours();
         let _ = writeln!(
             s,
             "  XPBD: {colours} spring colours × {} iteration(s): {} xpbd_solve_spring dispatches per substep",

@@ -1,0 +1,192 @@
+//! `CpuBackend`: the `Backend` the CPU reference implements, as `gpu/backend.rs` is the GPU's.
+//! It steps through the fused one-pass step where that serves the model and integrator
+//! (`FusedStep::serves`), and through the general path (`integrate::step`: forces, update,
+//! projection, spring changes) otherwise.
+
+use super::collide::project_contacts;
+use super::fused::{FusedStep, Simd};
+use super::integrate;
+use super::reduce::{compute_energies, compute_strain};
+use crate::backend::{Backend, BackendError, Internal, find_divergence};
+use crate::integrator::{Integrator, Step};
+use crate::model::Model;
+use crate::state::{Snapshot, State, StepStats};
+
+pub struct CpuBackend {
+    model: std::sync::Arc<Model>,
+    integrator: Integrator,
+    dt: f32,
+    state: State,
+    scratch: integrate::Scratch,
+    pending: std::collections::VecDeque<Snapshot>,
+    /// Snapshots returned by the recorder, their buffers reused.
+    spare: Vec<Snapshot>,
+    /// The one-pass step, for the models and integrators it serves.
+    fused: Option<FusedStep>,
+}
+
+impl CpuBackend {
+    pub fn new(model: std::sync::Arc<Model>, step: Step) -> Self {
+        let Step {
+            integrator,
+            dt_secs,
+            options,
+        } = step;
+        let fused = FusedStep::serves(&model, integrator)
+            .then(|| FusedStep::new(&model, integrator, Simd::Best));
+        Self {
+            fused,
+            state: model.initial.clone(),
+            scratch: integrate::Scratch::new(&model, dt_secs, options),
+            pending: std::collections::VecDeque::new(),
+            spare: Vec::new(),
+            model,
+            integrator,
+            dt: dt_secs as f32,
+        }
+    }
+
+    /// Step with `kernel`'s lanes where the fused step serves this model, or through the
+    /// general path (`compute_forces`, then the update) with `None`. Both give the same bits;
+    /// this is for the tests that say so and for measuring what each kernel is worth.
+    pub fn set_simd(&mut self, kernel: Option<Simd>) {
+        self.fused = kernel
+            .filter(|_| FusedStep::serves(&self.model, self.integrator))
+            .map(|k| FusedStep::new(&self.model, self.integrator, k));
+    }
+
+    /// The fused step's kernel, `None` when the general path steps this model.
+    pub fn simd(&self) -> Option<Simd> {
+        self.fused.as_ref().map(FusedStep::simd)
+    }
+
+    /// Share of the masses the fused step computes in lanes, `None` without it.
+    pub fn lane_share(&self) -> Option<f64> {
+        self.fused.as_ref().map(FusedStep::run_share)
+    }
+
+    /// `advance` through the fused step: the state stays in its arrays for all `substeps`.
+    fn advance_fused(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        let start = std::time::Instant::now();
+        let Some(fused) = self.fused.as_mut() else {
+            return Err(BackendError::Internal(Internal::FusedStepMissing));
+        };
+        let dt = f64::from(self.dt);
+        fused.load(&self.state.x, &self.state.v);
+        for _ in 0..substeps {
+            let (power, suspect) = fused.fused_step(&self.model, self.dt);
+            self.state.ledger.accumulate(&power, dt);
+            self.state.time_secs += dt;
+            self.state.steps += 1;
+            if suspect {
+                fused.unload(&mut self.state.x, &mut self.state.v);
+                if let Some(d) = find_divergence(&self.model, &self.state, self.integrator, dt) {
+                    return Err(BackendError::Diverged(d));
+                }
+            }
+        }
+        fused.unload(&mut self.state.x, &mut self.state.v);
+        Ok(StepStats {
+            substeps,
+            dt_secs: dt,
+            step_ms: start.elapsed().as_secs_f64() * 1e3,
+            ..StepStats::default()
+        })
+    }
+}
+
+impl Backend for CpuBackend {
+    fn describe(&self) -> String {
+        format!("cpu ({} threads)", rayon::current_num_threads())
+    }
+
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        if self.fused.is_some() {
+            return self.advance_fused(substeps);
+        }
+        let start = std::time::Instant::now();
+        let mut projections = 0;
+        let (mut iterations, mut residual) = (0u32, 0.0f64);
+        for _ in 0..substeps {
+            if let Some(solve) = integrate::step(
+                &self.model,
+                self.integrator,
+                &mut self.state,
+                &mut self.scratch,
+                self.dt,
+            ) {
+                iterations = iterations.max(solve.iterations);
+                residual = residual.max(solve.residual);
+            }
+            // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
+            // which cannot know that one happened without a read-back.
+            projections += project_contacts(&self.model, &mut self.state);
+            if self.model.effects.springs_change() {
+                self.scratch.update_springs(&mut self.state);
+            }
+            if let Some(d) = find_divergence(
+                &self.model,
+                &self.state,
+                self.integrator,
+                f64::from(self.dt),
+            ) {
+                return Err(BackendError::Diverged(d));
+            }
+        }
+        Ok(StepStats {
+            substeps,
+            dt_secs: f64::from(self.dt),
+            step_ms: start.elapsed().as_secs_f64() * 1e3,
+            projections,
+            solver_iterations: iterations,
+            solver_residual: residual,
+        })
+    }
+
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        let t = self.state.time_secs;
+        let mut snap = self.spare.pop().unwrap_or_else(|| Snapshot {
+            frame,
+            time_secs: t,
+            steps: 0,
+            positions: Vec::new(),
+            strain: Vec::new(),
+            energies: Default::default(),
+            stats,
+            collider_positions: Vec::new(),
+        });
+        snap.frame = frame;
+        snap.time_secs = t;
+        snap.steps = self.state.steps;
+        snap.stats = stats;
+        snap.positions.clear();
+        snap.positions.extend_from_slice(&self.state.x);
+        let springs = self.scratch.springs();
+        compute_strain(springs, &self.state.x, &mut snap.strain);
+        snap.energies = compute_energies(&self.model, springs, &self.state);
+        snap.collider_positions.clear();
+        snap.collider_positions.extend(
+            self.model
+                .effects
+                .colliders
+                .iter()
+                .map(|c| c.path.pose_at(t).position_m),
+        );
+        self.pending.push_back(snap);
+        Ok(())
+    }
+
+    fn recycle(&mut self, snapshot: Snapshot) {
+        if self.spare.len() < 8 {
+            self.spare.push(snapshot);
+        }
+    }
+
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        Ok(self.pending.pop_front())
+    }
+
+    fn state(&mut self) -> Result<State, BackendError> {
+        Ok(self.state.clone())
+    }
+}

@@ -1,0 +1,90 @@
+//! What one dispatch of a step plan is: a kernel, the state it reads or the states it flows
+//! between, its stage slot and, for XPBD's projection, its colour. The plans (`plan.rs`,
+//! `implicit/plan.rs`) are lists of these; `encode.rs` records them.
+
+use super::kernels::Kernel;
+
+/// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
+pub const SLOTS_PER_STEP: u32 = 4;
+
+/// Which state a kernel reads through bind group 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StateIn {
+    XV,
+    XtVt,
+    XVt,
+}
+
+/// The state a fused kernel reads and the one it writes (bind group 1): A is the run's x and v,
+/// B its xt and vt, C the second stage point RK4's middle stages alternate with B.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flow {
+    AB,
+    BA,
+    BC,
+    CB,
+}
+
+/// One sweep of XPBD's projection over one colour of springs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ColourPass {
+    pub colour: u32,
+    /// The substep's first sweep, which starts the multipliers from zero.
+    pub first: bool,
+}
+
+/// XPBD's sweeps of a substep: the springs' colours, and the sweeps over all of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Sweeps {
+    pub colours: u32,
+    pub iterations: u32,
+}
+
+/// One dispatch: a kernel, the state it reads (for the kernels that read one) or the states it
+/// reads and writes (the fused kernels), its stage slot relative to its step's first, and for
+/// XPBD's projection the colour it solves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dispatch {
+    pub kernel: Kernel,
+    pub state: Option<StateIn>,
+    pub flow: Option<Flow>,
+    pub slot: u32,
+    pub colour: Option<ColourPass>,
+}
+
+impl Dispatch {
+    /// A kernel that reads no state.
+    pub const fn at(kernel: Kernel, slot: u32) -> Self {
+        Self {
+            kernel,
+            state: None,
+            flow: None,
+            slot,
+            colour: None,
+        }
+    }
+
+    /// A kernel that reads `state`.
+    pub const fn reading(kernel: Kernel, state: StateIn, slot: u32) -> Self {
+        Self {
+            state: Some(state),
+            ..Self::at(kernel, slot)
+        }
+    }
+
+    /// A fused kernel, reading and writing the states of `flow`.
+    pub const fn flowing(kernel: Kernel, flow: Flow, slot: u32) -> Self {
+        Self {
+            flow: Some(flow),
+            ..Self::at(kernel, slot)
+        }
+    }
+
+    /// XPBD's projection of one colour.
+    pub const fn colour(pass: ColourPass) -> Self {
+        Self {
+            colour: Some(pass),
+            ..Self::at(Kernel::XpbdSolveSpring, 0)
+        }
+    }
+}

@@ -1,0 +1,147 @@
+//! An implicit step's passes. A small system's whole step is one dispatch of `implicit_step` (one
+//! workgroup, no host wait). A larger one runs, in order: BEGIN, then per Newton iteration
+//! NEWTON_BEGIN, CG_ITERATION repeated, NEWTON_END; then END, each a dispatch over the solver's
+//! grid of workgroups (`solver_groups`) or one workgroup. Every dispatch of a step reads the same
+//! slot.
+
+use super::super::dispatch::Dispatch;
+use super::super::kernels::Kernel::{self, *};
+use super::super::kernels::Path;
+use super::super::layout::SOLVER_VECTORS;
+use crate::model::Model;
+
+/// The most masses the one-workgroup step takes: 32 per thread. Beyond that, a dispatch per
+/// pass spreads the masses over the device.
+pub const IN_GROUP_MAX_MASSES: usize = 2048;
+
+/// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL, at most 64). On a CPU adapter
+/// (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and each
+/// further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
+/// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU keeps 64.
+pub fn group_threads(device: wgpu::DeviceType) -> u32 {
+    match device {
+        wgpu::DeviceType::Cpu => 8,
+        _ => 64,
+    }
+}
+
+/// Workgroup memory the one-workgroup step's sums take (`sum_sh`, `part_sh`, `total_sh`,
+/// `flag_sh` in shaders/implicit.wgsl), rounded up.
+const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16;
+
+/// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
+/// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the
+/// sums in `workgroup_bytes` (the adapter's limit), else in the `work` and `terms` buffers.
+/// The passes read them many times a step; on lavapipe a storage-buffer load costs a
+/// descriptor read, a bounds check and a branch per lane, a workgroup-memory load neither
+/// (hair's steps 12% faster, BENCHMARKS.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverHome {
+    Buffers,
+    /// The arrays' lengths in vec4s.
+    Workgroup {
+        vectors: u32,
+        terms: u32,
+    },
+}
+
+impl SolverHome {
+    pub fn of(model: &Model, path: Path, workgroup_bytes: u32) -> Self {
+        let vectors = SOLVER_VECTORS * model.mass_count() as u64;
+        let terms = 2 * model.adjacency.entries.len() as u64;
+        let bytes = 16 * (vectors + terms) + SUM_SCRATCH_BYTES;
+        match (path, u32::try_from(vectors), u32::try_from(terms)) {
+            (Path::InGroup, Ok(vectors), Ok(terms))
+                if bytes <= u64::from(workgroup_bytes) && terms > 0 =>
+            {
+                SolverHome::Workgroup { vectors, terms }
+            }
+            _ => SolverHome::Buffers,
+        }
+    }
+
+    /// The workgroup arrays' lengths (vectors, terms) for `shaders::constants`, if any.
+    pub fn workgroup_arrays(self) -> Option<[u32; 2]> {
+        match self {
+            SolverHome::Workgroup { vectors, terms } => Some([vectors, terms]),
+            SolverHome::Buffers => None,
+        }
+    }
+}
+
+/// The path for `model`: one workgroup for a small system, contacts or not. (Contact scenes
+/// took the per-pass path until 2026-11-23: on Mesa 22's lavapipe the one-workgroup step left
+/// the CPU's solution on jello-sphere. On Mesa 25, with sums in two levels, it agrees with
+/// the CPU as the per-pass path does, `tests/gpu_implicit.rs`, and runs jello 1.35x faster.)
+pub fn path(model: &Model) -> Path {
+    if model.mass_count() <= IN_GROUP_MAX_MASSES {
+        Path::InGroup
+    } else {
+        Path::Passes
+    }
+}
+
+/// The most workgroups of the per-pass kernels' grid on a CPU adapter (lavapipe), and on a
+/// GPU. Every workgroup of a pass sums the partials of all (the grid's size squared, in
+/// loads): a CPU runs few workgroups at once, and each load of a partial costs it a
+/// descriptor read and a bounds check; a GPU needs enough threads in flight to hide memory
+/// latency, and reads the partials from its cache.
+const SOLVER_GROUPS_CPU: u32 = 64;
+const SOLVER_GROUPS_GPU: u32 = 1024;
+
+/// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL): one per 64 masses, at
+/// most the device's cap.
+pub fn solver_groups(masses: usize, device: wgpu::DeviceType) -> u32 {
+    let cap = match device {
+        wgpu::DeviceType::Cpu => SOLVER_GROUPS_CPU,
+        _ => SOLVER_GROUPS_GPU,
+    };
+    let wanted = masses
+        .div_ceil(super::super::shaders::WORKGROUP as usize)
+        .max(1);
+    u32::try_from(wanted).map_or(cap, |w| w.min(cap))
+}
+
+const fn at(k: Kernel) -> Dispatch {
+    Dispatch::at(k, 0)
+}
+
+pub const IN_GROUP: [Dispatch; 1] = [at(ImplicitStep)];
+pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
+/// The Newton iterate, its forces and right-hand side, and the first half of the solve's first
+/// CG iteration (`cg_apply` with p = z).
+pub const NEWTON_BEGIN: [Dispatch; 4] = [
+    at(ImplicitIterate),
+    at(ForcesAndRhs),
+    at(CgBegin),
+    at(CgApply),
+];
+/// The rest of a CG iteration and the first half of the next: each half sums the partials
+/// the other left, so a dot product costs no dispatch of its own.
+pub const CG_ITERATION: [Dispatch; 2] = [at(CgAdvance), at(CgApply)];
+pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
+pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
+
+/// For `hooke check`: the passes of one implicit step, the repeated parts in brackets.
+pub fn passes(path: Path) -> String {
+    let names = |ds: &[Dispatch]| {
+        ds.iter()
+            .map(|d| d.kernel.name())
+            .collect::<Vec<_>>()
+            .join(" → ")
+    };
+    match path {
+        Path::InGroup => format!(
+            "{} (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
+            names(&IN_GROUP)
+        ),
+        Path::Passes => format!(
+            "{} → [Newton: {} → [CG: {}] → {}] → {}",
+            names(&BEGIN),
+            names(&NEWTON_BEGIN),
+            names(&CG_ITERATION),
+            names(&NEWTON_END),
+            names(&END)
+        ),
+    }
+}

@@ -1,0 +1,114 @@
+//! GPU–CPU parity: both backends stepped alike from one model, and the tolerance their states
+//! must meet (`tests/gpu.rs`).
+
+use std::sync::Arc;
+
+use hooke::backend::Backend as _;
+use hooke::cpu::CpuBackend;
+use hooke::gpu::GpuBackend;
+use hooke::integrator::{Integrator, Step, StepOptions};
+use hooke::model::Model;
+use hooke::state::State;
+
+use super::ok;
+
+/// Each integrator at the scene's dt, or at half its estimated stable dt where that is smaller
+/// (explicit Euler and RK2 need far smaller steps than the scenes use).
+pub fn parity_dt(model: &Model, scene_dt: f64, integrator: Integrator) -> f64 {
+    let limit = hooke::stability::stable_dts(model)
+        .into_iter()
+        .find(|(i, _)| *i == integrator)
+        .and_then(|l| l.1);
+    match limit {
+        Some(l) => scene_dt.min(0.5 * l),
+        None => scene_dt / 20.0,
+    }
+}
+
+pub fn run_both(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    frames: u32,
+    substeps: u32,
+) -> (State, State, f64) {
+    run_both_with(
+        model,
+        integrator,
+        dt,
+        (frames, substeps),
+        StepOptions::default(),
+    )
+}
+
+pub fn run_both_with(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    (frames, substeps): (u32, u32),
+    options: StepOptions,
+) -> (State, State, f64) {
+    let mut cpu = CpuBackend::new(
+        model.clone(),
+        Step::new(integrator, dt).with_options(options),
+    );
+    let mut gpu = ok(GpuBackend::new(
+        model.clone(),
+        Step::new(integrator, dt).with_options(options),
+        None,
+    ));
+    let mut worst = 0.0f64;
+    for _ in 0..frames {
+        ok(cpu.advance(substeps));
+        ok(gpu.advance(substeps));
+        let (c, g) = (
+            ok(cpu.snapshot(0, Default::default())),
+            ok(gpu.snapshot(0, Default::default())),
+        );
+        for (a, b) in c.positions.iter().zip(&g.positions) {
+            worst = worst.max(f64::from(a.distance(*b)));
+        }
+    }
+    (ok(cpu.state()), ok(gpu.state()), worst)
+}
+
+/// Stated tolerance. Mesa lavapipe reproduces the CPU bit for bit (both evaluate the same f32
+/// operations in the same order); a GPU that fuses multiply-adds differs by rounding, which this
+/// allows for over a few hundred steps.
+pub const PARITY_X_M: f64 = 1e-5;
+pub const PARITY_V_M_PER_S: f64 = 1e-3;
+
+pub fn assert_parity(what: &str, c: &State, g: &State, worst_x: f64) {
+    let worst_v =
+        c.v.iter()
+            .zip(&g.v)
+            .map(|(a, b)| f64::from(a.distance(*b)))
+            .fold(0.0, f64::max);
+    assert!(
+        worst_x <= PARITY_X_M,
+        "{what}: GPU positions differ from the CPU by {worst_x:.3e} m"
+    );
+    assert!(
+        worst_v <= PARITY_V_M_PER_S,
+        "{what}: GPU velocities differ from the CPU by {worst_v:.3e} m/s"
+    );
+    // Ledgers: per-mass f32 on the GPU, per-chunk f64 on the CPU.
+    let (lc, lg) = (c.ledger.dissipated_j(), g.ledger.dissipated_j());
+    assert!(
+        (lc - lg).abs() <= 1e-4 * lc.abs().max(1e-3),
+        "{what}: dissipated {lc} J on CPU, {lg} J on GPU"
+    );
+    let (wc, wg) = (c.ledger.collider_work_j, g.ledger.collider_work_j);
+    assert!(
+        (wc - wg).abs() <= 1e-4 * wc.abs().max(1e-3),
+        "{what}: collider work {wc} J on CPU, {wg} J on GPU"
+    );
+    println!(
+        "{what}: |Δx| {worst_x:.2e} m, |Δv| {worst_v:.2e} m/s{}",
+        if worst_x == 0.0 && worst_v == 0.0 {
+            " (bit-identical)"
+        } else {
+            ""
+        }
+    );
+}

@@ -24,6 +24,23 @@ pub enum Error {
     #[error(transparent)]
     Settings(#[from] SettingsError),
 
+    /// An entry of `--compare` (or a scene's `[compare]`) that cannot be read.
+    #[error("--compare entry {position} ('{text}'): {why}")]
+    CompareEntry {
+        /// Counted from 1.
+        position: usize,
+        text: String,
+        why: crate::compare_entry::EntryError,
+    },
+
+    /// An entry of a comparison refused before anything runs.
+    #[error("--compare entry {position} ({entry}) is refused: {why}")]
+    CompareRefused {
+        position: usize,
+        entry: String,
+        why: crate::stability::Refusal,
+    },
+
     /// `--dt auto` needs an error to aim at.
     #[error("--tolerance must be a positive number of metres, got {0}")]
     Tolerance(f64),

@@ -11,6 +11,8 @@ pub mod accuracy;
 pub mod auto_dt;
 pub mod backend;
 pub mod bench;
+pub mod compare_entry;
+pub mod comparison;
 pub mod contact_law;
 pub mod cpu;
 pub mod divergence;

@@ -75,6 +75,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             rerun,
             output,
             recording,
+            compare,
         } => {
             let run_matches = matches
                 .subcommand_matches("run")
@@ -86,6 +87,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
                 rerun: &rerun,
                 output: &output,
                 recording: &recording,
+                compare: &compare,
                 matches: run_matches,
             });
         }

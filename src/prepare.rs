@@ -7,11 +7,13 @@ use std::sync::Arc;
 
 use crate::auto_dt::{self, AutoDt};
 use crate::backend::Backend;
+use crate::compare_entry::CompareEntry;
 use crate::error::{Error, Result};
 use crate::model::{self, Model};
 use crate::scene::{LoadedScene, Scene, SceneOrigin};
 use crate::select::Device;
 use crate::settings::{Overrides, Settings};
+use crate::stability::{Modes, Refusal, stable_step};
 
 /// Where the scene comes from.
 #[derive(Debug, Clone)]
@@ -119,6 +121,105 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         loaded,
         settings,
         model,
+    })
+}
+
+/// One entry of a comparison, ready to step.
+pub struct PreparedEntry {
+    pub entry: CompareEntry,
+    /// Its name in the recording (`world/<name>/…`), unique among the entries.
+    pub name: String,
+    pub settings: Settings,
+    pub backend: Box<dyn Backend>,
+}
+
+/// A comparison ready to step: one scene and model, and each entry's settings and backend, the
+/// reference first.
+pub struct PreparedComparison {
+    pub loaded: LoadedScene,
+    pub model: Arc<Model>,
+    pub entries: Vec<PreparedEntry>,
+}
+
+/// `request`'s scene under each of `entries` (the first the reference), each with its own step
+/// when it gives one: every entry is checked before any backend opens, and refused with the
+/// reason when its integrator cannot simulate the scene or its step is above the integrator's
+/// estimated stable step. A scheme with no step stable for sure (forward Euler, RK2) is warned
+/// about, as a single run is.
+pub fn prepare_comparison(
+    request: &Request,
+    entries: &[CompareEntry],
+    say: &mut dyn FnMut(Notice),
+) -> Result<PreparedComparison> {
+    let Planned { loaded, model, .. } = plan(request, say)?;
+    let modes = Modes::of(&model);
+    let mut planned = Vec::with_capacity(entries.len());
+    for (i, entry) in entries.iter().enumerate() {
+        let refuse = |why| Error::CompareRefused {
+            entry: entry.to_string(),
+            position: i + 1,
+            why,
+        };
+        entry
+            .integrator
+            .supports(&loaded.scene.effects)
+            .map_err(|e| refuse(Refusal::Unsupported(e)))?;
+        let overrides = Overrides {
+            integrator: Some(entry.integrator),
+            dt_secs: entry.dt_secs.or(request.overrides.dt_secs),
+            substeps: entry.dt_secs.map_or(request.overrides.substeps, |_| None),
+            ..request.overrides.clone()
+        };
+        let settings = Settings::resolve(&loaded.scene, &overrides)?;
+        for n in &settings.notes {
+            say(Notice::Note(format!("{entry}: {n}")));
+        }
+        let stable = stable_step(&modes, entry.integrator);
+        match stable.dt_secs {
+            Some(limit) if settings.dt_secs > limit => {
+                return Err(refuse(Refusal::AboveStableStep {
+                    integrator: entry.integrator,
+                    dt_secs: settings.dt_secs,
+                    limit_secs: limit,
+                    limit: stable.limit,
+                }));
+            }
+            Some(_) => {}
+            None => {
+                if let Some(w) = crate::stability::dt_warning(&model, &settings) {
+                    say(Notice::AboveStableLimit(format!("{entry}: {w}")));
+                }
+            }
+        }
+        planned.push((*entry, settings));
+    }
+    let mut names: Vec<String> = Vec::with_capacity(planned.len());
+    let mut prepared = Vec::with_capacity(planned.len());
+    for (entry, settings) in planned {
+        let base = entry.name();
+        let name = (1..)
+            .map(|k| {
+                if k == 1 {
+                    base.clone()
+                } else {
+                    format!("{base}_{k}")
+                }
+            })
+            .find(|n| !names.contains(n))
+            .unwrap_or(base);
+        names.push(name.clone());
+        let backend = request.device.create(model.clone(), settings.step())?;
+        prepared.push(PreparedEntry {
+            entry,
+            name,
+            settings,
+            backend,
+        });
+    }
+    Ok(PreparedComparison {
+        loaded,
+        model,
+        entries: prepared,
     })
 }
 

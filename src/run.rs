@@ -4,14 +4,15 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crossbeam_channel::Sender;
+
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::pacing::{Paced, Pacer};
 use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
-use crate::record::{RecordOptions, Recorder};
+use crate::record::{RecordError, RecordOptions, Recorder};
 use crate::rrd_file::RrdFile;
-use crate::settings::Settings;
 use crate::sim::{self, Delivery};
 use crate::state::Snapshot;
 use crate::viewer::{LinkState, ViewerLink};
@@ -81,25 +82,37 @@ pub fn run(
     } else {
         be
     };
+    // The recorder hands logged snapshots back so that their buffers are reused.
+    let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
+    let (frames, substeps) = (settings.frames, settings.substeps);
+    let simulate = move |tx: &Sender<Snapshot>, stop: sim::Stop<'_>| {
+        let mut be = be;
+        sim::simulate(
+            be.as_mut(),
+            frames,
+            substeps,
+            tx,
+            opts.delivery,
+            stop,
+            Some(&back_rx),
+        )
+    };
+    let log = |snap: Snapshot, _: &mut Progress| {
+        recorder.log_snapshot(&snap)?;
+        let frame = snap.frame;
+        // Back to the simulation for reuse; if its queue is full, just drop it.
+        let _ = back_tx.try_send(snap);
+        Ok(frame)
+    };
+    let threads = Threads {
+        opts,
+        cancel: &cancel,
+        frame_rate_hz: settings.frame_rate_hz,
+    };
     let (outcome, recorded, recorder_error) =
-        simulate_and_record(be, &mut recorder, &mut progress, settings, opts, &cancel);
+        threads.simulate_and_record(simulate, log, &mut progress);
     progress.finish();
-    if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
-        // Nothing more can reach that viewer; do not wait for it.
-        let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
-        return Err(gone);
-    }
-    // Whatever happened, what was logged reaches the sink before we report.
-    let flushed = rec.flush_blocking();
-    if let Some(file) = &opts.file {
-        // A failed write explains a failed flush better than the flush does.
-        file.finish().map_err(Error::WriteRecording)?;
-    }
-    flushed.map_err(Error::FlushRun)?;
-    let outcome = outcome?;
-    if let Some(e) = recorder_error {
-        return Err(e);
-    }
+    let outcome = end_recording(&rec, opts, outcome, recorder_error)?;
     if let Some(e) = outcome.failed {
         return Err(Error::Backend(e));
     }
@@ -114,79 +127,99 @@ pub fn run(
     })
 }
 
-/// The simulation thread stepping `be` and the recorder thread logging what it sends, joined:
-/// how the simulation ended, the frames recorded, and why the recorder stopped early, if it did.
-fn simulate_and_record(
-    be: Box<dyn Backend>,
-    recorder: &mut Recorder,
-    progress: &mut Progress,
-    settings: &Settings,
+/// The end of a recording, whatever ended the run: what was logged reaches the sink before the
+/// run reports, and the file is ended. A recorder's error (a full disk, a viewer gone with no
+/// file beside it) or a thread's panic is the run's error; otherwise the simulation's outcome.
+pub(crate) fn end_recording(
+    rec: &rerun::RecordingStream,
     opts: &RunOptions,
-    cancel: &Arc<AtomicBool>,
-) -> (Result<sim::SimOutcome>, u64, Option<Error>) {
-    let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
-    // The recorder hands logged snapshots back so that their buffers are reused.
-    let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
-    // Set by the recorder when it can take no more: the simulation stops within a chunk.
-    let halt = AtomicBool::new(false);
-    std::thread::scope(|scope| {
-        let sim = std::thread::Builder::new()
-            .name("hooke-sim".into())
-            .spawn_scoped(scope, {
-                let cancel = cancel.clone();
-                let halt = &halt;
-                let (frames, substeps, delivery) =
-                    (settings.frames, settings.substeps, opts.delivery);
-                move || {
-                    let mut be = be;
-                    let stop = sim::Stop {
-                        interrupt: &cancel,
-                        halt: Some(halt),
+    outcome: Result<sim::SimOutcome>,
+    recorder_error: Option<Error>,
+) -> Result<sim::SimOutcome> {
+    if let Some(gone @ Error::ViewerGone { .. }) = recorder_error {
+        // Nothing more can reach that viewer; do not wait for it.
+        let _ = rec.flush_with_timeout(std::time::Duration::from_millis(200));
+        return Err(gone);
+    }
+    let flushed = rec.flush_blocking();
+    if let Some(file) = &opts.file {
+        // A failed write explains a failed flush better than the flush does.
+        file.finish().map_err(Error::WriteRecording)?;
+    }
+    flushed.map_err(Error::FlushRun)?;
+    let outcome = outcome?;
+    if let Some(e) = recorder_error {
+        return Err(e);
+    }
+    Ok(outcome)
+}
+
+/// What the two threads of a run share: its options, its stop, and its frame rate.
+pub(crate) struct Threads<'a> {
+    pub opts: &'a RunOptions,
+    pub cancel: &'a Arc<AtomicBool>,
+    pub frame_rate_hz: f64,
+}
+
+impl Threads<'_> {
+    /// The simulation thread running `simulate` and the recorder thread handing each frame it
+    /// sends to `log` (which returns the frame's number), joined: how the simulation ended, the
+    /// frames recorded, and why the recorder stopped early, if it did.
+    pub(crate) fn simulate_and_record<F: Send>(
+        &self,
+        simulate: impl FnOnce(&Sender<F>, sim::Stop<'_>) -> sim::SimOutcome + Send,
+        log: impl FnMut(F, &mut Progress) -> std::result::Result<u64, RecordError> + Send,
+        progress: &mut Progress,
+    ) -> (Result<sim::SimOutcome>, u64, Option<Error>) {
+        let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
+        // Set by the recorder when it can take no more: the simulation stops within a chunk.
+        let halt = AtomicBool::new(false);
+        std::thread::scope(|scope| {
+            let sim = std::thread::Builder::new()
+                .name("hooke-sim".into())
+                .spawn_scoped(scope, {
+                    let cancel = self.cancel.clone();
+                    let halt = &halt;
+                    move || {
+                        let stop = sim::Stop {
+                            interrupt: &cancel,
+                            halt: Some(halt),
+                        };
+                        simulate(&tx, stop)
+                    }
+                });
+            let rec_thread = std::thread::Builder::new()
+                .name("hooke-record".into())
+                .spawn_scoped(scope, || {
+                    let recording = Recording {
+                        progress,
+                        opts: self.opts,
+                        halt: &halt,
+                        frame_rate_hz: self.frame_rate_hz,
                     };
-                    sim::simulate(
-                        be.as_mut(),
-                        frames,
-                        substeps,
-                        &tx,
-                        delivery,
-                        stop,
-                        Some(&back_rx),
-                    )
+                    recording.record(rx, log)
+                });
+            match (sim, rec_thread) {
+                (Ok(s), Ok(r)) => {
+                    let outcome = s
+                        .join()
+                        .map_err(|p| Error::panicked(p.as_ref(), Error::SimulationPanicked));
+                    let rec_out = r
+                        .join()
+                        .map_err(|p| Error::panicked(p.as_ref(), Error::RecorderPanicked));
+                    match (outcome, rec_out) {
+                        (Ok(o), Ok((n, err))) => (Ok(o), n, err),
+                        (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
+                    }
                 }
-            });
-        let rec_thread = std::thread::Builder::new()
-            .name("hooke-record".into())
-            .spawn_scoped(scope, || {
-                let recording = Recording {
-                    recorder,
-                    progress,
-                    opts,
-                    halt: &halt,
-                    frame_rate_hz: settings.frame_rate_hz,
-                };
-                recording.record(rx, &back_tx)
-            });
-        match (sim, rec_thread) {
-            (Ok(s), Ok(r)) => {
-                let outcome = s
-                    .join()
-                    .map_err(|p| Error::panicked(p.as_ref(), Error::SimulationPanicked));
-                let rec_out = r
-                    .join()
-                    .map_err(|p| Error::panicked(p.as_ref(), Error::RecorderPanicked));
-                match (outcome, rec_out) {
-                    (Ok(o), Ok((n, err))) => (Ok(o), n, err),
-                    (Err(e), _) | (_, Err(e)) => (Err(e), 0, None),
-                }
+                (Err(e), _) | (_, Err(e)) => (Err(Error::SpawnThread(e)), 0, None),
             }
-            (Err(e), _) | (_, Err(e)) => (Err(Error::SpawnThread(e)), 0, None),
-        }
-    })
+        })
+    }
 }
 
 /// The recorder thread's side of a run.
 struct Recording<'a> {
-    recorder: &'a mut Recorder,
     progress: &'a mut Progress,
     opts: &'a RunOptions,
     /// Set when the recorder can take no more.
@@ -195,17 +228,15 @@ struct Recording<'a> {
 }
 
 impl Recording<'_> {
-    /// Log every snapshot `rx` brings, handing each back on `back` for reuse: the frames
-    /// recorded, and why recording stopped early, if it did. The receiver is owned here, so that
-    /// returning early drops it: the simulation then stops at its next frame instead of
-    /// stepping on with nobody to record.
-    fn record(
+    /// Log every frame `rx` brings: the frames recorded, and why recording stopped early, if it
+    /// did. The receiver is owned here, so that returning early drops it: the simulation then
+    /// stops at its next frame instead of stepping on with nobody to record.
+    fn record<F>(
         self,
-        rx: crossbeam_channel::Receiver<Snapshot>,
-        back: &crossbeam_channel::Sender<Snapshot>,
+        rx: crossbeam_channel::Receiver<F>,
+        mut log: impl FnMut(F, &mut Progress) -> std::result::Result<u64, RecordError>,
     ) -> (u64, Option<Error>) {
         let Recording {
-            recorder,
             progress,
             opts,
             halt,
@@ -218,17 +249,18 @@ impl Recording<'_> {
             // Returning drops the receiver as well, which a waiting simulation sees.
             Some(e)
         };
-        for snap in rx.iter() {
-            if let Err(e) = recorder.log_snapshot(&snap) {
-                return (recorded, stop_simulation(Error::RecorderGone(e)));
-            }
+        for f in rx.iter() {
+            let frame = match log(f, progress) {
+                Ok(frame) => frame,
+                Err(e) => return (recorded, stop_simulation(Error::RecorderGone(e))),
+            };
             // The flag first: the writer's lock may be held by a long write.
             let failed = opts.file.as_ref().filter(|f| f.failed());
             if let Some(failure) = failed.and_then(RrdFile::failure) {
                 return (recorded, stop_simulation(Error::WriteRecording(failure)));
             }
             recorded += 1;
-            progress.frame(recorded, snap.frame as f64 / frame_rate_hz);
+            progress.frame(recorded, frame as f64 / frame_rate_hz);
             // A lost viewer is said once; then the run finishes into the file, or stops.
             if let Some(w) = opts.viewer.as_ref().filter(|_| !viewer_lost)
                 && let LinkState::Gone(why) = w.link.state()
@@ -237,22 +269,19 @@ impl Recording<'_> {
                 let Some(file) = &w.file else {
                     let gone = Error::ViewerGone {
                         url: w.link.url().to_owned(),
-                        frame: snap.frame,
+                        frame,
                         why,
                     };
                     return (recorded, Some(gone));
                 };
                 progress.suspend(|| {
                     eprintln!(
-                        "the viewer at {} went away at frame {} ({why}); recording the rest of the run to {} only",
+                        "the viewer at {} went away at frame {frame} ({why}); recording the rest of the run to {} only",
                         w.link.url(),
-                        snap.frame,
                         file.display()
                     )
                 });
             }
-            // Back to the simulation for reuse; if its queue is full, just drop it.
-            let _ = back.try_send(snap);
         }
         (recorded, None)
     }

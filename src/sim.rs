@@ -218,13 +218,8 @@ pub fn simulate<'a>(
     out
 }
 
-/// Send one snapshot as `delivery` says; false when the recorder has gone.
-fn deliver(
-    tx: &Sender<Snapshot>,
-    delivery: Delivery,
-    out: &mut SimOutcome,
-    snap: Snapshot,
-) -> bool {
+/// Send one frame as `delivery` says; false when the recorder has gone.
+fn deliver<F>(tx: &Sender<F>, delivery: Delivery, out: &mut SimOutcome, snap: F) -> bool {
     let sent = match delivery {
         Delivery::Lossless => tx.send(snap).is_ok(),
         Delivery::DropWhenBusy => match tx.try_send(snap) {
@@ -242,4 +237,103 @@ fn deliver(
         out.recorder_gone = true;
     }
     sent
+}
+
+/// One frame of a comparison: each entry's snapshot (`None` for an entry that has stopped), and
+/// the entries that stopped at this frame, with why.
+#[derive(Debug)]
+pub struct ComparedFrame {
+    pub frame: u64,
+    pub snapshots: Vec<Option<Snapshot>>,
+    pub stopped: Vec<(usize, BackendError)>,
+}
+
+/// [`simulate`] for the entries of a comparison, in lockstep: each frame steps every entry still
+/// running (`substeps[i]` steps of its own dt), then collects their snapshots, so that a GPU
+/// steps one entry while the last one's frame is read back. An entry whose state goes bad or
+/// whose device fails stops alone: its last good frame stays, and the others go on. A stop ends
+/// them all; the frame in progress is abandoned.
+pub fn simulate_all<'a>(
+    backends: &mut [Box<dyn Backend>],
+    frames: u64,
+    substeps: &[u32],
+    tx: &Sender<ComparedFrame>,
+    delivery: Delivery,
+    stop: impl Into<Stop<'a>>,
+) -> SimOutcome {
+    let stop: Stop<'a> = stop.into();
+    let n = backends.len();
+    let mut out = SimOutcome::default();
+    let mut live = vec![true; n];
+    let mut first = ComparedFrame {
+        frame: 0,
+        snapshots: Vec::with_capacity(n),
+        stopped: Vec::new(),
+    };
+    for (i, b) in backends.iter_mut().enumerate() {
+        match b.snapshot(0, StepStats::default()) {
+            Ok(s) => first.snapshots.push(Some(s)),
+            Err(e) => {
+                live[i] = false;
+                first.snapshots.push(None);
+                first.stopped.push((i, e));
+            }
+        }
+    }
+    if !deliver(tx, delivery, &mut out, first) {
+        return out;
+    }
+    let mut chunkers: Vec<Chunker> = (0..n).map(|_| Chunker::default()).collect();
+    let mut frame = 1;
+    'frames: while frame <= frames && live.contains(&true) {
+        if stop.requested() {
+            break;
+        }
+        let mut this = ComparedFrame {
+            frame,
+            snapshots: (0..n).map(|_| None).collect(),
+            stopped: Vec::new(),
+        };
+        let mut took = vec![Duration::ZERO; n];
+        let mut requested = vec![false; n];
+        for i in 0..n {
+            if !live[i] {
+                continue;
+            }
+            let start = Instant::now();
+            let be = backends[i].as_mut();
+            let stepped = step_frame(be, substeps[i], &mut chunkers[i], stop)
+                .and_then(|stats| stats.map(|st| be.request_snapshot(frame, st)).transpose());
+            took[i] = start.elapsed();
+            match stepped {
+                Ok(Some(())) => requested[i] = true,
+                // Stopped mid-frame: this frame is abandoned, the ones before it delivered.
+                Ok(None) => break 'frames,
+                Err(e) => {
+                    live[i] = false;
+                    this.stopped.push((i, e));
+                }
+            }
+        }
+        for i in (0..n).filter(|&i| requested[i]) {
+            let whole = chunkers[i].whole(substeps[i]);
+            let start = Instant::now();
+            match backends[i].collect_snapshot() {
+                Ok(snap) => this.snapshots[i] = snap,
+                Err(e) => {
+                    live[i] = false;
+                    this.stopped.push((i, e));
+                }
+            }
+            if whole {
+                chunkers[i].observe(substeps[i], took[i] + start.elapsed());
+            }
+        }
+        if !deliver(tx, delivery, &mut out, this) {
+            break;
+        }
+        frame += 1;
+    }
+    out.cancelled = stop.interrupt.load(Ordering::Relaxed) && frame <= frames;
+    out
 }

@@ -51,7 +51,28 @@ pub enum Command {
         output: OutputArgs,
         #[command(flatten)]
         recording: RecordingArgs,
+        #[command(flatten)]
+        compare: CompareArgs,
     },
+}
+
+/// A side-by-side comparison of solvers in one recording (`run`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CompareArgs {
+    /// Run the scene under each entry, in one recording, the first the reference: an integrator,
+    /// optionally with its own step, comma-separated: `rk4,xpbd,implicit@1/60` or
+    /// `semi-implicit@dt=1e-4,semi-implicit@4e-4`. A scene's `[compare]` table is used when this
+    /// is not given.
+    #[arg(long, value_name = "ENTRIES")]
+    pub compare: Option<String>,
+    /// With a comparison: the copies on top of each other (the others translucent over the
+    /// reference) instead of side by side.
+    #[arg(long)]
+    pub overlay: bool,
+    /// With a comparison: what the copies other than the reference are coloured by when the
+    /// recording opens (the other colouring is recorded too, one click away).
+    #[arg(long, value_enum, default_value_t)]
+    pub colour_by: hooke::record::ColourBy,
 }
 
 /// What the recording holds (`run`, `bench record`).

@@ -6,9 +6,10 @@ use std::io::IsTerminal as _;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use hooke::compare_entry::CompareEntry;
 use hooke::prepare::{self, Prepared};
 
-use super::args::{DeviceArgs, OutputArgs, RecordingArgs, SolverArgs};
+use super::args::{CompareArgs, DeviceArgs, OutputArgs, RecordingArgs, SolverArgs};
 use super::sink::{self, Sink};
 
 /// How a command ended without error.
@@ -26,12 +27,16 @@ pub struct RunArgs<'a> {
     pub rerun: &'a rerun::clap::RerunArgs,
     pub output: &'a OutputArgs,
     pub recording: &'a RecordingArgs,
+    pub compare: &'a CompareArgs,
     /// The `run` subcommand's matches: which of Rerun's flags were given.
     pub matches: &'a clap::ArgMatches,
 }
 
 pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     let request = args.solver.request(args.scene, args.device);
+    if let Some(compare) = comparison(args, &request)? {
+        return run_comparison(args, &request, compare);
+    }
     let prepared = prepare::prepare(&request, &mut |notice| eprintln!("{notice}"))?;
     let record = args.recording.options().for_scene(&prepared.loaded.scene);
     describe(&prepared, &record);
@@ -70,6 +75,142 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     Ok(Outcome::Done)
 }
 
+/// The comparison a run asks for: `--compare`'s entries, else the scene's `[compare]` table's;
+/// `None` for a single run. The entries are checked here, each failure named by its position.
+fn comparison(
+    args: &RunArgs<'_>,
+    request: &prepare::Request,
+) -> anyhow::Result<Option<(Vec<CompareEntry>, Option<hooke::scene::Compare>)>> {
+    let table = match (&args.compare.compare, &request.scene) {
+        (Some(_), _) => None,
+        (None, prepare::SceneSource::Named(name)) => hooke::scene::load(name)?.scene.compare,
+        (None, prepare::SceneSource::Variant(scene)) => scene.compare.clone(),
+    };
+    let texts: Vec<String> = match (&args.compare.compare, &table) {
+        (Some(list), _) => list.split(',').map(str::to_owned).collect(),
+        (None, Some(t)) => t.entries.clone(),
+        (None, None) => return Ok(None),
+    };
+    if request.overrides.integrator.is_some() {
+        anyhow::bail!(
+            "--integrator and a comparison do not go together: each --compare entry names its integrator"
+        );
+    }
+    if request.dt != prepare::DtChoice::AsGiven {
+        anyhow::bail!(
+            "--dt auto and a comparison do not go together: give an entry its step as rk4@1e-4"
+        );
+    }
+    let entries = texts
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            CompareEntry::parse(t).map_err(|why| hooke::Error::CompareEntry {
+                position: i + 1,
+                text: t.trim().to_owned(),
+                why,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Some((entries, table)))
+}
+
+/// `hooke run --compare`: every entry in one recording, and a line per entry at the end.
+fn run_comparison(
+    args: &RunArgs<'_>,
+    request: &prepare::Request,
+    (entries, table): (Vec<CompareEntry>, Option<hooke::scene::Compare>),
+) -> anyhow::Result<Outcome> {
+    let prepared =
+        prepare::prepare_comparison(request, &entries, &mut |notice| eprintln!("{notice}"))?;
+    let record = args.recording.options().for_scene(&prepared.loaded.scene);
+    let layout = hooke::record::CompareLayout {
+        overlay: args.compare.overlay || table.as_ref().is_some_and(|t| t.overlay),
+        gap_range_m: table
+            .as_ref()
+            .and_then(|t| t.gap_range_m)
+            .unwrap_or_else(|| hooke::record::CompareLayout::default_gap_range(&prepared.model)),
+        colour_by: args.compare.colour_by,
+    };
+    let first = prepared.entries.first().map(|e| e.backend.describe());
+    eprintln!(
+        "hooke: '{}' with {} masses and {} springs on {}, compared under {} entries ({}), gap scale {:.3} m:",
+        prepared.loaded.scene.name,
+        prepared.model.mass_count(),
+        prepared.model.spring_count(),
+        first.unwrap_or_default(),
+        prepared.entries.len(),
+        if layout.overlay {
+            "overlaid"
+        } else {
+            "side by side"
+        },
+        layout.gap_range_m
+    );
+    for e in &prepared.entries {
+        eprintln!(
+            "  {:<24} {}, dt = {:.3e} s × {} substeps, {} frames",
+            e.name,
+            e.settings.integrator,
+            e.settings.dt_secs,
+            e.settings.substeps,
+            e.settings.frames
+        );
+    }
+    let sink = sink::open_sink(
+        args.rerun,
+        args.output,
+        args.matches,
+        &prepared.loaded.scene.name,
+    )?;
+    let opts = hooke::run::RunOptions {
+        delivery: sink.delivery,
+        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        realtime: args.recording.realtime,
+        record,
+        viewer: sink.viewer.clone(),
+        file: sink.file.clone(),
+    };
+    let interrupts = Interrupts::install();
+    let result = hooke::comparison::run_comparison(
+        prepared,
+        sink.rec.clone(),
+        &opts,
+        layout,
+        interrupts.cancel.clone(),
+    );
+    say_where_saved(&sink, &result);
+    let summary = result?;
+    eprintln!(
+        "{}: {} frames in {:.2} s wall; per entry:",
+        if summary.cancelled {
+            "interrupted"
+        } else {
+            "done"
+        },
+        summary.frames_recorded,
+        summary.wall_secs
+    );
+    for (i, e) in summary.entries.iter().enumerate() {
+        eprintln!("  {}", e.line(i == 0));
+    }
+    for e in &summary.entries {
+        if let Some((frame, why)) = &e.stopped {
+            eprintln!(
+                "error: entry {} stopped at frame {frame}: {why}",
+                e.tally.name
+            );
+        }
+    }
+    if summary.cancelled {
+        return Ok(Outcome::Interrupted);
+    }
+    if let Some(serving) = &sink.serving {
+        interrupts.serve_until_interrupted(&serving.page);
+    }
+    Ok(Outcome::Done)
+}
+
 /// The run about to start, and what its recording holds.
 fn describe(p: &Prepared, record: &hooke::record::RecordOptions) {
     eprintln!(
@@ -89,7 +230,7 @@ fn describe(p: &Prepared, record: &hooke::record::RecordOptions) {
 }
 
 /// Where the recording is, whether the run went well or not.
-fn say_where_saved(sink: &Sink, result: &hooke::Result<hooke::run::RunSummary>) {
+fn say_where_saved<T>(sink: &Sink, result: &hooke::Result<T>) {
     let Some(p) = &sink.saved else {
         return;
     };

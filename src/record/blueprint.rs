@@ -81,9 +81,83 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
 /// cannot set a view's legend, so the legend properties are logged into the blueprint's own
 /// store beside the layout, as the viewer reads them.
 pub fn send_blueprint(rec: &RecordingStream) -> RResult {
+    let (blueprint, plots) = layout();
+    send_layout(rec, blueprint, &plots)
+}
+
+/// A comparison's layout: every copy in one 3D view (the paths in `hidden` left out: each copy's
+/// other colouring), beside the plots that put the entries together (the gap's only when
+/// `with_gap`: there is an entry beside the reference) and the documents.
+pub fn send_comparison_blueprint(
+    rec: &RecordingStream,
+    hidden: &[String],
+    with_gap: bool,
+) -> RResult {
+    use rerun::blueprint::components::PanelState;
+    use rerun::blueprint::{
+        Blueprint, ContainerLike, Horizontal, Spatial3DView, Tabs, TextDocumentView,
+        TimeSeriesView, Vertical,
+    };
+    let mut plots = Vec::new();
+    let mut plot = |title: &str, contents: &[&str]| {
+        let view: ContainerLike = TimeSeriesView::new(title)
+            .with_origin("/")
+            .with_contents(contents.iter().map(|c| format!("+ /{c}/**")))
+            .into();
+        if let ContainerLike::View(v) = &view {
+            plots.push(v.blueprint_path());
+        }
+        view
+    };
+    let mut column = Vec::new();
+    if with_gap {
+        column.push(plot(
+            "gap to the reference (m)",
+            &["compare/gap_rms", "compare/gap_max"],
+        ));
+    }
+    column.push(plot(
+        "energy (J)",
+        &["compare/energy_total", "compare/energy_balance"],
+    ));
+    column.push(plot("wall time per frame (ms)", &["compare/wall_ms"]));
+    column.push(
+        Tabs::new([
+            TextDocumentView::new("legend")
+                .with_origin("/legend")
+                .into(),
+            TextDocumentView::new("scene").with_origin("/scene").into(),
+        ])
+        .into(),
+    );
+    let world = Spatial3DView::new("world")
+        .with_origin("/world")
+        .with_contents(
+            std::iter::once("+ /world/**".to_owned())
+                .chain(hidden.iter().map(|h| format!("- /{h}"))),
+        );
+    let blueprint = Blueprint::new(
+        Horizontal::new([world.into(), Vertical::new(column).into()])
+            .with_column_shares([0.62, 0.38]),
+    )
+    .with_auto_views(false)
+    .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
+        PanelState::Collapsed,
+    ))
+    .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
+        PanelState::Collapsed,
+    ));
+    send_layout(rec, blueprint, &plots)
+}
+
+/// `blueprint` sent to `rec`, made active at once, with the legends of `plots` hidden.
+fn send_layout(
+    rec: &RecordingStream,
+    blueprint: rerun::blueprint::Blueprint,
+    plots: &[rerun::EntityPath],
+) -> RResult {
     use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreKind};
     use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
-    let (blueprint, plots) = layout();
     let activation = rerun::blueprint::BlueprintActivation {
         make_active: true,
         make_default: true,
@@ -108,7 +182,7 @@ pub fn send_blueprint(rec: &RecordingStream) -> RResult {
         .blueprint()
         .memory()?;
     legends.set_time_sequence("blueprint", 0);
-    for view in &plots {
+    for view in plots {
         legends.log(
             format!("{view}/PlotLegend"),
             &PlotLegend::new().with_visible(false),

@@ -20,6 +20,7 @@
 //! (`--springs`, `--masses`), `error.rs`.
 
 pub mod blueprint;
+mod compare;
 mod error;
 pub mod histogram;
 mod legend;
@@ -33,10 +34,11 @@ mod statics;
 pub mod surface;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
+pub use compare::{ColourBy, CompareLayout, CompareRecorder, EntryTally};
 pub use error::{LayoutError, RecordError};
 pub use options::{RecordOptions, describe};
 pub use palette::{Rgb, strain_color};
-pub use recorder::Recorder;
+pub use recorder::{Recorder, Root};
 pub use scalars::most_strained;
 pub use series::{MORE_SERIES, Plot, SERIES, Series, When};
 pub use springs::SpringSelection;

@@ -17,6 +17,28 @@ pub fn strain_color(strain: f32, range: f32) -> [u8; 3] {
     [mix(0), mix(1), mix(2)]
 }
 
+/// Colour of a distance to the reference on a sequential scale: dark blue-grey at 0, through
+/// amber, to red at `range` or more (a non-finite gap is red).
+pub fn gap_color(gap: f32, range: f32) -> [u8; 3] {
+    const STOPS: [[f32; 3]; 3] = [
+        [70.0, 90.0, 130.0],
+        [240.0, 190.0, 60.0],
+        [200.0, 20.0, 30.0],
+    ];
+    let t = if gap.is_finite() {
+        (gap / range).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let (a, b, w) = if t < 0.5 {
+        (STOPS[0], STOPS[1], 2.0 * t)
+    } else {
+        (STOPS[1], STOPS[2], 2.0 * t - 1.0)
+    };
+    let mix = |i: usize| (a[i] + (b[i] - a[i]) * w).round() as u8;
+    [mix(0), mix(1), mix(2)]
+}
+
 /// An sRGB triple as Rerun takes it.
 pub(super) fn color([r, g, b]: [u8; 3]) -> rerun::Color {
     rerun::Color::from_rgb(r, g, b)
@@ -48,6 +70,9 @@ pub(super) const BROWN: Rgb = rgb(170, 120, 70, "brown");
 pub(super) const DARK_RED: Rgb = rgb(140, 30, 40, "dark red");
 pub(super) const CYAN: Rgb = rgb(60, 200, 220, "cyan");
 pub(super) const WHITE: Rgb = rgb(235, 235, 235, "white");
+/// Each entry of a comparison, in order (the reference first): its plot lines' colour.
+pub(super) const ENTRY_COLORS: [Rgb; 6] = [WHITE, ORANGE, CYAN, VIOLET, GREEN, PINK];
+
 // The yellow of `world/most_strained`, so that the strain plot and the marked spring match.
 pub(super) const YELLOW: Rgb = rgb(255, 200, 0, "yellow");
 pub(super) const GREY: Rgb = rgb(150, 150, 150, "grey");

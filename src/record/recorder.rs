@@ -35,12 +35,51 @@ pub(super) struct SurfaceRec {
     /// The vertices are the body's masses in order: positions are a slice of the snapshot's.
     whole_body: bool,
     /// The triangles drawn now, and the broken springs of the body when they were chosen.
-    triangles: Vec<[u32; 3]>,
+    pub(super) triangles: Vec<[u32; 3]>,
     broken: Option<usize>,
-    positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
+    /// The last frame's vertices and their normals (a comparison colours them again by gap).
+    pub(super) positions: Vec<Vec3>,
+    pub(super) normals: Vec<Vec3>,
     strain: Vec<f32>,
     colors: Vec<rerun::Color>,
+}
+
+/// Where a recorder logs: a run's entities at the top (`world/…`, `energy/…`), or one entry of a
+/// comparison under the entry's name (`world/<entry>/…`, `<entry>/energy/…`), the documents
+/// and the view's coordinates then left to the comparison.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Root {
+    entry: Option<String>,
+}
+
+impl Root {
+    /// One entry of a comparison, named `name`.
+    pub fn entry(name: &str) -> Self {
+        Self {
+            entry: Some(name.to_owned()),
+        }
+    }
+
+    /// `world/<rest>`, under the entry's name when there is one.
+    pub fn world(&self, rest: &str) -> String {
+        match &self.entry {
+            None => format!("world/{rest}"),
+            Some(e) => format!("world/{e}/{rest}"),
+        }
+    }
+
+    /// A series' path (`energy/total`), under the entry's name when there is one.
+    pub fn series(&self, path: &str) -> String {
+        match &self.entry {
+            None => path.to_owned(),
+            Some(e) => format!("{e}/{path}"),
+        }
+    }
+
+    /// The recording is this recorder's alone: it logs the documents and the view's axes.
+    pub fn is_whole(&self) -> bool {
+        self.entry.is_none()
+    }
 }
 
 /// Turns snapshots into Rerun entities; keeps what a frame needs from the last (the triangles
@@ -49,6 +88,7 @@ pub struct Recorder {
     pub(super) rec: RecordingStream,
     pub(super) model: std::sync::Arc<Model>,
     pub(super) strain_range: f32,
+    pub(super) root: Root,
     pub(super) bodies: Vec<BodyRec>,
     /// The implicit integrator's solver statistics are logged too.
     pub(super) implicit: bool,
@@ -61,6 +101,16 @@ pub struct Recorder {
 
 impl Recorder {
     pub fn new(rec: RecordingStream, model: std::sync::Arc<Model>, opts: RecordOptions) -> Self {
+        Self::at(rec, model, opts, Root::default())
+    }
+
+    /// [`Recorder::new`], logging under `root`.
+    pub fn at(
+        rec: RecordingStream,
+        model: std::sync::Arc<Model>,
+        opts: RecordOptions,
+        root: Root,
+    ) -> Self {
         let mut counts = std::collections::HashMap::new();
         let collider_paths = model
             .effects
@@ -69,7 +119,7 @@ impl Recorder {
             .map(|c| {
                 let k = counts.entry(c.kind()).or_insert(0);
                 *k += 1;
-                format!("world/colliders/{}_{}", c.kind(), *k - 1)
+                root.world(&format!("colliders/{}_{}", c.kind(), *k - 1))
             })
             .collect();
         let bodies = model
@@ -77,7 +127,7 @@ impl Recorder {
             .iter()
             .map(|b| {
                 let surface = surface::Surface::of_body(&model, b).map(|s| SurfaceRec {
-                    path: format!("world/{}/surface", b.name),
+                    path: root.world(&format!("{}/surface", b.name)),
                     whole_body: s.is_whole_body(b),
                     triangles: Vec::new(),
                     broken: None,
@@ -94,7 +144,10 @@ impl Recorder {
                     springs: b.springs.start as usize..b.springs.end as usize,
                     masses_per_frame: surface.is_none() || opts.masses,
                     lines: (!selected.is_empty()).then(|| {
-                        springs::SpringLines::new(format!("world/{}/springs", b.name), selected)
+                        springs::SpringLines::new(
+                            root.world(&format!("{}/springs", b.name)),
+                            selected,
+                        )
                     }),
                     surface,
                 }
@@ -104,6 +157,7 @@ impl Recorder {
             rec,
             model,
             strain_range: opts.strain_range,
+            root,
             bodies,
             implicit: false,
             collider_paths,
@@ -140,11 +194,11 @@ impl Recorder {
         self.log_scalars(snap)?;
         histogram::counts(&snap.strain, range, &mut self.histogram);
         self.rec.log(
-            "stats/strain_histogram",
+            self.root.series("stats/strain_histogram"),
             &rerun::BarChart::update_fields().with_values(self.histogram.clone()),
         )?;
         self.rec.log(
-            "stats/record_ms",
+            self.root.series("stats/record_ms"),
             &rerun::Scalars::single(started.elapsed().as_secs_f64() * 1e3),
         )?;
         Ok(())
@@ -156,7 +210,7 @@ impl Recorder {
         let pos = &snap.positions[b.masses.clone()];
         if b.masses_per_frame {
             rec.log(
-                format!("world/{}/masses", b.name),
+                self.root.world(&format!("{}/masses", b.name)),
                 &rerun::Points3D::update_fields().with_positions(pos.iter().copied()),
             )?;
         }

@@ -39,7 +39,10 @@ impl Recorder {
         for series in all_series() {
             // stats/record_ms is logged last, to time the whole frame.
             if self.has(series.when) && series.path != "stats/record_ms" {
-                rec.log(series.path, &rerun::Scalars::single(value(series.path)))?;
+                rec.log(
+                    self.root.series(series.path),
+                    &rerun::Scalars::single(value(series.path)),
+                )?;
             }
         }
         // Which spring is the most strained: values beside the plotted number, and a marker in
@@ -52,7 +55,7 @@ impl Recorder {
                 .map_or_else(String::new, |(b, _)| b.name.clone());
             let label = format!("strain {strain:+.4}: {kind} spring {si} of {body}");
             rec.log(
-                "stats/max_strain",
+                self.root.series("stats/max_strain"),
                 &rerun::AnyValues::default()
                     .with_component::<rerun::components::Text>("spring", [label.as_str()])
                     .with_component_from_data(
@@ -64,7 +67,7 @@ impl Recorder {
             )?;
             let (a, b) = (snap.positions[sp.a as usize], snap.positions[sp.b as usize]);
             rec.log(
-                "world/most_strained",
+                self.root.world("most_strained"),
                 &rerun::LineStrips3D::update_fields()
                     .with_strips([[a, b]])
                     .with_labels([label])

@@ -8,7 +8,7 @@ use rerun::RecordingStream;
 use super::error::RResult;
 use super::histogram;
 use super::palette::{YELLOW, color};
-use super::recorder::{BodyRec, Recorder};
+use super::recorder::{BodyRec, Recorder, Root};
 use super::series::all_series;
 use crate::model::{Collider, GroundCollider, Model, Shape};
 use crate::settings::Settings;
@@ -24,6 +24,56 @@ impl Recorder {
     ) -> RResult {
         self.implicit = settings.integrator == crate::integrator::Integrator::Implicit;
         let rec = &self.rec;
+        let root = &self.root;
+        if root.is_whole() {
+            self.log_documents(scene_name, scene_text, settings, backend)?;
+        }
+        for series in all_series() {
+            if self.has(series.when) {
+                rec.log_static(
+                    root.series(series.path),
+                    &rerun::SeriesLines::new()
+                        .with_names([series.name])
+                        .with_colors([rerun::Color::from(series.color.rgb)]),
+                )?;
+            }
+        }
+        let r = self.strain_range;
+        rec.log_static(
+            root.series("stats/strain_histogram"),
+            &rerun::BarChart::update_fields()
+                .with_abscissa(histogram::centres(r))
+                .with_widths(histogram::widths(r))
+                .with_color(rerun::Color::from_rgb(120, 130, 150)),
+        )?;
+        rec.log_static(
+            root.world("most_strained"),
+            &rerun::LineStrips3D::update_fields()
+                .with_colors([color(YELLOW.rgb)])
+                .with_show_labels(true),
+        )?;
+        for b in &self.bodies {
+            log_body_static(rec, root, &self.model, b)?;
+        }
+        let m = &self.model;
+        if let Some(g) = &m.effects.ground {
+            log_ground(rec, &root.world("ground"), g, &m.initial.x)?;
+        }
+        for (c, path) in m.effects.colliders.iter().zip(&self.collider_paths) {
+            log_collider_shape(rec, c, path, &m.initial.x)?;
+        }
+        Ok(())
+    }
+
+    /// The view's axes and the scene and legend documents: a whole recording's, once.
+    fn log_documents(
+        &self,
+        scene_name: &str,
+        scene_text: &str,
+        settings: &Settings,
+        backend: &str,
+    ) -> RResult {
+        let rec = &self.rec;
         rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
         rec.log_static(
             "scene",
@@ -33,56 +83,13 @@ impl Recorder {
             )),
         )?;
         rec.log_static("legend", &rerun::TextDocument::from_markdown(self.legend()))?;
-        for series in all_series() {
-            if self.has(series.when) {
-                rec.log_static(
-                    series.path,
-                    &rerun::SeriesLines::new()
-                        .with_names([series.name])
-                        .with_colors([rerun::Color::from(series.color.rgb)]),
-                )?;
-            }
-        }
-        let r = self.strain_range;
-        rec.log_static(
-            "stats/strain_histogram",
-            &rerun::BarChart::update_fields()
-                .with_abscissa(histogram::centres(r))
-                .with_widths(histogram::widths(r))
-                .with_color(rerun::Color::from_rgb(120, 130, 150)),
-        )?;
-        rec.log_static(
-            "world/most_strained",
-            &rerun::LineStrips3D::update_fields()
-                .with_colors([color(YELLOW.rgb)])
-                .with_show_labels(true),
-        )?;
-        for b in &self.bodies {
-            log_body_static(rec, &self.model, b)?;
-        }
-        let m = &self.model;
-        if let Some(g) = &m.effects.ground {
-            log_ground(rec, g, &m.initial.x)?;
-        }
-        for (c, path) in m.effects.colliders.iter().zip(&self.collider_paths) {
-            log_collider_shape(rec, c, path, &m.initial.x)?;
-        }
         Ok(())
     }
 }
 
 /// A body's masses (pins black), pins, triangles and the static values of its spring lines.
-fn log_body_static(rec: &RecordingStream, m: &Model, b: &BodyRec) -> RResult {
-    let spacing = b
-        .springs
-        .clone()
-        .map(|s| m.springs[s].rest_m)
-        .fold(f32::INFINITY, f32::min);
-    let radius = if spacing.is_finite() {
-        0.12 * spacing
-    } else {
-        0.02
-    };
+fn log_body_static(rec: &RecordingStream, root: &Root, m: &Model, b: &BodyRec) -> RResult {
+    let radius = point_radius(m, b);
     let inv_mass = &m.inv_mass[b.masses.clone()];
     if b.masses_per_frame {
         let colors: Vec<rerun::Color> = inv_mass
@@ -96,7 +103,7 @@ fn log_body_static(rec: &RecordingStream, m: &Model, b: &BodyRec) -> RResult {
             })
             .collect();
         rec.log_static(
-            format!("world/{}/masses", b.name),
+            root.world(&format!("{}/masses", b.name)),
             &rerun::Points3D::update_fields()
                 .with_colors(colors)
                 .with_radii([radius]),
@@ -112,7 +119,7 @@ fn log_body_static(rec: &RecordingStream, m: &Model, b: &BodyRec) -> RResult {
             .collect();
         if !pins.is_empty() {
             rec.log_static(
-                format!("world/{}/pins", b.name),
+                root.world(&format!("{}/pins", b.name)),
                 &rerun::Points3D::new(pins)
                     .with_colors([rerun::Color::from_rgb(0, 0, 0)])
                     .with_radii([2.0 * radius]),
@@ -140,6 +147,20 @@ fn log_body_static(rec: &RecordingStream, m: &Model, b: &BodyRec) -> RResult {
     Ok(())
 }
 
+/// The radius a body's masses are drawn with: an eighth of its shortest spring.
+pub(super) fn point_radius(m: &Model, b: &BodyRec) -> f32 {
+    let spacing = b
+        .springs
+        .clone()
+        .map(|s| m.springs[s].rest_m)
+        .fold(f32::INFINITY, f32::min);
+    if spacing.is_finite() {
+        0.12 * spacing
+    } else {
+        0.02
+    }
+}
+
 /// Lowest and highest corner of a set of points.
 fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
     x.iter().fold(
@@ -150,7 +171,7 @@ fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
 
 /// A grid of lines at the ground height, half a metre beyond the bodies' starting extent `x`, so
 /// that the viewer frames the scene rather than the floor.
-fn log_ground(rec: &RecordingStream, g: &GroundCollider, x: &[Vec3]) -> RResult {
+fn log_ground(rec: &RecordingStream, path: &str, g: &GroundCollider, x: &[Vec3]) -> RResult {
     let (lo, hi) = extent(x);
     let step = 0.25f32;
     let x0 = ((lo.x - 0.5) / step).floor() as i32;
@@ -179,7 +200,7 @@ fn log_ground(rec: &RecordingStream, g: &GroundCollider, x: &[Vec3]) -> RResult 
         }))
         .collect();
     rec.log_static(
-        "world/ground",
+        path,
         &rerun::LineStrips3D::new(lines)
             .with_colors([rerun::Color::from_rgb(120, 120, 120)])
             .with_radii([0.002]),

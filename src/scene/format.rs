@@ -21,6 +21,25 @@ pub struct Scene {
     pub bodies: Vec<Body>,
     #[serde(default)]
     pub view: View,
+    /// Run as a side-by-side comparison of these entries (`hooke run --compare` overrides).
+    #[serde(default)]
+    pub compare: Option<Compare>,
+}
+
+/// A comparison a scene asks for: the same scene under each entry, in one recording, the first
+/// the reference (`hooke run --compare`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Compare {
+    /// `integrator[@step]` each: `rk4`, `implicit@1/60`, `semi-implicit@dt=1e-4`.
+    pub entries: Vec<String>,
+    /// Copies on top of each other (the non-reference ones translucent) instead of side by side.
+    #[serde(default)]
+    pub overlay: bool,
+    /// The gap to the reference at which a copy is coloured fully red; a twentieth of the
+    /// scene's size when absent.
+    #[serde(default)]
+    pub gap_range_m: Option<f32>,
 }
 
 /// Time stepping. One frame is `substeps` steps of `dt`, and `frame_rate_hz · substeps · dt = 1`;

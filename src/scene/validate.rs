@@ -120,6 +120,34 @@ pub fn validate(scene: &Scene) -> Check {
         self_collision(scene, sc)?;
     }
     positive("view.strain_range", f64::from(scene.view.strain_range))?;
+    if let Some(c) = &scene.compare {
+        compare(scene, c)?;
+    }
+    Ok(())
+}
+
+/// A `[compare]` table: entries that read as entries, whose integrators can simulate the scene.
+fn compare(scene: &Scene, c: &super::format::Compare) -> Check {
+    if c.entries.is_empty() {
+        return fail(
+            "compare.entries",
+            "must name at least one entry, e.g. entries = [\"rk4\", \"xpbd\", \"implicit@1/60\"]",
+        );
+    }
+    for (i, text) in c.entries.iter().enumerate() {
+        let field = format!("compare.entries[{i}]");
+        let entry = crate::compare_entry::CompareEntry::parse(text)
+            .or_else(|e| fail(&field, e.to_string()))?;
+        if let Err(why) = entry.integrator.supports(&scene.effects) {
+            return fail(
+                field,
+                format!("{why} ([{}] in this scene)", why.scene_field()),
+            );
+        }
+    }
+    if let Some(g) = c.gap_range_m {
+        positive("compare.gap_range_m", f64::from(g))?;
+    }
     Ok(())
 }
 

@@ -1,10 +1,10 @@
 //! What a user is told before stepping when the chosen step is above the estimate.
 
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Unsupported};
 use crate::model::Model;
 use crate::settings::Settings;
 
-use super::estimate::{stable_step, stable_steps};
+use super::estimate::{Limit, stable_step, stable_steps};
 use super::modes::Modes;
 
 /// Estimated largest stable dt for each integrator; `None` where the scheme is unstable at any
@@ -45,4 +45,23 @@ pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
                 .unwrap_or_default()
         )),
     }
+}
+
+/// Why an integrator at a step is refused for a scene before anything runs (an entry of a
+/// comparison).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Refusal {
+    #[error("{0} ([{field}] in this scene)", field = .0.scene_field())]
+    Unsupported(Unsupported),
+    #[error(
+        "dt = {dt_secs:.3e} s is above the estimated stable step {limit_secs:.3e} s of `{integrator}` on this scene{why}; \
+         give it a step of {limit_secs:.3e} s or less ({integrator}@{limit_secs:.3e}), or use implicit or xpbd for large steps",
+        why = limit.map(|l| format!(" ({} limit: {l})", l.name())).unwrap_or_default()
+    )]
+    AboveStableStep {
+        integrator: Integrator,
+        dt_secs: f64,
+        limit_secs: f64,
+        limit: Option<Limit>,
+    },
 }

@@ -6,6 +6,6 @@ mod advice;
 mod estimate;
 mod modes;
 
-pub use advice::{dt_warning, stable_dts};
+pub use advice::{Refusal, dt_warning, stable_dts};
 pub use estimate::{Limit, StableStep, stable_step, stable_steps};
 pub use modes::{Bound, Modes, Ratios, Source};

@@ -1,0 +1,454 @@
+//! A comparison's recording: each entry's copy of the scene under `world/<entry>/…` (a
+//! [`Recorder`] of its own, rooted there), side by side along x or on top of each other; every
+//! copy but the reference also coloured by its distance to the reference at the same simulated
+//! time (`world/<entry>/<body>/gap`, on a fixed scale); and the plots that put the entries
+//! together, one line per entry: the gap (RMS and max), the total energy and the energy balance,
+//! and the wall time per frame.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use rerun::RecordingStream;
+
+use super::error::RResult;
+use super::options::RecordOptions;
+use super::palette::{ENTRY_COLORS, Rgb, color, gap_color};
+use super::recorder::{Recorder, Root};
+use super::surface;
+use crate::model::Model;
+use crate::settings::Settings;
+use crate::state::Snapshot;
+
+/// Which colouring a non-reference copy shows when the recording opens; the other is logged
+/// too, hidden, one click away in the viewer's blueprint panel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum ColourBy {
+    /// Distance to the reference at the same simulated time.
+    #[default]
+    Gap,
+    /// Strain, as a single run colours it.
+    Strain,
+}
+
+/// How the copies are placed and coloured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompareLayout {
+    /// On top of each other, the non-reference copies translucent; else side by side.
+    pub overlay: bool,
+    /// The gap at which a copy is fully red.
+    pub gap_range_m: f32,
+    pub colour_by: ColourBy,
+}
+
+impl CompareLayout {
+    /// A twentieth of the scene's size (the diagonal of its starting extent): the gap at which
+    /// a copy reads as having gone its own way.
+    pub fn default_gap_range(model: &Model) -> f32 {
+        let (lo, hi) = extent(&model.initial.x);
+        ((hi - lo).length() / 20.0).max(1e-3)
+    }
+}
+
+/// How one entry went, as far as the recording saw it: for the line `hooke run` prints at the end.
+#[derive(Debug, Clone, Default)]
+pub struct EntryTally {
+    pub name: String,
+    /// Wall milliseconds its backend spent stepping, all frames together.
+    pub step_ms: f64,
+    /// Simulated seconds it reached.
+    pub sim_secs: f64,
+    /// RMS distance to the reference at its last frame with both.
+    pub last_gap_rms_m: Option<f64>,
+    /// Energy balance (total plus what left) at frame 0 and at its last frame; the scale its
+    /// drift is judged against (the larger of |total| and kinetic at frame 0).
+    pub balance_j: Option<(f64, f64)>,
+    pub energy_scale_j: f64,
+}
+
+impl EntryTally {
+    /// The balance's change over the run, in percent of the energy at its start.
+    pub fn drift_pct(&self) -> Option<f64> {
+        self.balance_j
+            .map(|(a, b)| 100.0 * (b - a) / self.energy_scale_j.max(1e-12))
+    }
+}
+
+struct EntryRec {
+    name: String,
+    recorder: Recorder,
+    colour: Rgb,
+    tally: EntryTally,
+}
+
+/// The recording of a comparison; entry 0 is the reference.
+pub struct CompareRecorder {
+    rec: RecordingStream,
+    model: Arc<Model>,
+    entries: Vec<EntryRec>,
+    layout: CompareLayout,
+    offsets: Vec<Vec3>,
+    gap: Vec<f32>,
+    colors: Vec<rerun::Color>,
+}
+
+/// Lowest and highest corner of a set of points.
+fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
+    x.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    )
+}
+
+impl CompareRecorder {
+    /// A recorder for each of `names` (the reference first) on `rec`.
+    pub fn new(
+        rec: RecordingStream,
+        model: Arc<Model>,
+        opts: RecordOptions,
+        names: &[String],
+        layout: CompareLayout,
+    ) -> Self {
+        // Side by side along x, one copy's width plus a fifth of the scene's size apart.
+        let (lo, hi) = extent(&model.initial.x);
+        let size = hi - lo;
+        let pitch = size.x + (0.2 * size.max_element()).max(0.1);
+        let offsets = (0..names.len())
+            .map(|i| {
+                if layout.overlay {
+                    Vec3::ZERO
+                } else {
+                    Vec3::new(pitch * i as f32, 0.0, 0.0)
+                }
+            })
+            .collect();
+        let entries = names
+            .iter()
+            .enumerate()
+            .map(|(i, name)| EntryRec {
+                name: name.clone(),
+                recorder: Recorder::at(rec.clone(), model.clone(), opts, Root::entry(name)),
+                colour: ENTRY_COLORS[i % ENTRY_COLORS.len()],
+                tally: EntryTally {
+                    name: name.clone(),
+                    ..EntryTally::default()
+                },
+            })
+            .collect();
+        Self {
+            rec,
+            model,
+            entries,
+            layout,
+            offsets,
+            gap: Vec::new(),
+            colors: Vec::new(),
+        }
+    }
+
+    /// What each entry's run came to.
+    pub fn tallies(&self) -> Vec<EntryTally> {
+        self.entries.iter().map(|e| e.tally.clone()).collect()
+    }
+
+    /// The blueprint paths a non-reference copy hides when the recording opens.
+    fn hidden(&self) -> Vec<String> {
+        let hidden = match self.layout.colour_by {
+            ColourBy::Gap => "surface",
+            ColourBy::Strain => "gap",
+        };
+        self.entries
+            .iter()
+            .skip(1)
+            .flat_map(|e| {
+                self.model
+                    .bodies
+                    .iter()
+                    .map(move |b| format!("world/{}/{}/{hidden}", e.name, b.name))
+            })
+            .collect()
+    }
+
+    /// Everything that does not change: the view's axes, the documents, the layout, each
+    /// entry's static data and place, and the plots' lines.
+    pub fn log_static(
+        &mut self,
+        scene_name: &str,
+        scene_text: &str,
+        settings: &[Settings],
+        backend: &str,
+    ) -> RResult {
+        let rec = self.rec.clone();
+        rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())?;
+        let lines: Vec<String> = self
+            .entries
+            .iter()
+            .zip(settings)
+            .map(|(e, s)| {
+                format!(
+                    "- `{}`: {}, dt = {:.3e} s, {} substeps per frame",
+                    e.name, s.integrator, s.dt_secs, s.substeps
+                )
+            })
+            .collect();
+        let frames = settings.first().map_or(0, |s| s.frames);
+        rec.log_static(
+            "scene",
+            &rerun::TextDocument::from_markdown(format!(
+                "# {scene_name}, compared\n\n{} frames, backend {backend}; the first entry is the \
+                 reference.\n\n{}\n\n```toml\n{scene_text}\n```",
+                frames,
+                lines.join("\n")
+            )),
+        )?;
+        rec.log_static("legend", &rerun::TextDocument::from_markdown(self.legend()))?;
+        for (i, e) in self.entries.iter_mut().enumerate() {
+            let s = settings.get(i).or(settings.first());
+            if let Some(s) = s {
+                e.recorder.log_static(scene_name, scene_text, s, backend)?;
+            }
+            rec.log_static(
+                format!("world/{}", e.name),
+                &rerun::Transform3D::from_translation(self.offsets[i]),
+            )?;
+            let line = |path: String, name: String, width: f32| {
+                rec.log_static(
+                    path,
+                    &rerun::SeriesLines::new()
+                        .with_names([name])
+                        .with_colors([rerun::Color::from(e.colour.rgb)])
+                        .with_widths([width]),
+                )
+            };
+            line(
+                format!("compare/energy_total/{}", e.name),
+                format!("{} total", e.name),
+                2.0,
+            )?;
+            line(
+                format!("compare/energy_balance/{}", e.name),
+                format!("{} balance", e.name),
+                1.0,
+            )?;
+            line(format!("compare/wall_ms/{}", e.name), e.name.clone(), 1.5)?;
+            if i > 0 {
+                line(
+                    format!("compare/gap_rms/{}", e.name),
+                    format!("{} RMS", e.name),
+                    2.0,
+                )?;
+                line(
+                    format!("compare/gap_max/{}", e.name),
+                    format!("{} max", e.name),
+                    1.0,
+                )?;
+            }
+        }
+        self.log_gap_statics()?;
+        super::blueprint::send_comparison_blueprint(&rec, &self.hidden(), self.entries.len() > 1)?;
+        Ok(())
+    }
+
+    /// The non-reference copies' gap surfaces' triangles, and in an overlay their translucency.
+    fn log_gap_statics(&self) -> RResult {
+        let translucent = rerun::components::AlbedoFactor(
+            rerun::datatypes::Rgba32::from_unmultiplied_rgba(255, 255, 255, 90),
+        );
+        for e in self.entries.iter().skip(1) {
+            for b in &e.recorder.bodies {
+                let gap_path = format!("world/{}/{}/gap", e.name, b.name);
+                let Some(s) = &b.surface else {
+                    let radius = super::statics::point_radius(&self.model, b);
+                    self.rec.log_static(
+                        gap_path,
+                        &rerun::Points3D::update_fields().with_radii([radius]),
+                    )?;
+                    continue;
+                };
+                if !s.surface.can_tear {
+                    self.rec.log_static(
+                        gap_path.as_str(),
+                        &rerun::Mesh3D::update_fields()
+                            .with_triangle_indices(s.surface.triangles.iter().copied()),
+                    )?;
+                }
+                if self.layout.overlay {
+                    for path in [gap_path.as_str(), s.path.as_str()] {
+                        self.rec.log_static(
+                            path,
+                            &rerun::Mesh3D::update_fields().with_albedo_factor(translucent),
+                        )?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The legend: the entries, both colour scales, and how to switch between them.
+    fn legend(&self) -> String {
+        let r = self.layout.gap_range_m;
+        let entries: Vec<String> = self
+            .entries
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                format!(
+                    "- `{}`{}: plot lines **{}**",
+                    e.name,
+                    if i == 0 { " (the reference)" } else { "" },
+                    e.colour.name
+                )
+            })
+            .collect();
+        let place = if self.layout.overlay {
+            "on top of each other, the others translucent over the reference"
+        } else {
+            "side by side along x, the reference first"
+        };
+        let shown = match self.layout.colour_by {
+            ColourBy::Gap => {
+                "by gap (`…/gap`; each copy's strain colours are in `…/surface`, hidden)"
+            }
+            ColourBy::Strain => {
+                "by strain (`…/surface`; each copy's gap colours are in `…/gap`, hidden)"
+            }
+        };
+        format!(
+            "The same scene under each entry, stepped on the same backend, {place}:\n\n{}\n\n\
+             **Gap** is a mass's distance to the same mass of the reference at the same simulated \
+             time, on a fixed scale: **blue-grey** 0, **amber** {:.3} m, **red** {r:.3} m or more \
+             (`[compare] gap_range_m` sets it). **Strain** is coloured as in a single run: blue \
+             compressed, grey at rest, red stretched. The copies other than the reference are \
+             coloured {shown}: show the one and hide the other in the blueprint panel to switch, \
+             or record with `--colour-by strain`.\n\n\
+             Plots, one line per entry in its colour: *gap to the reference (m)*, RMS (thick) and \
+             max (thin); *energy (J)*, the total (thick) and the balance, total plus what left \
+             (thin, flat when the integration is honest); *wall time per frame (ms)*, what each \
+             frame's steps cost. Each entry's own series are under `<entry>/energy/…` and \
+             `<entry>/stats/…`.",
+            entries.join("\n"),
+            0.5 * r,
+        )
+    }
+
+    /// One frame: `frame[i]` is entry i's snapshot, `None` for an entry that has stopped.
+    pub fn log_frame(&mut self, frame: &[Option<&Snapshot>]) -> RResult {
+        for (e, snap) in self.entries.iter_mut().zip(frame) {
+            if let Some(s) = snap {
+                e.recorder.log_snapshot(s)?;
+            }
+        }
+        let Some(any) = frame.iter().flatten().next() else {
+            return Ok(());
+        };
+        self.rec.set_time_sequence("frame", any.frame as i64);
+        self.rec.set_duration_secs("sim_time", any.time_secs);
+        let reference = frame.first().copied().flatten();
+        for i in 0..self.entries.len() {
+            let Some(snap) = frame.get(i).copied().flatten() else {
+                continue;
+            };
+            self.log_entry_scalars(i, snap)?;
+            if let (true, Some(r)) = (i > 0, reference) {
+                self.log_gap(i, snap, r)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn log_entry_scalars(&mut self, i: usize, snap: &Snapshot) -> RResult {
+        let e = &mut self.entries[i];
+        let en = &snap.energies;
+        let t = &mut e.tally;
+        t.step_ms += snap.stats.step_ms;
+        t.sim_secs = snap.time_secs;
+        let balance = en.balance_j();
+        t.balance_j = Some(
+            t.balance_j
+                .map_or((balance, balance), |(a, _)| (a, balance)),
+        );
+        if snap.frame == 0 {
+            t.energy_scale_j = en.total_j().abs().max(en.kinetic_j).max(1e-6);
+        }
+        let rec = &self.rec;
+        rec.log(
+            format!("compare/energy_total/{}", e.name),
+            &rerun::Scalars::single(en.total_j()),
+        )?;
+        rec.log(
+            format!("compare/energy_balance/{}", e.name),
+            &rerun::Scalars::single(balance),
+        )?;
+        rec.log(
+            format!("compare/wall_ms/{}", e.name),
+            &rerun::Scalars::single(snap.stats.step_ms),
+        )?;
+        Ok(())
+    }
+
+    /// Entry `i`'s distance to the reference, mass by mass: its RMS and max, and its copy
+    /// coloured by it.
+    fn log_gap(&mut self, i: usize, snap: &Snapshot, reference: &Snapshot) -> RResult {
+        self.gap.clear();
+        self.gap.extend(
+            snap.positions
+                .iter()
+                .zip(&reference.positions)
+                .map(|(a, b)| a.distance(*b)),
+        );
+        let n = self.gap.len().max(1) as f64;
+        let rms = (self.gap.iter().map(|g| f64::from(*g).powi(2)).sum::<f64>() / n).sqrt();
+        let max = self.gap.iter().copied().fold(0.0f32, f32::max);
+        let (rec, range) = (&self.rec, self.layout.gap_range_m);
+        let e = &mut self.entries[i];
+        e.tally.last_gap_rms_m = Some(rms);
+        rec.log(
+            format!("compare/gap_rms/{}", e.name),
+            &rerun::Scalars::single(rms),
+        )?;
+        rec.log(
+            format!("compare/gap_max/{}", e.name),
+            &rerun::Scalars::single(f64::from(max)),
+        )?;
+        for b in &e.recorder.bodies {
+            let path = format!("world/{}/{}/gap", e.name, b.name);
+            let gap = &self.gap;
+            self.colors.clear();
+            match &b.surface {
+                Some(s) => {
+                    let two_sided = s.surface.two_sided;
+                    self.colors
+                        .extend(s.surface.vertex_mass.iter().zip(&s.normals).map(
+                            |(&m, &normal)| {
+                                color(surface::shaded(
+                                    gap_color(gap[m as usize], range),
+                                    surface::shade(normal, two_sided),
+                                ))
+                            },
+                        ));
+                    let mut mesh = rerun::Mesh3D::update_fields()
+                        .with_vertex_positions(s.positions.iter().copied())
+                        .with_vertex_colors(self.colors.iter().copied());
+                    if s.surface.can_tear {
+                        mesh = mesh.with_triangle_indices(s.triangles.iter().copied());
+                    }
+                    rec.log(path, &mesh)?;
+                }
+                None => {
+                    self.colors.extend(
+                        gap[b.masses.clone()]
+                            .iter()
+                            .map(|&g| color(gap_color(g, range))),
+                    );
+                    rec.log(
+                        path,
+                        &rerun::Points3D::update_fields()
+                            .with_positions(snap.positions[b.masses.clone()].iter().copied())
+                            .with_colors(self.colors.iter().copied()),
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}

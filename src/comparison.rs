@@ -121,9 +121,15 @@ pub fn run_comparison(
     let mut stopped: Vec<Option<(u64, BackendError)>> = names.iter().map(|_| None).collect();
     let log = |f: ComparedFrame, progress: &mut Progress| {
         for (i, e) in f.stopped {
+            // Said in full once, at the end; here only that it happened.
+            let what = match &e {
+                BackendError::Diverged(_) => "diverged",
+                BackendError::Device(_) => "its device failed",
+                BackendError::Internal(_) => "hit an internal error",
+            };
             progress.suspend(|| {
                 eprintln!(
-                    "entry {} stopped at frame {}: {e}; its frames before are recorded, and the other entries go on",
+                    "entry {} {what} at frame {}: its frames before are recorded, and the other entries go on",
                     names[i], f.frame
                 )
             });

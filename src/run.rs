@@ -36,6 +36,21 @@ pub struct RunOptions {
     pub file: Option<RrdFile>,
 }
 
+impl RunOptions {
+    /// A run that nobody watches: every frame recorded (into `file`, when given, else where the
+    /// recording stream goes), no progress shown, as fast as it goes, the default recording.
+    pub fn unattended(file: Option<RrdFile>) -> Self {
+        Self {
+            delivery: Delivery::Lossless,
+            progress: ProgressMode::Off,
+            realtime: false,
+            record: RecordOptions::default(),
+            viewer: None,
+            file,
+        }
+    }
+}
+
 /// A live viewer, and where the run goes on if it goes away.
 #[derive(Debug, Clone)]
 pub struct ViewerWatch {
@@ -332,14 +347,7 @@ mod tests {
         let (rec, _storage) = rerun::RecordingStreamBuilder::new("hooke-test")
             .memory()
             .expect("an in-memory recording");
-        let opts = RunOptions {
-            delivery: Delivery::Lossless,
-            progress: ProgressMode::Off,
-            realtime: false,
-            record: RecordOptions::default(),
-            viewer: None,
-            file: None,
-        };
+        let opts = RunOptions::unattended(None);
         let cancel = Arc::new(AtomicBool::new(false));
         let prepared = Prepared {
             loaded: planned.loaded,

@@ -249,10 +249,10 @@ pub struct ComparedFrame {
 }
 
 /// [`simulate`] for the entries of a comparison, in lockstep: each frame steps every entry still
-/// running (`substeps[i]` steps of its own dt), then collects their snapshots, so that a GPU
-/// steps one entry while the last one's frame is read back. An entry whose state goes bad or
-/// whose device fails stops alone: its last good frame stays, and the others go on. A stop ends
-/// them all; the frame in progress is abandoned.
+/// running (`substeps[i]` steps of its own dt), all at once, each on a thread of its own, and
+/// sends their snapshots together. An entry whose state goes bad or whose device fails stops
+/// alone: its last good frame stays, and the others go on. A stop ends them all; the frame in
+/// progress is abandoned.
 pub fn simulate_all<'a>(
     backends: &mut [Box<dyn Backend>],
     frames: u64,
@@ -285,55 +285,96 @@ pub fn simulate_all<'a>(
     }
     let mut chunkers: Vec<Chunker> = (0..n).map(|_| Chunker::default()).collect();
     let mut frame = 1;
-    'frames: while frame <= frames && live.contains(&true) {
+    while frame <= frames && live.contains(&true) {
         if stop.requested() {
             break;
         }
+        // The entries step at once, each on a thread of its own: a backend steps the same
+        // substeps in the same order whatever else runs, and the CPU backend's pool, or the
+        // GPUs, take work from all of them.
+        let stepped: Vec<(usize, Stepped)> = std::thread::scope(|scope| {
+            let running: Vec<_> = backends
+                .iter_mut()
+                .zip(chunkers.iter_mut())
+                .enumerate()
+                .filter(|(i, _)| live[*i])
+                .map(|(i, (be, chunker))| {
+                    let n = substeps[i];
+                    (
+                        i,
+                        scope.spawn(move || step_entry(be.as_mut(), n, chunker, frame, stop)),
+                    )
+                })
+                .collect();
+            running
+                .into_iter()
+                .map(|(i, h)| {
+                    let s = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    (i, s)
+                })
+                .collect()
+        });
         let mut this = ComparedFrame {
             frame,
             snapshots: (0..n).map(|_| None).collect(),
             stopped: Vec::new(),
         };
-        let mut took = vec![Duration::ZERO; n];
-        let mut requested = vec![false; n];
-        for i in 0..n {
-            if !live[i] {
-                continue;
-            }
-            let start = Instant::now();
-            let be = backends[i].as_mut();
-            let stepped = step_frame(be, substeps[i], &mut chunkers[i], stop)
-                .and_then(|stats| stats.map(|st| be.request_snapshot(frame, st)).transpose());
-            took[i] = start.elapsed();
-            match stepped {
-                Ok(Some(())) => requested[i] = true,
+        let mut interrupted = false;
+        for (i, s) in stepped {
+            match s {
+                Stepped::Frame(snap) => this.snapshots[i] = Some(snap),
                 // Stopped mid-frame: this frame is abandoned, the ones before it delivered.
-                Ok(None) => break 'frames,
-                Err(e) => {
+                Stepped::Interrupted => interrupted = true,
+                Stepped::Failed(e) => {
                     live[i] = false;
                     this.stopped.push((i, e));
                 }
             }
         }
-        for i in (0..n).filter(|&i| requested[i]) {
-            let whole = chunkers[i].whole(substeps[i]);
-            let start = Instant::now();
-            match backends[i].collect_snapshot() {
-                Ok(snap) => this.snapshots[i] = snap,
-                Err(e) => {
-                    live[i] = false;
-                    this.stopped.push((i, e));
-                }
-            }
-            if whole {
-                chunkers[i].observe(substeps[i], took[i] + start.elapsed());
-            }
-        }
-        if !deliver(tx, delivery, &mut out, this) {
+        if interrupted || !deliver(tx, delivery, &mut out, this) {
             break;
         }
         frame += 1;
     }
     out.cancelled = stop.interrupt.load(Ordering::Relaxed) && frame <= frames;
     out
+}
+
+/// How one entry's frame went.
+enum Stepped {
+    Frame(Snapshot),
+    /// A stop came mid-frame.
+    Interrupted,
+    Failed(BackendError),
+}
+
+/// One entry's frame `frame`: its substeps, then its snapshot.
+fn step_entry(
+    be: &mut dyn Backend,
+    substeps: u32,
+    chunker: &mut Chunker,
+    frame: u64,
+    stop: Stop<'_>,
+) -> Stepped {
+    let whole = chunker.whole(substeps);
+    let start = Instant::now();
+    let stepped = step_frame(be, substeps, chunker, stop)
+        .and_then(|stats| stats.map(|st| be.request_snapshot(frame, st)).transpose());
+    match stepped {
+        Ok(Some(())) => {}
+        Ok(None) => return Stepped::Interrupted,
+        Err(e) => return Stepped::Failed(e),
+    }
+    let collected = be.collect_snapshot();
+    if whole {
+        chunker.observe(substeps, start.elapsed());
+    }
+    match collected {
+        Ok(Some(snap)) => Stepped::Frame(snap),
+        // A backend hands back every snapshot it was asked for.
+        Ok(None) => Stepped::Failed(BackendError::Internal(
+            crate::backend::Internal::SnapshotMissing,
+        )),
+        Err(e) => Stepped::Failed(e),
+    }
 }

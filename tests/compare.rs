@@ -35,14 +35,7 @@ fn compare(scene: &str, entries: &str, frames: u64) -> ComparisonSummary {
         gap_range_m: CompareLayout::default_gap_range(&prepared.model),
         colour_by: ColourBy::Gap,
     };
-    let opts = hooke::run::RunOptions {
-        delivery: hooke::sim::Delivery::Lossless,
-        progress: hooke::progress::ProgressMode::Off,
-        realtime: false,
-        record: hooke::record::RecordOptions::default(),
-        viewer: None,
-        file: None,
-    };
+    let opts = hooke::run::RunOptions::unattended(None);
     ok(run_comparison(
         prepared,
         rerun::RecordingStream::disabled(),
@@ -282,6 +275,34 @@ fn bad_compare_entries_get_one_clear_error_each_before_anything_runs() {
     assert!(
         err.contains("--compare entry 2 (implicit) is refused: implicit Euler does not support mass–mass contact"),
         "{err}"
+    );
+}
+
+#[test]
+fn a_realtime_comparison_never_runs_ahead_of_the_wall_clock() {
+    // 12 frames at 60 Hz: at least 0.2 s, however fast the hair steps.
+    let dir = temp_dir("compare-realtime");
+    let path = dir.join("r.rrd");
+    let start = std::time::Instant::now();
+    let out = hooke(&[
+        "run",
+        "hair",
+        "--backend",
+        "cpu",
+        "--frames",
+        "12",
+        "--realtime",
+        "--compare",
+        "semi-implicit,verlet",
+        "--save",
+        &path.to_string_lossy(),
+    ]);
+    let took = start.elapsed().as_secs_f64();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(took >= 0.2, "12 frames in {took:.3} s");
+    assert_eq!(
+        read_rrd(&path).frames_of("/compare/wall_ms/verlet").len(),
+        13
     );
 }
 

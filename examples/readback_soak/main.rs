@@ -261,15 +261,8 @@ fn run_pipeline(variant: &str, iterations: u64) {
             .save(&rrd)
             .expect("creating the .rrd file")
     };
-    let opts = hooke::run::RunOptions {
-        delivery: hooke::sim::Delivery::Lossless,
-        progress: hooke::progress::ProgressMode::Off,
-        realtime: false,
-        record: hooke::record::RecordOptions::default(),
-        viewer: None,
-        // Rerun's own file sink on purpose: this bisects Rerun's memory use, not ours.
-        file: None,
-    };
+    // Rerun's own file sink on purpose (no `RrdFile`): this bisects Rerun's memory use, not ours.
+    let opts = hooke::run::RunOptions::unattended(None);
     let prepared = hooke::prepare::Prepared {
         loaded,
         settings,

@@ -86,12 +86,8 @@ pub fn soak(
         })
     };
     let opts = crate::run::RunOptions {
-        delivery: crate::sim::Delivery::Lossless,
-        progress: crate::progress::ProgressMode::Off,
-        realtime: false,
         record: crate::record::RecordOptions::default().for_scene(&prepared.loaded.scene),
-        viewer: None,
-        file: Some(file),
+        ..crate::run::RunOptions::unattended(Some(file))
     };
     let summary = crate::run::run(prepared, rec, &opts, Arc::new(AtomicBool::new(false)));
     done.store(true, Ordering::Relaxed);

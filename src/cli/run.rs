@@ -40,12 +40,7 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     let prepared = prepare::prepare(&request, &mut |notice| eprintln!("{notice}"))?;
     let record = args.recording.options().for_scene(&prepared.loaded.scene);
     describe(&prepared, &record);
-    let sink = sink::open_sink(
-        args.rerun,
-        args.output,
-        args.matches,
-        &prepared.loaded.scene.name,
-    )?;
+    let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     if let Some(file) = &sink.file {
         let size = hooke::recording_size::estimate(&prepared.model, &prepared.settings, record)?;
         eprintln!(
@@ -53,14 +48,6 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
             hooke::recording_size::describe_for_file(&size, prepared.settings.frames, file.path())
         );
     }
-    let opts = hooke::run::RunOptions {
-        delivery: sink.delivery,
-        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
-        realtime: args.recording.realtime,
-        record,
-        viewer: sink.viewer.clone(),
-        file: sink.file.clone(),
-    };
     let interrupts = Interrupts::install();
     let result = hooke::run::run(prepared, sink.rec.clone(), &opts, interrupts.cancel.clone());
     say_where_saved(&sink, &result);
@@ -73,6 +60,24 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
         interrupts.serve_until_interrupted(&serving.page);
     }
     Ok(Outcome::Done)
+}
+
+/// Where the run records (Rerun's flags), and how: the options of the two threads.
+fn open(
+    args: &RunArgs<'_>,
+    scene: &str,
+    record: hooke::record::RecordOptions,
+) -> anyhow::Result<(Sink, hooke::run::RunOptions)> {
+    let sink = sink::open_sink(args.rerun, args.output, args.matches, scene)?;
+    let opts = hooke::run::RunOptions {
+        delivery: sink.delivery,
+        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        realtime: args.recording.realtime,
+        record,
+        viewer: sink.viewer.clone(),
+        file: sink.file.clone(),
+    };
+    Ok((sink, opts))
 }
 
 /// The comparison a run asks for: `--compare`'s entries, else the scene's `[compare]` table's;
@@ -157,20 +162,7 @@ fn run_comparison(
             e.settings.frames
         );
     }
-    let sink = sink::open_sink(
-        args.rerun,
-        args.output,
-        args.matches,
-        &prepared.loaded.scene.name,
-    )?;
-    let opts = hooke::run::RunOptions {
-        delivery: sink.delivery,
-        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
-        realtime: args.recording.realtime,
-        record,
-        viewer: sink.viewer.clone(),
-        file: sink.file.clone(),
-    };
+    let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     let interrupts = Interrupts::install();
     let result = hooke::comparison::run_comparison(
         prepared,

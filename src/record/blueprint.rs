@@ -15,8 +15,7 @@ pub const APPLICATION_ID: &str = "hooke";
 fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
     use rerun::blueprint::components::PanelState;
     use rerun::blueprint::{
-        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, Tabs, TextDocumentView,
-        TimeSeriesView, Vertical,
+        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, TimeSeriesView, Vertical,
     };
     let mut plots = Vec::new();
     let mut plot = |p: Plot| {
@@ -50,13 +49,7 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
                 energy,
                 Horizontal::new([strain, histogram]).into(),
                 Horizontal::new([millis, counts]).into(),
-                Tabs::new([
-                    TextDocumentView::new("legend")
-                        .with_origin("/legend")
-                        .into(),
-                    TextDocumentView::new("scene").with_origin("/scene").into(),
-                ])
-                .into(),
+                documents(),
             ])
             .with_row_shares([0.34, 0.22, 0.22, 0.22])
             .into(),
@@ -71,6 +64,18 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
         PanelState::Collapsed,
     ));
     (blueprint, plots)
+}
+
+/// The legend and scene documents, as tabs.
+fn documents() -> rerun::blueprint::ContainerLike {
+    use rerun::blueprint::{Tabs, TextDocumentView};
+    Tabs::new([
+        TextDocumentView::new("legend")
+            .with_origin("/legend")
+            .into(),
+        TextDocumentView::new("scene").with_origin("/scene").into(),
+    ])
+    .into()
 }
 
 /// Sends the default layout to `rec`, made active at once.
@@ -95,8 +100,7 @@ pub fn send_comparison_blueprint(
 ) -> RResult {
     use rerun::blueprint::components::PanelState;
     use rerun::blueprint::{
-        Blueprint, ContainerLike, Horizontal, Spatial3DView, Tabs, TextDocumentView,
-        TimeSeriesView, Vertical,
+        Blueprint, ContainerLike, Horizontal, Spatial3DView, TimeSeriesView, Vertical,
     };
     let mut plots = Vec::new();
     let mut plot = |title: &str, contents: &[&str]| {
@@ -121,25 +125,24 @@ pub fn send_comparison_blueprint(
         &["compare/energy_total", "compare/energy_balance"],
     ));
     column.push(plot("wall time per frame (ms)", &["compare/wall_ms"]));
-    column.push(
-        Tabs::new([
-            TextDocumentView::new("legend")
-                .with_origin("/legend")
-                .into(),
-            TextDocumentView::new("scene").with_origin("/scene").into(),
-        ])
-        .into(),
-    );
+    column.push(documents());
     let world = Spatial3DView::new("world")
         .with_origin("/world")
         .with_contents(
             std::iter::once("+ /world/**".to_owned())
                 .chain(hidden.iter().map(|h| format!("- /{h}"))),
         );
+    // A comparison opens at its latest frame, on simulated time: the plots show the whole run
+    // and the copies as far apart as they got; scrub back from there.
+    let time = rerun::blueprint::TimePanel::new()
+        .with_state(PanelState::Collapsed)
+        .with_timeline("sim_time")
+        .with_play_state(rerun::blueprint::components::PlayState::Following);
     let blueprint = Blueprint::new(
         Horizontal::new([world.into(), Vertical::new(column).into()])
             .with_column_shares([0.62, 0.38]),
     )
+    .with_time_panel(time)
     .with_auto_views(false)
     .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
         PanelState::Collapsed,

@@ -150,22 +150,27 @@ impl CompareRecorder {
         self.entries.iter().map(|e| e.tally.clone()).collect()
     }
 
-    /// The blueprint paths a non-reference copy hides when the recording opens.
+    /// The entity paths the 3D view leaves out when the recording opens: each copy's marker of
+    /// its most strained spring (one label per copy would cover the copies), and each
+    /// non-reference copy's other colouring (in gap colours, its strain-coloured surface and
+    /// spring lines).
     fn hidden(&self) -> Vec<String> {
-        let hidden = match self.layout.colour_by {
-            ColourBy::Gap => "surface",
-            ColourBy::Strain => "gap",
+        let hidden: &[&str] = match self.layout.colour_by {
+            ColourBy::Gap => &["surface", "springs"],
+            ColourBy::Strain => &["gap"],
         };
-        self.entries
+        let markers = self
+            .entries
             .iter()
-            .skip(1)
-            .flat_map(|e| {
-                self.model
-                    .bodies
+            .map(|e| format!("world/{}/most_strained", e.name));
+        let others = self.entries.iter().skip(1).flat_map(|e| {
+            self.model.bodies.iter().flat_map(move |b| {
+                hidden
                     .iter()
-                    .map(move |b| format!("world/{}/{}/{hidden}", e.name, b.name))
+                    .map(move |h| format!("world/{}/{}/{h}", e.name, b.name))
             })
-            .collect()
+        });
+        markers.chain(others).collect()
     }
 
     /// Everything that does not change: the view's axes, the documents, the layout, each
@@ -307,7 +312,8 @@ impl CompareRecorder {
         };
         let shown = match self.layout.colour_by {
             ColourBy::Gap => {
-                "by gap (`…/gap`; each copy's strain colours are in `…/surface`, hidden)"
+                "by gap (`…/gap`; their strain-coloured surfaces and spring lines are in \
+                 `…/surface` and `…/springs`, hidden)"
             }
             ColourBy::Strain => {
                 "by strain (`…/surface`; each copy's gap colours are in `…/gap`, hidden)"
@@ -320,11 +326,13 @@ impl CompareRecorder {
              (`[compare] gap_range_m` sets it). **Strain** is coloured as in a single run: blue \
              compressed, grey at rest, red stretched. The copies other than the reference are \
              coloured {shown}: show the one and hide the other in the blueprint panel to switch, \
-             or record with `--colour-by strain`.\n\n\
+             or record with `--colour-by strain`. Each copy's most strained spring \
+             (`…/most_strained`) is hidden too: show it for its label.\n\n\
              Plots, one line per entry in its colour: *gap to the reference (m)*, RMS (thick) and \
              max (thin); *energy (J)*, the total (thick) and the balance, total plus what left \
              (thin, flat when the integration is honest); *wall time per frame (ms)*, what each \
-             frame's steps cost. Each entry's own series are under `<entry>/energy/…` and \
+             frame's steps cost (the entries step at once and share the machine: compare them \
+             with each other). Each entry's own series are under `<entry>/energy/…` and \
              `<entry>/stats/…`.",
             entries.join("\n"),
             0.5 * r,

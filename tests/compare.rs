@@ -198,6 +198,14 @@ fn a_scenes_compare_table_runs_as_compare_does_and_its_entries_are_checked() {
         &bad,
         format!("{base}\n[compare]\nentries = [\"rk4\", \"rk9\"]\n"),
     ));
+    let out = hooke(&["check", &scene.to_string_lossy(), "--backend", "cpu"]);
+    let said = text(&out.stdout);
+    assert!(
+        said.contains(
+            "compare: `hooke run` records this scene under semi-implicit, verlet, overlaid"
+        ),
+        "{said}"
+    );
     let out = hooke(&["check", &bad.to_string_lossy()]);
     let err = text(&out.stderr);
     assert!(!out.status.success());

@@ -19,6 +19,17 @@ pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
         model,
     } = planned;
     print!("{}", report(&loaded.scene.name, model, settings));
+    if let Some(c) = &loaded.scene.compare {
+        println!(
+            "compare: `hooke run` records this scene under {}, {} (each entry checked as the run starts; --compare overrides)",
+            c.entries.join(", "),
+            if c.overlay {
+                "overlaid"
+            } else {
+                "side by side"
+            }
+        );
+    }
     let size = hooke::recording_size::estimate(
         model,
         settings,

@@ -371,13 +371,14 @@ impl CompareRecorder {
         t.step_ms += snap.stats.step_ms;
         t.sim_secs = snap.time_secs;
         let balance = en.balance_j();
+        if t.balance_j.is_none() {
+            // The first frame this entry delivered (frame 0, unless a live view dropped it).
+            t.energy_scale_j = en.total_j().abs().max(en.kinetic_j).max(1e-6);
+        }
         t.balance_j = Some(
             t.balance_j
                 .map_or((balance, balance), |(a, _)| (a, balance)),
         );
-        if snap.frame == 0 {
-            t.energy_scale_j = en.total_j().abs().max(en.kinetic_j).max(1e-6);
-        }
         let rec = &self.rec;
         rec.log(
             format!("compare/energy_total/{}", e.name),

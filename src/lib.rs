@@ -19,6 +19,7 @@ pub mod divergence;
 pub mod error;
 pub mod gpu;
 pub mod integrator;
+pub mod mesh;
 pub mod model;
 pub mod pacing;
 pub mod physics;

@@ -235,6 +235,17 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
     ("cloth-64", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
     ("cloth-256", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
     ("cloth-1024", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
+    (
+        "flag",
+        "fused_step",
+        "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_BOXES, HAS_COLLIDERS, HAS_DAMPING",
+    ),
+    (
+        "tablecloth",
+        "fused_step",
+        "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_BOXES, HAS_COLLIDERS, HAS_DAMPING",
+    ),
+    ("blob", "fused_step", "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING"),
 ];
 
 #[test]

@@ -1,6 +1,7 @@
 //! A bounded fuzz test of the scene front end: thousands of mutated scene files (bytes flipped,
-//! lines cut and spliced, absurd numbers, huge grids, deep nesting) must each give a scene or
-//! one clear error, never a panic, and a scene that validates must build its model. The mutator
+//! lines cut and spliced, absurd numbers, huge grids, deep nesting), and of mesh files (random
+//! OBJ, the flag's OBJ mutated, the tablecloth's GLB with bytes changed or cut), must each give
+//! a scene or one clear error, never a panic, and a scene that validates must build its model. The mutator
 //! is a fixed-seed xorshift, so a failure reproduces exactly; CI runs it in a few seconds.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -124,11 +125,7 @@ fn mutated_scene_files_never_panic() {
         let result = catch_unwind(AssertUnwindSafe(|| {
             hooke::scene::from_toml(&text, SceneOrigin::Text).map(|scene| {
                 // Keep the fuzz bounded: build only what a test machine can hold quickly.
-                let masses: u64 = scene
-                    .bodies
-                    .iter()
-                    .map(|b| b.grid.iter().map(|&n| u64::from(n)).product::<u64>())
-                    .sum();
+                let masses: u64 = scene.bodies.iter().map(|b| b.mass_count_bound()).sum();
                 if masses <= 200_000 {
                     let model = hooke::model::build(&scene);
                     assert_eq!(model.mass_count() as u64, masses);
@@ -152,6 +149,151 @@ fn mutated_scene_files_never_panic() {
     eprintln!("{accepted} mutated scenes accepted, {rejected} rejected with one clear error");
     assert!(
         accepted > 500 && rejected > 5000,
+        "accepted {accepted}, rejected {rejected}"
+    );
+}
+
+/// A random OBJ: vertices (some absurd), faces of 1 to 6 corners (some out of range, relative,
+/// zero or with texture and normal indices), groups and junk lines.
+fn random_obj(rng: &mut Rng) -> String {
+    let mut s = String::new();
+    let vertices = 1 + rng.below(40);
+    for _ in 0..vertices {
+        let mut c = || match rng.below(20) {
+            0 => ABSURD[rng.below(ABSURD.len())].to_owned(),
+            1 => "1e-30".to_owned(),
+            _ => format!("{}", (rng.below(2001) as f32 - 1000.0) / 1000.0),
+        };
+        let (x, y, z) = (c(), c(), c());
+        s += &format!("v {x} {y} {z}\n");
+    }
+    for _ in 0..rng.below(60) {
+        match rng.below(12) {
+            0 => s += &format!("g part{}\n", rng.below(3)),
+            1 => s += "o thing\nvt 0 0\nvn 0 0 1\n",
+            2 => s += "f\n",
+            3 => s += "l 1 2\np 1\n# comment\nusemtl none\n",
+            _ => {
+                s.push('f');
+                for _ in 0..1 + rng.below(6) {
+                    let v = match rng.below(15) {
+                        0 => "0".to_owned(),
+                        1 => format!("-{}", 1 + rng.below(vertices + 2)),
+                        2 => format!("{}/1/1", 1 + rng.below(vertices)),
+                        3 => format!("{}", vertices + 1 + rng.below(5)),
+                        _ => format!("{}", 1 + rng.below(vertices)),
+                    };
+                    s += &format!(" {v}");
+                }
+                s.push('\n');
+            }
+        }
+    }
+    s
+}
+
+/// A mesh body's table: cloth or a lattice, with pins of each kind, some of them wrong.
+fn random_mesh_body(rng: &mut Rng, file: &str) -> String {
+    let mut b = format!("[[bodies]]\nname = \"m\"\nmesh = \"{file}\"\nmass_kg = 1.0\n");
+    match rng.below(4) {
+        0 => b += "fill = \"lattice\"\nspacing_m = 0.3\n",
+        1 => {
+            b += &format!(
+                "fill = \"lattice\"\nspacing_m = {}\n",
+                ["0.05", "1e-3", "0", "-1"][rng.below(4)]
+            )
+        }
+        _ => {}
+    }
+    match rng.below(6) {
+        0 => b += &format!("pins = [[{}]]\n", rng.below(50)),
+        1 => b += "pins_in = { min_m = [-1, -1, -1], max_m = [0, 0, 0] }\n",
+        2 => b += "pins_in = { center_m = [0, 0, 0], radius_m = 0.5 }\n",
+        3 => b += "pin_groups = [\"part1\"]\n",
+        _ => {}
+    }
+    if rng.below(3) > 0 {
+        b += "[bodies.springs]\nstructural = { stiffness_n_per_m = 100.0 }\n";
+        if rng.below(2) == 0 {
+            b += "bending = { stiffness_n_per_m = 2.0 }\n";
+        }
+        if rng.below(3) == 0 {
+            b += "shear = { stiffness_n_per_m = 10.0 }\n";
+        }
+    }
+    b
+}
+
+#[test]
+fn random_and_mutated_meshes_never_panic() {
+    let dir = std::env::temp_dir().join(format!("hooke-fuzz-meshes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let builtin = |name: &str| {
+        hooke::scene::BUILT_IN_MESHES
+            .iter()
+            .find(|(p, _)| p.ends_with(name))
+            .map_or(&[][..], |(_, b)| *b)
+    };
+    let flag = String::from_utf8_lossy(builtin("flag.obj")).into_owned();
+    let glb = builtin("tablecloth.glb");
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    let (mut accepted, mut rejected) = (0, 0);
+    for i in 0..3_000 {
+        let (file, bytes): (&str, Vec<u8>) = match i % 3 {
+            0 => ("m.obj", random_obj(&mut rng).into_bytes()),
+            1 => ("m.obj", mutate(&mut rng, &flag).into_bytes()),
+            _ => {
+                // The GLB with bytes changed, cut short, or a chunk length made up.
+                let mut b = glb.to_vec();
+                for _ in 0..1 + rng.below(8) {
+                    let k = rng.below(b.len());
+                    b[k] = rng.next() as u8;
+                }
+                if rng.below(4) == 0 {
+                    b.truncate(rng.below(b.len()));
+                }
+                ("m.glb", b)
+            }
+        };
+        std::fs::write(dir.join(file), &bytes).unwrap_or_else(|e| panic!("{e}"));
+        let text = format!("name = \"fuzz\"\n{}", random_mesh_body(&mut rng, file));
+        let path = dir.join("scene.toml");
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            hooke::scene::from_toml(&text, SceneOrigin::File(path.clone())).map(|scene| {
+                if scene
+                    .bodies
+                    .iter()
+                    .map(|b| b.mass_count_bound())
+                    .sum::<u64>()
+                    <= 200_000
+                {
+                    let model = hooke::model::build(&scene);
+                    assert!(model.mass_count() > 0);
+                    assert!(model.initial.x.iter().all(|p| p.is_finite()));
+                    assert!(model.mass_kg.iter().all(|m| m.is_finite() && *m > 0.0));
+                }
+            })
+        }));
+        match result {
+            Ok(Ok(())) => accepted += 1,
+            Ok(Err(e)) => {
+                let msg = e.to_string();
+                assert!(
+                    !msg.is_empty() && !msg.contains('\n'),
+                    "case {i}: error not one line: {msg:?}\n{text}"
+                );
+                rejected += 1;
+            }
+            Err(_) => panic!(
+                "case {i} panicked on:\n{text}\n{}",
+                String::from_utf8_lossy(&bytes)
+            ),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    eprintln!("{accepted} random meshes accepted, {rejected} rejected with one clear error");
+    assert!(
+        accepted > 300 && rejected > 300,
         "accepted {accepted}, rejected {rejected}"
     );
 }

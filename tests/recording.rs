@@ -147,12 +147,13 @@ fn a_sheet_and_a_block_record_their_surface_with_the_snapshot_positions_and_stra
         record(&loaded, &model, &snaps, RecordOptions::default(), &path);
         let c = read_components(&path);
         let b = &model.bodies[0];
+        let grid = b.grid().expect("a grid body");
         let vertex_masses: Vec<u32> = b
             .masses
             .clone()
             .filter(|&m| {
-                let g = coords(&b.grid, m - b.masses.start);
-                b.grid.len() == 2 || (0..3).any(|a| g[a] == 0 || g[a] + 1 == b.grid[a])
+                let g = coords(grid, m - b.masses.start);
+                grid.len() == 2 || (0..3).any(|a| g[a] == 0 || g[a] + 1 == grid[a])
             })
             .collect();
         if scene == "jello" {

@@ -15,7 +15,8 @@ use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{
-    ContactModel, Effects, MassContact, Model, ModelBuilder, damping_ratio_for_restitution,
+    BodyShape, ContactModel, Effects, MassContact, Model, ModelBuilder,
+    damping_ratio_for_restitution,
 };
 use hooke::state::State;
 
@@ -34,7 +35,7 @@ fn head_on(restitution: f32, within_bodies: bool, one_body: bool, speed: f32) ->
         false,
     );
     if !one_body {
-        mb.end_body("left", vec![1]);
+        mb.end_body("left", BodyShape::Grid(vec![1]));
     }
     mb.mass(
         Vec3::new(0.05, 0.3, 0.0),
@@ -42,7 +43,7 @@ fn head_on(restitution: f32, within_bodies: bool, one_body: bool, speed: f32) ->
         MASS_KG,
         false,
     );
-    mb.end_body("right", vec![if one_body { 2 } else { 1 }]);
+    mb.end_body("right", BodyShape::Grid(vec![if one_body { 2 } else { 1 }]));
     mb.effects(Effects {
         self_collision: Some(MassContact {
             radius_m: RADIUS_M,

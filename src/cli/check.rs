@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use hooke::model::{Collider, Model, Path, Shape, SpringKindTag};
+use hooke::model::{BodyShape, Collider, MeshVertices, Model, Path, Shape, SpringKindTag};
 use hooke::prepare::Planned;
 use hooke::select::BackendKind;
 use hooke::settings::Settings;
@@ -88,13 +88,24 @@ fn masses_and_springs(s: &mut String, model: &Model) {
         }
     }
     for b in &model.bodies {
-        let grid: Vec<String> = b.grid.iter().map(u32::to_string).collect();
+        let layout = match &b.shape {
+            BodyShape::Grid(g) => {
+                let grid: Vec<String> = g.iter().map(u32::to_string).collect();
+                format!("grid {} ({}D)", grid.join("×"), g.len())
+            }
+            BodyShape::Mesh(m) => {
+                let what = match (&m.vertices, m.closed) {
+                    (MeshVertices::Embedded(_), _) => "filled with a lattice",
+                    (MeshVertices::Masses(_), true) => "a closed shell",
+                    (MeshVertices::Masses(_), false) => "cloth",
+                };
+                format!("mesh {} ({} triangles, {what})", m.file, m.triangles.len())
+            }
+        };
         let _ = writeln!(
             s,
-            "  body '{}': grid {} ({}D), {} masses, {} springs",
+            "  body '{}': {layout}, {} masses, {} springs",
             b.name,
-            grid.join("×"),
-            b.grid.len(),
             b.masses.len(),
             b.springs.len()
         );

@@ -8,7 +8,7 @@ use crate::state::State;
 
 use super::colliders::Effects;
 use super::springs::{Adjacency, NO_LIMITS, Spring, SpringLimits};
-use super::system::{BodyInfo, Model};
+use super::system::{BodyInfo, BodyShape, Model};
 
 /// Builds a [`Model`] mass by mass and spring by spring.
 #[derive(Debug, Default)]
@@ -122,12 +122,12 @@ impl ModelBuilder {
     }
 
     /// Groups everything added since the previous body under a name.
-    pub fn end_body(&mut self, name: &str, grid: Vec<u32>) {
+    pub fn end_body(&mut self, name: &str, shape: BodyShape) {
         let m0 = self.bodies.last().map_or(0, |b| b.masses.end);
         let s0 = self.bodies.last().map_or(0, |b| b.springs.end);
         self.bodies.push(BodyInfo {
             name: name.to_owned(),
-            grid,
+            shape,
             masses: m0..self.mass_kg.len() as u32,
             springs: s0..self.springs.len() as u32,
         });
@@ -136,7 +136,7 @@ impl ModelBuilder {
     pub fn build(mut self) -> Model {
         if self.bodies.last().map_or(0, |b| b.masses.end) as usize != self.mass_kg.len() {
             let n = self.mass_kg.len() as u32;
-            self.end_body("body", vec![n]);
+            self.end_body("body", BodyShape::Grid(vec![n]));
         }
         let inv_mass = self
             .mass_kg

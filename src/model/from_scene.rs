@@ -7,22 +7,29 @@ use crate::spring_kind::{SpringKindTag, kind_offsets};
 
 use super::builder::ModelBuilder;
 use super::colliders::{Collider, ContactModel, Effects, GroundCollider, MassContact, Path, Shape};
+use super::from_mesh;
 use super::springs::SpringLimits;
-use super::system::Model;
+use super::system::{BodyShape, Model};
 
 /// Build the model of a validated scene.
 pub fn build(scene: &Scene) -> Model {
     let mut mb = ModelBuilder::new();
     let mut min_spacing = f32::INFINITY;
     for body in &scene.bodies {
-        min_spacing = min_spacing.min(body.spacing_m);
-        let grid = Grid::of(body);
-        let base = mb.mass_count();
-        add_masses(&mut mb, body, &grid);
-        add_springs(&mut mb, body, &grid, base);
+        min_spacing = min_spacing.min(body.finest_spacing_m());
+        let first = mb.body_spring_start();
+        let shape = match &body.surface {
+            Some(mesh) => from_mesh::add(&mut mb, body, mesh),
+            None => {
+                let grid = Grid::of(body);
+                let base = mb.mass_count();
+                add_masses(&mut mb, body, &grid);
+                add_springs(&mut mb, body, &grid, base);
+                BodyShape::Grid(body.grid.clone())
+            }
+        };
         // Order the body's springs by the masses they join, kinds interleaved, so that a mass's
         // springs (and its neighbours') sit close together in memory for the force passes.
-        let first = mb.body_spring_start();
         if body.plasticity.is_some() || body.tearing.is_some() {
             mb.limit_springs_from(
                 first,
@@ -35,7 +42,7 @@ pub fn build(scene: &Scene) -> Model {
             );
         }
         mb.sort_springs_from(first);
-        mb.end_body(&body.name, body.grid.clone());
+        mb.end_body(&body.name, shape);
     }
     // A fast mass may sink a little into a collider before the penalty force turns it round; the
     // post-step safeguard only acts past half a grid spacing (a quarter radius for spheres), so it
@@ -101,6 +108,7 @@ fn add_masses(mb: &mut ModelBuilder, body: &scene::Body, grid: &Grid) {
     let m = body.mass_kg / count as f32;
     let origin = Vec3::from(body.origin_m);
     let vel = Vec3::from(body.velocity_m_per_s);
+    let spacing = body.spacing_m.unwrap_or_default();
     let pinned: std::collections::HashSet<u32> = body
         .pins
         .iter()
@@ -116,11 +124,13 @@ fn add_masses(mb: &mut ModelBuilder, body: &scene::Body, grid: &Grid) {
         for j in 0..n[1] {
             for i in 0..n[0] {
                 let p = origin
-                    + body.spacing_m
+                    + spacing
                         * (i as f32 * grid.axis(0)
                             + j as f32 * grid.axis(1)
                             + k as f32 * grid.axis(2));
-                mb.mass(p, vel, m, pinned.contains(&grid.index(i, j, k)));
+                let pin = pinned.contains(&grid.index(i, j, k))
+                    || body.pins_in.iter().any(|r| r.contains(p));
+                mb.mass(p, vel, m, pin);
             }
         }
     }

@@ -6,6 +6,7 @@
 
 mod builder;
 mod colliders;
+mod from_mesh;
 mod from_scene;
 mod springs;
 mod system;
@@ -16,7 +17,7 @@ pub use colliders::{
 };
 pub use from_scene::build;
 pub use springs::{Adjacency, NO_LIMITS, Neighbor, Spring, SpringLimits};
-pub use system::{BodyInfo, Model};
+pub use system::{BodyInfo, BodyShape, MeshShape, MeshVertices, Model};
 
 // The contact law and the spring kinds sit below the scene (whose validation reads them); the
 // model is where most code looks for them.

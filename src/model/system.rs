@@ -10,9 +10,48 @@ use super::springs::{Adjacency, Spring, SpringLimits};
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyInfo {
     pub name: String,
-    pub grid: Vec<u32>,
+    pub shape: BodyShape,
     pub masses: std::ops::Range<u32>,
     pub springs: std::ops::Range<u32>,
+}
+
+impl BodyInfo {
+    /// The grid's counts along its axes, for a grid body.
+    pub fn grid(&self) -> Option<&[u32]> {
+        match &self.shape {
+            BodyShape::Grid(g) => Some(g),
+            BodyShape::Mesh(_) => None,
+        }
+    }
+}
+
+/// What a body's masses were laid out from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BodyShape {
+    /// Masses along each grid axis (x fastest).
+    Grid(Vec<u32>),
+    /// A user's triangle mesh.
+    Mesh(std::sync::Arc<MeshShape>),
+}
+
+/// A mesh body's surface: the file's triangles over vertices that are masses (cloth, a shell)
+/// or that follow a lattice's cells (a filled soft body).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshShape {
+    /// The file the mesh came from, as the scene names it.
+    pub file: String,
+    pub triangles: Vec<[u32; 3]>,
+    pub vertices: MeshVertices,
+    /// Every edge has two triangles: the surface is seen from outside only.
+    pub closed: bool,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshVertices {
+    /// Vertex `v` is mass `masses[v]` (model-wide).
+    Masses(Vec<u32>),
+    /// Vertex `v` is embedded in a lattice cell whose corners are masses (model-wide).
+    Embedded(Vec<crate::mesh::Embedded>),
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -235,16 +235,11 @@ impl Recorder {
         } else if s.triangles.is_empty() {
             s.triangles = s.surface.triangles.clone();
         }
-        s.positions.clear();
         if s.whole_body {
+            s.positions.clear();
             s.positions.extend_from_slice(pos);
         } else {
-            s.positions.extend(
-                s.surface
-                    .vertex_mass
-                    .iter()
-                    .map(|&i| snap.positions[i as usize]),
-            );
+            s.surface.positions(&snap.positions, &mut s.positions);
         }
         surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
         surface::vertex_strain(m, &snap.strain, &s.surface.vertex_mass, &mut s.strain);

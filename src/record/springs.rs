@@ -9,7 +9,7 @@ use rerun::external::arrow::array::{FixedSizeListArray, Float32Array, ListArray,
 use rerun::external::arrow::buffer::{OffsetBuffer, ScalarBuffer};
 use rerun::{AsComponents as _, Loggable as _, SerializedComponentBatch};
 
-use crate::model::{BodyInfo, Model, SpringKindTag};
+use crate::model::{BodyInfo, BodyShape, MeshVertices, Model, SpringKindTag};
 use crate::state::Snapshot;
 
 /// Which springs are logged as lines (`--springs`).
@@ -56,6 +56,8 @@ pub fn selected(
         Some(SpringSelection::Structural) => structural(),
         Some(SpringSelection::None) => Vec::new(),
         None if !has_surface => all(),
+        // A filled mesh draws the user's surface; its lattice is scaffolding.
+        None if is_lattice(body) => Vec::new(),
         None => {
             let s = structural();
             let s = if s.is_empty() { all() } else { s };
@@ -66,6 +68,10 @@ pub fn selected(
             }
         }
     }
+}
+
+fn is_lattice(body: &BodyInfo) -> bool {
+    matches!(&body.shape, BodyShape::Mesh(m) if matches!(m.vertices, MeshVertices::Embedded(_)))
 }
 
 /// One body's logged springs and the buffers their frame is built in.

@@ -1,5 +1,6 @@
 //! Surfaces: every sheet (2D grid) and the outer faces of every block (3D grid) as a triangle
-//! mesh whose vertices are the body's masses.
+//! mesh whose vertices are the body's masses; a mesh body's own triangles, over its masses
+//! (cloth) or following its lattice's cells (a filled soft body).
 //!
 //! Triangles: each grid quad is split along its (0,0)–(1,1) diagonal. A triangle's edges are the
 //! springs joining its corners (structural along the grid, shear on the diagonal, where the body
@@ -27,7 +28,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use crate::model::{BodyInfo, Model, SpringKindTag};
+use crate::model::{BodyInfo, BodyShape, MeshShape, MeshVertices, Model, SpringKindTag};
 
 /// No spring joins these two corners.
 const NO_SPRING: u32 = u32::MAX;
@@ -45,6 +46,9 @@ pub struct Surface {
     pub two_sided: bool,
     /// Some edge spring may break: the triangle list changes over the run.
     pub can_tear: bool,
+    /// A lattice-filled mesh's vertices follow their cells' corners (then `vertex_mass` holds
+    /// each vertex's nearest corner, whose strain colours it).
+    embedding: Option<Vec<crate::mesh::Embedded>>,
 }
 
 /// Grid axes of a body that have more than one mass, with their sizes and index strides.
@@ -82,8 +86,12 @@ fn surface_quads(n: [u32; 3], axes: &[(usize, u32)]) -> Option<(Vec<[[u32; 3]; 4
 impl Surface {
     /// The body's surface, or `None` for a strand (fewer than two grid axes with extent).
     pub fn of_body(model: &Model, body: &BodyInfo) -> Option<Self> {
-        let axes = grid_axes(&body.grid);
-        let n = [0, 1, 2].map(|a| body.grid.get(a).copied().unwrap_or(1));
+        let grid = match &body.shape {
+            BodyShape::Grid(g) => g,
+            BodyShape::Mesh(m) => return Some(Self::of_mesh(model, body, m)),
+        };
+        let axes = grid_axes(grid);
+        let n = [0, 1, 2].map(|a| grid.get(a).copied().unwrap_or(1));
         let stride = [1, n[0], n[0] * n[1]];
         let base = body.masses.start;
         let mass_at = |c: [u32; 3]| base + c[0] * stride[0] + c[1] * stride[1] + c[2] * stride[2];
@@ -97,14 +105,7 @@ impl Surface {
             .enumerate()
             .map(|(v, m)| (*m, v as u32))
             .collect();
-        let spring_of: HashMap<(u32, u32), u32> = body
-            .springs
-            .clone()
-            .map(|s| {
-                let sp = &model.springs[s as usize];
-                ((sp.a.min(sp.b), sp.a.max(sp.b)), s)
-            })
-            .collect();
+        let spring_of = springs_by_ends(model, body);
         let x = &model.initial.x;
         let centre = {
             let r = body.masses.start as usize..body.masses.end as usize;
@@ -134,24 +135,70 @@ impl Surface {
                 triangles.push(t.map(|m| vertex_of[&m]));
             }
         }
-        let can_tear = !model.limits.is_empty()
-            && edge_springs
-                .iter()
-                .flatten()
-                .any(|&s| s != NO_SPRING && model.limits[s as usize].break_strain.is_finite());
+        let can_tear = can_tear(model, &edge_springs);
         Some(Self {
             vertex_mass: used,
             triangles,
             edge_springs,
             two_sided,
             can_tear,
+            embedding: None,
         })
     }
 
-    /// Whether the vertices are exactly the body's masses in order (a sheet): then a frame's
-    /// positions are a slice of the snapshot's, with nothing to gather.
+    /// A mesh body's own triangles. Cloth tears where its edge springs break; a lattice's
+    /// surface follows the lattice and is drawn whole.
+    fn of_mesh(model: &Model, body: &BodyInfo, mesh: &MeshShape) -> Self {
+        let two_sided = !mesh.closed;
+        match &mesh.vertices {
+            MeshVertices::Masses(masses) => {
+                let spring_of = springs_by_ends(model, body);
+                let edge = |p: u32, q: u32| {
+                    let (a, b) = (masses[p as usize], masses[q as usize]);
+                    spring_of
+                        .get(&(a.min(b), a.max(b)))
+                        .copied()
+                        .unwrap_or(NO_SPRING)
+                };
+                let edge_springs: Vec<[u32; 3]> = mesh
+                    .triangles
+                    .iter()
+                    .map(|t| [edge(t[0], t[1]), edge(t[1], t[2]), edge(t[2], t[0])])
+                    .collect();
+                Self {
+                    vertex_mass: masses.clone(),
+                    triangles: mesh.triangles.clone(),
+                    can_tear: can_tear(model, &edge_springs),
+                    edge_springs,
+                    two_sided,
+                    embedding: None,
+                }
+            }
+            MeshVertices::Embedded(embedded) => Self {
+                vertex_mass: embedded.iter().map(|e| e.nearest()).collect(),
+                triangles: mesh.triangles.clone(),
+                edge_springs: vec![[NO_SPRING; 3]; mesh.triangles.len()],
+                two_sided,
+                can_tear: false,
+                embedding: Some(embedded.clone()),
+            },
+        }
+    }
+
+    /// The vertices' positions when the masses are at `x`.
+    pub fn positions(&self, x: &[Vec3], out: &mut Vec<Vec3>) {
+        out.clear();
+        match &self.embedding {
+            Some(e) => out.extend(e.iter().map(|e| e.position(x, 0))),
+            None => out.extend(self.vertex_mass.iter().map(|&m| x[m as usize])),
+        }
+    }
+
+    /// Whether the vertices are exactly the body's masses in order (a sheet, a mesh cloth):
+    /// then a frame's positions are a slice of the snapshot's, with nothing to gather.
     pub fn is_whole_body(&self, body: &BodyInfo) -> bool {
-        self.vertex_mass.len() == (body.masses.end - body.masses.start) as usize
+        self.embedding.is_none()
+            && self.vertex_mass.len() == (body.masses.end - body.masses.start) as usize
             && self.vertex_mass.first() == Some(&body.masses.start)
     }
 
@@ -167,6 +214,26 @@ impl Surface {
             .map(|(t, _)| *t)
             .collect()
     }
+}
+
+/// Each of the body's springs by its two ends (lower first).
+fn springs_by_ends(model: &Model, body: &BodyInfo) -> HashMap<(u32, u32), u32> {
+    body.springs
+        .clone()
+        .map(|s| {
+            let sp = &model.springs[s as usize];
+            ((sp.a.min(sp.b), sp.a.max(sp.b)), s)
+        })
+        .collect()
+}
+
+/// Whether some edge spring may break.
+fn can_tear(model: &Model, edge_springs: &[[u32; 3]]) -> bool {
+    !model.limits.is_empty()
+        && edge_springs
+            .iter()
+            .flatten()
+            .any(|&s| s != NO_SPRING && model.limits[s as usize].break_strain.is_finite())
 }
 
 /// Quads of one grid face spanned by axes `u` and `w`, at `layer = (axis, index)` for a block's

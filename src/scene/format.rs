@@ -260,29 +260,51 @@ impl SelfCollision {
     }
 }
 
-/// A grid of masses: 1D (strand), 2D (sheet) or 3D (block).
+/// A body: a grid of masses — 1D (strand), 2D (sheet) or 3D (block) — or a triangle mesh from
+/// a file (`mesh`), cloth from an open surface or, with `fill = "lattice"`, a soft body.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Body {
     pub name: String,
-    /// Masses along each grid axis: `[n]`, `[nu, nv]` or `[nu, nv, nw]`.
+    /// Masses along each grid axis: `[n]`, `[nu, nv]` or `[nu, nv, nw]` (a grid body).
+    #[serde(default)]
     pub grid: Vec<u32>,
-    /// Distance between grid neighbours at rest.
-    pub spacing_m: f32,
-    /// Total mass of the body, shared equally by its mass points.
+    /// An OBJ, glTF or GLB file, relative to the scene file's folder (a mesh body).
+    #[serde(default)]
+    pub mesh: Option<String>,
+    /// Distance between grid neighbours at rest (a grid body, or a mesh's lattice).
+    #[serde(default)]
+    pub spacing_m: Option<f32>,
+    /// Total mass of the body: shared equally by a grid's masses, by triangle area on a mesh.
     pub mass_kg: f32,
-    /// World position of grid index `[0, 0, 0]`.
+    /// World position of grid index `[0, 0, 0]`, or of the mesh's own origin.
     #[serde(default)]
     pub origin_m: [f32; 3],
     /// World direction of each grid axis (normalised); defaults to x, y, z in turn.
     #[serde(default)]
     pub axes: Option<Vec<[f32; 3]>>,
+    /// A mesh's size factor: its file's units times `scale` are metres.
+    #[serde(default = "default_scale")]
+    pub scale: f32,
+    /// A mesh's rotation: about x, then y, then z (fixed world axes), in degrees.
+    #[serde(default)]
+    pub rotation_deg: [f32; 3],
+    /// What a mesh's inside becomes: nothing (`"none"`: cloth or a shell) or a jello lattice at
+    /// `spacing_m` that carries the surface (`"lattice"`, a closed surface only).
+    #[serde(default)]
+    pub fill: Fill,
     /// Initial velocity of every mass.
     #[serde(default)]
     pub velocity_m_per_s: [f32; 3],
-    /// Grid indices of masses held fixed in place.
+    /// Masses held fixed in place: grid indices (`[i, j]`), or a mesh's vertex indices (`[v]`).
     #[serde(default)]
     pub pins: Vec<Vec<u32>>,
+    /// Every mass that starts inside these regions is pinned.
+    #[serde(default, deserialize_with = "one_or_many")]
+    pub pins_in: Vec<PinRegion>,
+    /// A mesh's named vertex groups (OBJ groups or objects, glTF nodes) whose vertices are pinned.
+    #[serde(default)]
+    pub pin_groups: Vec<String>,
     #[serde(default)]
     pub springs: Springs,
     /// Springs stretched or squeezed past a yield strain creep toward their current length.
@@ -291,6 +313,123 @@ pub struct Body {
     /// Springs stretched past a limit break for good.
     #[serde(default)]
     pub tearing: Option<Tearing>,
+    /// The mesh read from `mesh` when the scene was loaded (never written to a file).
+    #[serde(skip)]
+    pub surface: Option<std::sync::Arc<crate::mesh::TriMesh>>,
+}
+
+impl Body {
+    /// Where a mesh's file point `p` starts in the world: scaled, rotated, then moved to
+    /// `origin_m`.
+    pub fn place(&self, p: glam::Vec3) -> glam::Vec3 {
+        let [x, y, z] = self.rotation_deg.map(f32::to_radians);
+        let r = glam::Quat::from_rotation_z(z)
+            * glam::Quat::from_rotation_y(y)
+            * glam::Quat::from_rotation_x(x);
+        glam::Vec3::from(self.origin_m) + r * (self.scale * p)
+    }
+
+    /// The mesh's vertices where they start in the world (empty for a grid body).
+    pub fn placed_vertices(&self) -> Vec<glam::Vec3> {
+        self.surface
+            .as_ref()
+            .map(|m| m.positions.iter().map(|&p| self.place(p)).collect())
+            .unwrap_or_default()
+    }
+
+    /// The shortest distance between neighbouring masses at rest: a grid's or a lattice's
+    /// spacing, a mesh cloth's shortest edge.
+    pub fn finest_spacing_m(&self) -> f32 {
+        match (&self.surface, self.fill) {
+            (Some(m), Fill::None) => {
+                let x = self.placed_vertices();
+                m.triangles
+                    .iter()
+                    .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                    .map(|(a, b)| x[a as usize].distance(x[b as usize]))
+                    .fold(f32::INFINITY, f32::min)
+            }
+            _ => self.spacing_m.unwrap_or(f32::INFINITY),
+        }
+    }
+
+    /// How many masses the body has (for a lattice, at most: the cells of its bounding box).
+    pub fn mass_count_bound(&self) -> u64 {
+        match (&self.surface, self.fill) {
+            (None, _) => self.grid.iter().map(|&n| u64::from(n)).product(),
+            (Some(m), Fill::None) => m.positions.len() as u64,
+            (Some(_), Fill::Lattice) => {
+                let x = self.placed_vertices();
+                let (lo, hi) = x.iter().fold(
+                    (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+                    |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+                );
+                let spacing = self.spacing_m.unwrap_or(f32::INFINITY);
+                crate::mesh::cells_for(hi - lo, spacing)
+                    .iter()
+                    .map(|c| c.saturating_add(1))
+                    .fold(1u64, u64::saturating_mul)
+            }
+        }
+    }
+}
+
+fn default_scale() -> f32 {
+    1.0
+}
+
+/// What fills a mesh body's inside.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Fill {
+    /// The surface alone: cloth, or a closed shell (a balloon without pressure).
+    #[default]
+    None,
+    /// A jello lattice at `spacing_m`; the surface's vertices follow its cells.
+    Lattice,
+}
+
+/// A region of space, a box (`min_m`, `max_m`) or a ball (`center_m`, `radius_m`): every mass
+/// starting inside is pinned.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinRegion {
+    #[serde(default)]
+    pub min_m: Option<[f32; 3]>,
+    #[serde(default)]
+    pub max_m: Option<[f32; 3]>,
+    #[serde(default)]
+    pub center_m: Option<[f32; 3]>,
+    #[serde(default)]
+    pub radius_m: Option<f32>,
+}
+
+impl PinRegion {
+    /// Whether `p` lies inside (boundary included). A region that validation refused holds
+    /// nothing.
+    pub fn contains(&self, p: glam::Vec3) -> bool {
+        match (self.min_m, self.max_m, self.center_m, self.radius_m) {
+            (Some(lo), Some(hi), None, None) => {
+                p.cmpge(glam::Vec3::from(lo)).all() && p.cmple(glam::Vec3::from(hi)).all()
+            }
+            (None, None, Some(c), Some(r)) => p.distance(glam::Vec3::from(c)) <= r,
+            _ => false,
+        }
+    }
+}
+
+/// `pins_in = { … }` or `pins_in = [{ … }, { … }]`.
+fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<PinRegion>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum OneOrMany {
+        One(PinRegion),
+        Many(Vec<PinRegion>),
+    }
+    Ok(match OneOrMany::deserialize(d)? {
+        OneOrMany::One(r) => vec![r],
+        OneOrMany::Many(v) => v,
+    })
 }
 
 /// Plastic flow of a body's springs: past `yield_strain`, a spring's rest length relaxes toward

@@ -7,6 +7,7 @@ use super::builtin;
 use super::error::{LoadError, SceneError, SceneOrigin};
 use super::format::Scene;
 use super::locate;
+use super::mesh_file;
 use super::validate;
 
 /// A scene plus the text it came from, so later checks can still point at lines.
@@ -19,14 +20,16 @@ pub struct LoadedScene {
 
 /// Parse and validate scene text.
 pub fn from_toml(text: &str, origin: SceneOrigin) -> Result<Scene, SceneError> {
-    let scene: Scene =
+    let mut scene: Scene =
         toml::from_str(text).map_err(|e| locate::from_toml_error(&e, text, &origin))?;
-    validate::validate(&scene).map_err(|(field, message)| SceneError {
+    let located = |(field, message): (String, String)| SceneError {
         position: locate::position_of(text, &field),
         origin: origin.clone(),
         field,
         message,
-    })?;
+    };
+    mesh_file::read_meshes(&mut scene, &origin).map_err(located)?;
+    validate::validate(&scene).map_err(located)?;
     Ok(scene)
 }
 

@@ -9,9 +9,12 @@ mod error;
 mod format;
 mod load;
 mod locate;
+mod mesh_checks;
+mod mesh_file;
+mod rules;
 mod validate;
 
-pub use builtin::{BUILT_IN, BuiltIn};
+pub use builtin::{BUILT_IN, BUILT_IN_MESHES, BuiltIn};
 pub use error::{LoadError, SceneError, SceneOrigin};
 pub use format::*;
 pub use load::{LoadedScene, from_toml, load};

@@ -1,50 +1,12 @@
 //! Semantic checks on a parsed scene. Each failure names the field path and says what is allowed;
 //! [`super::from_toml`] adds the file position.
 
-use super::format::{Body, Keyframe, Scene, SelfCollision, SpringKind};
-
-type Check = Result<(), (String, String)>;
-
-/// Upper bound on the masses one scene may hold: far beyond any GPU's storage limits, low enough
-/// that an absurd grid is refused before it is allocated.
-pub const MAX_MASSES: u64 = 1 << 26;
-
-fn fail<T>(field: impl Into<String>, message: impl Into<String>) -> Result<T, (String, String)> {
-    Err((field.into(), message.into()))
-}
-
-fn finite(field: &str, v: f64) -> Check {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        fail(field, format!("must be a finite number, got {v}"))
-    }
-}
-
-fn positive(field: &str, v: f64) -> Check {
-    finite(field, v)?;
-    if v > 0.0 {
-        Ok(())
-    } else {
-        fail(field, format!("must be greater than zero, got {v}"))
-    }
-}
-
-fn non_negative(field: &str, v: f64) -> Check {
-    finite(field, v)?;
-    if v >= 0.0 {
-        Ok(())
-    } else {
-        fail(field, format!("must be zero or more, got {v}"))
-    }
-}
-
-fn finite3(field: &str, v: [f32; 3]) -> Check {
-    for (i, c) in v.iter().enumerate() {
-        finite(&format!("{field}[{i}]"), f64::from(*c))?;
-    }
-    Ok(())
-}
+use super::format::{Body, Keyframe, Scene, SelfCollision};
+use super::mesh_checks;
+use super::rules::{
+    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite, finite3, non_negative, positive,
+    springs,
+};
 
 /// Colliders per scene: the GPU passes every collider's pose in each stage's uniform slot.
 pub const MAX_COLLIDERS: usize = 16;
@@ -248,15 +210,21 @@ fn bodies(scene: &Scene) -> Check {
                 format!("another body is already named '{}'", b.name),
             );
         }
-        total += b.grid.iter().map(|&n| u64::from(n)).product::<u64>();
+        total = total.saturating_add(b.mass_count_bound());
         if total > MAX_MASSES {
+            let field = if b.mesh.is_some() { "mesh" } else { "grid" };
             return fail(
-                format!("{f}.grid"),
+                format!("{f}.{field}"),
                 format!("the scene would hold {total} masses, more than the limit of {MAX_MASSES}"),
             );
         }
     }
     Ok(())
+}
+
+/// A mesh body without a lattice: its masses are its vertices.
+fn cloth(b: &Body) -> bool {
+    b.mesh.is_some() && b.fill == super::format::Fill::None
 }
 
 fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
@@ -267,19 +235,19 @@ fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
         // Masses closer than 2·radius_m touch: grid neighbours that close would push each other
         // apart at rest, a stiffness the springs never asked for.
         let diameter = 2.0 * sc.radius_m;
-        let multi = |b: &&Body| b.grid.iter().product::<u32>() > 1;
+        let multi = |b: &&Body| b.mass_count_bound() > 1;
         if let Some((i, b)) = scene
             .bodies
             .iter()
             .enumerate()
             .filter(|(_, b)| multi(b))
-            .find(|(_, b)| diameter >= b.spacing_m)
+            .find(|(_, b)| diameter >= b.finest_spacing_m())
         {
             let smallest = scene
                 .bodies
                 .iter()
                 .filter(multi)
-                .map(|b| b.spacing_m)
+                .map(Body::finest_spacing_m)
                 .fold(f32::INFINITY, f32::min);
             // Three significant digits, rounded down.
             let suggest = 0.45 * f64::from(smallest);
@@ -289,10 +257,17 @@ fn self_collision(scene: &Scene, sc: &SelfCollision) -> Check {
             return fail(
                 format!("{f}.radius_m"),
                 format!(
-                    "2 · radius_m = {diameter} m must be less than the spacing_m of every body whose masses collide with each other, \
-                     but bodies[{i}] ('{}') has spacing_m = {} m, so its grid neighbours would repel at rest; \
+                    "2 · radius_m = {diameter} m must be less than the spacing of every body whose masses collide with each other, \
+                     but bodies[{i}] ('{}') has {} = {} m, so its {} neighbours would repel at rest; \
                      use radius_m = {suggest} m (0.45 · the smallest spacing) or less, or set within_bodies = false",
-                    b.name, b.spacing_m,
+                    b.name,
+                    if cloth(b) {
+                        "a shortest edge"
+                    } else {
+                        "spacing_m"
+                    },
+                    b.finest_spacing_m(),
+                    if cloth(b) { "mesh" } else { "grid" },
                 ),
             );
         }
@@ -314,6 +289,33 @@ fn body(f: &str, b: &Body) -> Check {
     if b.name.trim().is_empty() {
         return fail(format!("{f}.name"), "must not be empty");
     }
+    for (r, region) in b.pins_in.iter().enumerate() {
+        mesh_checks::region(&format!("{f}.pins_in[{r}]"), region)?;
+    }
+    match (b.grid.is_empty(), &b.mesh) {
+        (false, Some(_)) => fail(
+            format!("{f}.mesh"),
+            "a body is a grid or a mesh, not both: remove `grid` or `mesh`",
+        ),
+        (true, None) => fail(
+            format!("{f}.grid"),
+            "a body needs a grid of 1, 2 or 3 counts (a strand, sheet or block: `grid = [20, 20]`) or a mesh file (`mesh = \"flag.obj\"`)",
+        ),
+        (true, Some(_)) => mesh_checks::mesh_body(f, b),
+        (false, None) => {
+            mesh_checks::no_mesh_fields(f, b)?;
+            grid_body(f, b)
+        }
+    }
+}
+
+fn grid_body(f: &str, b: &Body) -> Check {
+    let Some(spacing) = b.spacing_m else {
+        return fail(
+            format!("{f}.spacing_m"),
+            "is missing: a grid body needs the distance between grid neighbours, e.g. `spacing_m = 0.02`",
+        );
+    };
     let dim = b.grid.len();
     if !(1..=3).contains(&dim) {
         return fail(
@@ -336,7 +338,7 @@ fn body(f: &str, b: &Body) -> Check {
             format!("{count} masses is more than the limit of {MAX_MASSES}"),
         );
     }
-    placement(f, b)?;
+    placement(f, b, spacing)?;
     pins(f, b)?;
     springs(f, b)?;
     if dim == 1 && b.springs.shear.is_some() {
@@ -345,13 +347,40 @@ fn body(f: &str, b: &Body) -> Check {
             "shear springs join diagonal neighbours and need a 2D or 3D grid; remove them for a strand",
         );
     }
-    geometry(f, b)
+    geometry(f, b, spacing)?;
+    mesh_checks::regions_hold_masses(f, b, &grid_positions(b, spacing))
+}
+
+/// Where a grid body's masses start.
+fn grid_positions(b: &Body, spacing: f32) -> Vec<glam::Vec3> {
+    if b.pins_in.is_empty() {
+        return Vec::new();
+    }
+    let n = [0, 1, 2].map(|a| b.grid.get(a).copied().unwrap_or(1));
+    let axes: Vec<glam::Vec3> = match &b.axes {
+        Some(a) => a.iter().map(|v| glam::Vec3::from(*v).normalize()).collect(),
+        None => [glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z][..b.grid.len()].to_vec(),
+    };
+    let axis = |a: usize| axes.get(a).copied().unwrap_or(glam::Vec3::ZERO);
+    let origin = glam::Vec3::from(b.origin_m);
+    let mut out = Vec::new();
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                out.push(
+                    origin
+                        + spacing * (i as f32 * axis(0) + j as f32 * axis(1) + k as f32 * axis(2)),
+                );
+            }
+        }
+    }
+    out
 }
 
 /// Spacing, mass, where the body starts and how its grid is laid out.
-fn placement(f: &str, b: &Body) -> Check {
+fn placement(f: &str, b: &Body, spacing: f32) -> Check {
     let dim = b.grid.len();
-    positive(&format!("{f}.spacing_m"), f64::from(b.spacing_m))?;
+    positive(&format!("{f}.spacing_m"), f64::from(spacing))?;
     positive(&format!("{f}.mass_kg"), f64::from(b.mass_kg))?;
     finite3(&format!("{f}.origin_m"), b.origin_m)?;
     finite3(&format!("{f}.velocity_m_per_s"), b.velocity_m_per_s)?;
@@ -404,76 +433,13 @@ fn pins(f: &str, b: &Body) -> Check {
     Ok(())
 }
 
-/// Each spring kind's parameters, and the plasticity and tearing of its springs.
-fn springs(f: &str, b: &Body) -> Check {
-    let kind = |name: &str, k: &Option<SpringKind>| -> Check {
-        if let Some(k) = k {
-            positive(
-                &format!("{f}.springs.{name}.stiffness_n_per_m"),
-                f64::from(k.stiffness_n_per_m),
-            )?;
-            non_negative(
-                &format!("{f}.springs.{name}.damping_n_s_per_m"),
-                f64::from(k.damping_n_s_per_m),
-            )?;
-        }
-        Ok(())
-    };
-    kind("structural", &b.springs.structural)?;
-    kind("shear", &b.springs.shear)?;
-    kind("bending", &b.springs.bending)?;
-    if let Some(p) = &b.plasticity {
-        positive(
-            &format!("{f}.plasticity.yield_strain"),
-            f64::from(p.yield_strain),
-        )?;
-        positive(
-            &format!("{f}.plasticity.creep_per_s"),
-            f64::from(p.creep_per_s),
-        )?;
-        if p.yield_strain >= 1.0 {
-            return fail(
-                format!("{f}.plasticity.yield_strain"),
-                format!(
-                    "must be below 1 (a spring squeezed by 100% has no length left), got {}",
-                    p.yield_strain
-                ),
-            );
-        }
-    }
-    if let Some(t) = &b.tearing {
-        positive(&format!("{f}.tearing.max_strain"), f64::from(t.max_strain))?;
-        if let Some(p) = &b.plasticity
-            && t.max_strain <= p.yield_strain
-        {
-            return fail(
-                format!("{f}.tearing.max_strain"),
-                format!(
-                    "is {} but plasticity.yield_strain is {}: springs would break before they yield; \
-                     make max_strain larger than yield_strain, or drop [plasticity]",
-                    t.max_strain, p.yield_strain
-                ),
-            );
-        }
-    }
-    Ok(())
-}
-
-/// How many f32 steps (ulps) of its ends' coordinates a spring must span at least: its strain is
-/// then resolved to 1/64 (1.6%) or better. Shorter, and f32 rounding of the positions alone makes
-/// the force noise, or (at a few ulps and below) puts both ends on one point.
-pub const MIN_SPRING_ULPS: f64 = 64.0;
-
-/// Relative spacing of f32 numbers: one ulp of x is at most |x| · 2⁻²³.
-const F32_EPSILON: f64 = 1.0 / 8_388_608.0;
-
 /// The grid's masses must be distinct points and its springs long enough for f32 to resolve
 /// their strain where the body is: coordinates far from the origin are coarser in f32, so a
 /// small spacing that is fine at the origin collapses at 0.5 m.
-fn geometry(f: &str, b: &Body) -> Check {
+fn geometry(f: &str, b: &Body, spacing: f32) -> Check {
     let dim = b.grid.len();
     let axes = independent_axes(f, b)?;
-    let s = f64::from(b.spacing_m);
+    let s = f64::from(spacing);
     let reach: f64 = b.grid.iter().map(|&n| f64::from(n.saturating_sub(1))).sum();
     let origin = glam::Vec3::from(b.origin_m).as_dvec3().length();
     // The farthest a mass lies from the origin at the start, and one ulp there.

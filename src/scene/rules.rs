@@ -1,0 +1,113 @@
+//! What every check of a scene's values shares: the failure type, numbers that must be finite or
+//! positive, the f32 resolution rule for springs, the mass limit, and a body's spring constants.
+
+use super::format::{Body, SpringKind};
+
+pub(super) type Check = Result<(), (String, String)>;
+
+/// Upper bound on the masses one scene may hold: far beyond any GPU's storage limits, low enough
+/// that an absurd grid is refused before it is allocated.
+pub const MAX_MASSES: u64 = 1 << 26;
+
+pub(super) fn fail<T>(
+    field: impl Into<String>,
+    message: impl Into<String>,
+) -> Result<T, (String, String)> {
+    Err((field.into(), message.into()))
+}
+
+pub(super) fn finite(field: &str, v: f64) -> Check {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        fail(field, format!("must be a finite number, got {v}"))
+    }
+}
+
+pub(super) fn positive(field: &str, v: f64) -> Check {
+    finite(field, v)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        fail(field, format!("must be greater than zero, got {v}"))
+    }
+}
+
+pub(super) fn non_negative(field: &str, v: f64) -> Check {
+    finite(field, v)?;
+    if v >= 0.0 {
+        Ok(())
+    } else {
+        fail(field, format!("must be zero or more, got {v}"))
+    }
+}
+
+pub(super) fn finite3(field: &str, v: [f32; 3]) -> Check {
+    for (i, c) in v.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), f64::from(*c))?;
+    }
+    Ok(())
+}
+
+/// Each spring kind's parameters, and the plasticity and tearing of its springs.
+pub(super) fn springs(f: &str, b: &Body) -> Check {
+    let kind = |name: &str, k: &Option<SpringKind>| -> Check {
+        if let Some(k) = k {
+            positive(
+                &format!("{f}.springs.{name}.stiffness_n_per_m"),
+                f64::from(k.stiffness_n_per_m),
+            )?;
+            non_negative(
+                &format!("{f}.springs.{name}.damping_n_s_per_m"),
+                f64::from(k.damping_n_s_per_m),
+            )?;
+        }
+        Ok(())
+    };
+    kind("structural", &b.springs.structural)?;
+    kind("shear", &b.springs.shear)?;
+    kind("bending", &b.springs.bending)?;
+    if let Some(p) = &b.plasticity {
+        positive(
+            &format!("{f}.plasticity.yield_strain"),
+            f64::from(p.yield_strain),
+        )?;
+        positive(
+            &format!("{f}.plasticity.creep_per_s"),
+            f64::from(p.creep_per_s),
+        )?;
+        if p.yield_strain >= 1.0 {
+            return fail(
+                format!("{f}.plasticity.yield_strain"),
+                format!(
+                    "must be below 1 (a spring squeezed by 100% has no length left), got {}",
+                    p.yield_strain
+                ),
+            );
+        }
+    }
+    if let Some(t) = &b.tearing {
+        positive(&format!("{f}.tearing.max_strain"), f64::from(t.max_strain))?;
+        if let Some(p) = &b.plasticity
+            && t.max_strain <= p.yield_strain
+        {
+            return fail(
+                format!("{f}.tearing.max_strain"),
+                format!(
+                    "is {} but plasticity.yield_strain is {}: springs would break before they yield; \
+                     make max_strain larger than yield_strain, or drop [plasticity]",
+                    t.max_strain, p.yield_strain
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// How many f32 steps (ulps) of its ends' coordinates a spring must span at least: its strain is
+/// then resolved to 1/64 (1.6%) or better. Shorter, and f32 rounding of the positions alone makes
+/// the force noise, or (at a few ulps and below) puts both ends on one point.
+pub const MIN_SPRING_ULPS: f64 = 64.0;
+
+/// Relative spacing of f32 numbers: one ulp of x is at most |x| · 2⁻²³.
+pub(super) const F32_EPSILON: f64 = 1.0 / 8_388_608.0;

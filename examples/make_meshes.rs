@@ -76,7 +76,7 @@ fn flag(
 }
 
 /// A square sheet in the xz plane centred on the origin, `cells` a side, its inner vertices
-/// moved by up to a third of a cell and each cell split along a diagonal chosen at random: an
+/// moved by up to a fifth of a cell (never a sliver) and each cell split along a diagonal chosen at random: an
 /// irregular triangulation, vertices numbered in random order.
 fn irregular_sheet(cells: usize, side: f32, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
@@ -92,9 +92,9 @@ fn irregular_sheet(cells: usize, side: f32, seed: u64) -> (Vec<Vec3>, Vec<[u32; 
                 (0.0, 0.0)
             };
             p.push(Vec3::new(
-                (i as f32 + 0.66 * dx) * h - 0.5 * side,
+                (i as f32 + 0.4 * dx) * h - 0.5 * side,
                 0.0,
-                (j as f32 + 0.66 * dz) * h - 0.5 * side,
+                (j as f32 + 0.4 * dz) * h - 0.5 * side,
             ));
         }
     }

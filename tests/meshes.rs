@@ -441,3 +441,68 @@ fn a_mesh_beyond_the_triangle_limit_is_refused_before_it_is_built() {
         &["huge.obj", &format!("more than the {MAX_TRIANGLES}")],
     );
 }
+
+#[test]
+fn tearing_plasticity_and_self_collision_work_on_a_mesh_cloth() {
+    use hooke::backend::Backend as _;
+    let dir = temp_dir("mesh-effects");
+    let glb = hooke::scene::BUILT_IN_MESHES
+        .iter()
+        .find(|(p, _)| p.ends_with("tablecloth.glb"))
+        .map(|(_, b)| *b)
+        .expect("the tablecloth");
+    std::fs::write(dir.join("cloth.glb"), glb).unwrap_or_else(|e| panic!("{e}"));
+    // The 1.6 m cloth held along its four edges (four boxes), struck from below by a sphere
+    // at 3 m/s: it stretches, yields, tears, and its torn flaps fold onto each other.
+    let body = "pins_in = [\n\
+        { min_m = [-0.81, -0.1, -0.81], max_m = [-0.79, 0.1, 0.81] },\n\
+        { min_m = [0.79, -0.1, -0.81], max_m = [0.81, 0.1, 0.81] },\n\
+        { min_m = [-0.81, -0.1, -0.81], max_m = [0.81, 0.1, -0.79] },\n\
+        { min_m = [-0.81, -0.1, 0.79], max_m = [0.81, 0.1, 0.81] },\n]\n\
+        [bodies.springs]\nstructural = { stiffness_n_per_m = 100.0, damping_n_s_per_m = 0.01 }\n\
+        bending = { stiffness_n_per_m = 2.0 }\n\
+        [bodies.plasticity]\nyield_strain = 0.05\ncreep_per_s = 20.0\n\
+        [bodies.tearing]\nmax_strain = 0.25\n";
+    let plain = scene_text("cloth.glb", body);
+    let finest = ok(load(&dir, &plain)).bodies[0].finest_spacing_m();
+    let toml = plain.replace(
+        "[[bodies]]",
+        &format!(
+            "[[effects.spheres]]\ncenter_m = [0, -0.4, 0]\nvelocity_m_per_s = [0, 3, 0]\nradius_m = 0.2\n\
+             stiffness_n_per_m = 1000.0\n\
+             [effects.self_collision]\nradius_m = {}\nstiffness_n_per_m = 100.0\n[[bodies]]",
+            0.45 * finest
+        ),
+    );
+    let scene = ok(load(&dir, &toml));
+    let model = std::sync::Arc::new(hooke::model::build(&scene));
+    assert!(model.effects.tearing && model.effects.plasticity);
+    assert!(model.effects.self_collision.is_some());
+    let mut be = hooke::cpu::CpuBackend::new(
+        model.clone(),
+        hooke::integrator::Step::new(hooke::integrator::Integrator::SemiImplicit, 1.0e-4),
+    );
+    let mut contact = 0.0f64;
+    let mut last = None;
+    for frame in 1..=30 {
+        let stats = be.advance(100).unwrap_or_else(|e| panic!("{e}"));
+        let s = be.snapshot(frame, stats).unwrap_or_else(|e| panic!("{e}"));
+        contact = contact.max(s.energies.contact_j);
+        last = Some(s);
+    }
+    let s = last.expect("frames");
+    let broken = s.strain.iter().filter(|x| x.is_nan()).count();
+    assert!(broken > 10, "{broken} springs broke");
+    assert!(s.energies.ledger.plastic_j > 0.0, "nothing yielded");
+    assert!(contact > 0.0, "no contact");
+    // The torn edges open the recorded surface.
+    let surface =
+        hooke::record::surface::Surface::of_body(&model, &model.bodies[0]).expect("a surface");
+    assert!(surface.can_tear);
+    let intact = surface.intact_triangles(&s.strain).len();
+    assert!(
+        intact < surface.triangles.len(),
+        "{intact} triangles intact of {}",
+        surface.triangles.len()
+    );
+}

@@ -506,3 +506,42 @@ fn tearing_plasticity_and_self_collision_work_on_a_mesh_cloth() {
         surface.triangles.len()
     );
 }
+
+#[test]
+fn bench_accuracy_measures_a_mesh_scene() {
+    let dir = temp_dir("mesh-accuracy");
+    let out = hooke(&[
+        "bench",
+        "accuracy",
+        "flag",
+        "--backend",
+        "cpu",
+        "--duration",
+        "0.05",
+        "--points",
+        "2",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table =
+        std::fs::read_to_string(dir.join("accuracy-flag.md")).unwrap_or_else(|e| panic!("{e}"));
+    for integrator in ["semi-implicit", "rk4", "implicit", "xpbd"] {
+        assert!(
+            table.contains(&format!("| {integrator} |")),
+            "{integrator} missing:\n{table}"
+        );
+    }
+}
+
+#[test]
+fn pin_regions_work_on_grid_bodies_too() {
+    // A 10 × 10 sheet 0.1 m apart in the xz plane: the box holds the row z = 0, the ball the
+    // far corner.
+    let m = common::model_of(
+        "name = \"g\"\n[[bodies]]\nname = \"s\"\ngrid = [10, 10]\nspacing_m = 0.1\nmass_kg = 1\n\
+         axes = [[1, 0, 0], [0, 0, 1]]\n\
+         pins_in = [{ min_m = [-1, -1, -0.01], max_m = [2, 1, 0.01] }, { center_m = [0.9, 0, 0.9], radius_m = 0.05 }]\n",
+    );
+    assert_eq!(m.pinned_count(), 11);
+}

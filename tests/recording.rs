@@ -381,3 +381,26 @@ fn the_non_finite_scan_finds_what_it_looks_for() {
     assert_eq!(bad, ["/bad/points", "/bad/scalar"], "{bad:?}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_mesh_cloth_records_its_own_triangles_with_the_snapshot_positions_and_strain_colours() {
+    // The flag: 24 × 16 quads of the OBJ, two triangles each; its vertices are its masses, in
+    // the model's (Morton) order.
+    let dir = temp_dir("surface-mesh");
+    let (loaded, model, snaps) = stepped("flag", 20);
+    let path = dir.join("flag.rrd");
+    record(&loaded, &model, &snaps, RecordOptions::default(), &path);
+    let c = read_components(&path);
+    let b = &model.bodies[0];
+    let vertex_masses: Vec<u32> = b.masses.clone().collect();
+    let want = Want {
+        body: "flag",
+        vertex_masses: &vertex_masses,
+        triangles: 24 * 16 * 2,
+        two_sided: true,
+        range: loaded.scene.view.strain_range,
+    };
+    for snap in &snaps {
+        check_surface(&c, &model, snap, &want);
+    }
+}

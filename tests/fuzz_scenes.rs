@@ -110,6 +110,27 @@ fn mutate(rng: &mut Rng, text: &str) -> String {
     lines.join("\n")
 }
 
+/// Whether a case was accepted (`true`) or refused with one clear line; a panic fails the test
+/// with the case's text.
+fn judged(
+    i: usize,
+    result: std::thread::Result<Result<(), hooke::scene::SceneError>>,
+    text: &str,
+) -> bool {
+    match result {
+        Ok(Ok(())) => true,
+        Ok(Err(e)) => {
+            let msg = e.to_string();
+            assert!(
+                !msg.is_empty() && !msg.contains('\n'),
+                "case {i}: error not one line: {msg:?}\n{text}"
+            );
+            false
+        }
+        Err(_) => panic!("case {i} panicked on:\n{text}"),
+    }
+}
+
 #[test]
 fn mutated_scene_files_never_panic() {
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
@@ -132,17 +153,10 @@ fn mutated_scene_files_never_panic() {
                 }
             })
         }));
-        match result {
-            Ok(Ok(())) => accepted += 1,
-            Ok(Err(e)) => {
-                let msg = e.to_string();
-                assert!(
-                    !msg.is_empty() && !msg.contains('\n'),
-                    "case {i}: error not one line: {msg:?}\n{text}"
-                );
-                rejected += 1;
-            }
-            Err(_) => panic!("case {i} panicked on:\n{text}"),
+        if judged(i, result, &text) {
+            accepted += 1;
+        } else {
+            rejected += 1;
         }
     }
     // Both paths were exercised.
@@ -274,20 +288,11 @@ fn random_and_mutated_meshes_never_panic() {
                 }
             })
         }));
-        match result {
-            Ok(Ok(())) => accepted += 1,
-            Ok(Err(e)) => {
-                let msg = e.to_string();
-                assert!(
-                    !msg.is_empty() && !msg.contains('\n'),
-                    "case {i}: error not one line: {msg:?}\n{text}"
-                );
-                rejected += 1;
-            }
-            Err(_) => panic!(
-                "case {i} panicked on:\n{text}\n{}",
-                String::from_utf8_lossy(&bytes)
-            ),
+        let text = format!("{text}\n{}", String::from_utf8_lossy(&bytes));
+        if judged(i, result, &text) {
+            accepted += 1;
+        } else {
+            rejected += 1;
         }
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -18,6 +18,15 @@ use hooke::record::RecordOptions;
 use hooke::scene::SceneOrigin;
 use rerun::Loggable as _;
 
+/// A mesh the built-in scenes use, by file name.
+fn built_in_mesh(name: &str) -> &'static [u8] {
+    hooke::scene::BUILT_IN_MESHES
+        .iter()
+        .find(|(p, _)| p.ends_with(name))
+        .map(|(_, b)| *b)
+        .unwrap_or_else(|| panic!("no built-in mesh {name}"))
+}
+
 /// A scene with one mesh body, `body` the rest of its table (after `mesh = …`).
 fn scene_text(mesh: &str, body: &str) -> String {
     format!(
@@ -106,11 +115,7 @@ fn two_quads_become_cloth_with_a_spring_per_edge_shear_on_diagonals_bending_acro
 #[test]
 fn the_obj_and_the_glb_of_one_surface_build_the_same_model() {
     let dir = temp_dir("mesh-formats");
-    let glb = hooke::scene::BUILT_IN_MESHES
-        .iter()
-        .find(|(p, _)| p.ends_with("tablecloth.glb"))
-        .map(|(_, b)| *b)
-        .expect("the tablecloth");
+    let glb = built_in_mesh("tablecloth.glb");
     let mesh = ok(hooke::mesh::read(glb, Format::Gltf, &|_| {
         Err(std::io::ErrorKind::NotFound.into())
     }));
@@ -179,15 +184,8 @@ fn masses_are_numbered_along_a_space_filling_curve() {
 #[test]
 fn pins_by_vertex_by_region_and_by_group() {
     let dir = temp_dir("mesh-pins");
-    std::fs::write(
-        dir.join("flag.obj"),
-        hooke::scene::BUILT_IN_MESHES
-            .iter()
-            .find(|(p, _)| p.ends_with("flag.obj"))
-            .map(|(_, b)| *b)
-            .expect("the flag"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(dir.join("flag.obj"), built_in_mesh("flag.obj"))
+        .unwrap_or_else(|e| panic!("{e}"));
     let pinned = |m: &Model| -> Vec<Vec3> {
         (0..m.mass_count())
             .filter(|&i| m.inv_mass[i] == 0.0)
@@ -446,11 +444,7 @@ fn a_mesh_beyond_the_triangle_limit_is_refused_before_it_is_built() {
 fn tearing_plasticity_and_self_collision_work_on_a_mesh_cloth() {
     use hooke::backend::Backend as _;
     let dir = temp_dir("mesh-effects");
-    let glb = hooke::scene::BUILT_IN_MESHES
-        .iter()
-        .find(|(p, _)| p.ends_with("tablecloth.glb"))
-        .map(|(_, b)| *b)
-        .expect("the tablecloth");
+    let glb = built_in_mesh("tablecloth.glb");
     std::fs::write(dir.join("cloth.glb"), glb).unwrap_or_else(|e| panic!("{e}"));
     // The 1.6 m cloth held along its four edges (four boxes), struck from below by a sphere
     // at 3 m/s: it stretches, yields, tears, and its torn flaps fold onto each other.

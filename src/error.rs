@@ -91,6 +91,12 @@ pub enum Error {
     #[error("cannot start a thread: {0}")]
     SpawnThread(#[source] std::io::Error),
 
+    #[error("cannot start a pool of {threads} threads: {source}")]
+    ThreadPool {
+        threads: usize,
+        source: rayon::ThreadPoolBuildError,
+    },
+
     /// The recording file could not be created.
     #[error(transparent)]
     CreateRecording(#[from] CreateError),

@@ -24,6 +24,8 @@ pub struct RecordBenchOptions {
 #[derive(Debug, Clone)]
 pub struct RecordPass {
     pub sink: &'static str,
+    /// Threads the recorder's frame work may use (Rerun's encoder and writer run on their own).
+    pub threads: usize,
     pub frames: u64,
     pub wall_secs: f64,
     /// Peak resident memory of the process (VmHWM) at the end of the pass.
@@ -142,27 +144,37 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
         planned.settings.frame_rate_hz,
         BENCH_DISTINCT_FRAMES,
     );
-    let bench = Bench {
+    let mut bench = Bench {
         planned: &planned,
         frames,
         record: opts.record,
     };
     let builder = || rerun::RecordingStreamBuilder::new("hooke-bench-record");
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
 
     // Into a sink that discards: the recorder and Rerun's batcher only.
     let rec = builder().buffered().map_err(RerunError::from)?;
     rec.set_sink(Box::new(Discard));
-    let discard = bench.pass("discard", &rec, opts.frames, || Ok(()))?;
+    let discard = bench.pass("discard", cores, &rec, opts.frames, || Ok(()))?;
     drop(rec);
 
-    // Into an .rrd file: encoding, compression and writing too.
-    let rec = builder().buffered().map_err(RerunError::from)?;
-    let (sink, file) = crate::rrd_file::create(&opts.save, true)?;
-    rec.set_sink(Box::new(sink));
-    let to_file = bench.pass("file", &rec, opts.frames, || {
-        file.finish().map_err(crate::Error::WriteRecording)
-    })?;
-    drop(rec);
+    // Into an .rrd file: encoding, compression and writing too, with the recorder's frame work
+    // on 1, 2, 4, … threads (up to the cores there are).
+    let mut passes = vec![discard];
+    let mut threads = 1;
+    loop {
+        let rec = builder().buffered().map_err(RerunError::from)?;
+        let (sink, file) = crate::rrd_file::create(&opts.save, true)?;
+        rec.set_sink(Box::new(sink));
+        passes.push(bench.pass("file", threads, &rec, opts.frames, || {
+            file.finish().map_err(crate::Error::WriteRecording)
+        })?);
+        drop(rec);
+        if threads >= cores {
+            break;
+        }
+        threads = (2 * threads).min(cores);
+    }
     let file_bytes = std::fs::metadata(&opts.save)
         .map(|m| m.len())
         .map_err(|source| crate::Error::ReadRecording {
@@ -179,7 +191,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
         springs: model.spring_count(),
         frames: opts.frames,
         bodies: crate::record::describe(model, &opts.record),
-        passes: vec![discard, to_file],
+        passes,
         file_bytes_per_frame: file_bytes as f64 / opts.frames as f64,
         entity_bytes_per_frame,
         static_bytes,
@@ -216,33 +228,42 @@ impl Bench<'_> {
         Ok(r)
     }
 
-    /// Log `n` frames, cycling through the distinct ones.
-    fn log_frames(&self, r: &mut Recorder, n: u64) -> Result<()> {
+    /// Log `n` frames, cycling through the distinct ones (renumbered in place: a run hands the
+    /// recorder its snapshots without copying them either).
+    fn log_frames(&mut self, r: &mut Recorder, n: u64) -> Result<()> {
         let rate = self.planned.settings.frame_rate_hz;
+        let distinct = self.frames.len() as u64;
         for k in 0..n {
-            let mut snap = self.frames[(k % self.frames.len() as u64) as usize].clone();
+            let snap = &mut self.frames[(k % distinct) as usize];
             snap.frame = k;
             snap.time_secs = k as f64 / rate;
-            r.log_snapshot(&snap).map_err(RerunError::from)?;
+            r.log_snapshot(snap).map_err(RerunError::from)?;
         }
         Ok(())
     }
 
-    /// `frames` frames into `rec`'s sink, timed up to the flush and `finish` (which ends a file).
+    /// `frames` frames into `rec`'s sink with the recorder's frame work on `threads` threads,
+    /// timed up to the flush and `finish` (which ends a file).
     fn pass(
-        &self,
+        &mut self,
         sink: &'static str,
+        threads: usize,
         rec: &rerun::RecordingStream,
         frames: u64,
         finish: impl FnOnce() -> Result<()>,
     ) -> Result<RecordPass> {
         let mut r = self.recorder(rec)?;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|source| crate::Error::ThreadPool { threads, source })?;
         let start = Instant::now();
-        self.log_frames(&mut r, frames)?;
+        pool.install(|| self.log_frames(&mut r, frames))?;
         rec.flush_blocking().map_err(RerunError::from)?;
         finish()?;
         Ok(RecordPass {
             sink,
+            threads,
             frames,
             wall_secs: start.elapsed().as_secs_f64(),
             peak_rss_bytes: peak_resident_bytes(),
@@ -251,7 +272,7 @@ impl Bench<'_> {
 
     /// Into memory: Arrow bytes logged once, and per entity per frame over `n` frames.
     fn weigh_entities(
-        &self,
+        &mut self,
         builder: impl Fn() -> rerun::RecordingStreamBuilder,
         n: u64,
     ) -> Result<(u64, Vec<(String, f64)>)> {
@@ -303,8 +324,10 @@ pub fn format_record(b: &RecordBench) -> String {
     for p in &b.passes {
         let _ = write!(
             s,
-            "\n{:>8} sink: {:>7.1} frames/s sustained ({} frames in {:.2} s), peak resident memory {}",
+            "\n{:>8} sink, {:>2} thread{}: {:>7.1} frames/s sustained ({} frames in {:.2} s), peak resident memory {}",
             p.sink,
+            p.threads,
+            if p.threads == 1 { " " } else { "s" },
             p.frames_per_sec(),
             p.frames,
             p.wall_secs,

@@ -87,6 +87,11 @@ pub struct RecordedArgs {
     /// through them anyway; pins always show).
     #[arg(long)]
     pub masses: bool,
+    /// How much of a large sheet's or block's surface is recorded: auto (at most about 256
+    /// vertices along each grid axis, every k-th vertex coloured by the most strained spring of
+    /// its block) or full (every vertex).
+    #[arg(long, value_enum, default_value_t)]
+    pub surface: hooke::record::SurfaceDetail,
 }
 
 /// What the recording holds, and how fast it is made.
@@ -113,6 +118,7 @@ impl RecordedArgs {
         hooke::record::RecordOptions {
             springs: self.springs,
             masses: self.masses,
+            surface: self.surface,
             ..hooke::record::RecordOptions::default()
         }
     }

@@ -30,6 +30,7 @@ mod recorder;
 mod scalars;
 pub mod series;
 pub mod springs;
+mod strain_summary;
 mod statics;
 pub mod surface;
 
@@ -42,3 +43,5 @@ pub use recorder::{Recorder, Root};
 pub use scalars::most_strained;
 pub use series::{MORE_SERIES, Plot, SERIES, Series, When};
 pub use springs::SpringSelection;
+pub use strain_summary::StrainSummary;
+pub use surface::{MAX_SURFACE_SIDE, SurfaceDetail};

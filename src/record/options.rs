@@ -17,6 +17,8 @@ pub struct RecordOptions {
     pub masses: bool,
     /// Strain at the ends of the colour scale: −strain_range fully blue, +strain_range fully red.
     pub strain_range: f32,
+    /// How much of a large grid body's surface is recorded (`--surface`).
+    pub surface: surface::SurfaceDetail,
 }
 
 impl Default for RecordOptions {
@@ -26,6 +28,7 @@ impl Default for RecordOptions {
             springs: None,
             masses: false,
             strain_range: View::default().strain_range,
+            surface: surface::SurfaceDetail::default(),
         }
     }
 }
@@ -46,9 +49,18 @@ pub fn describe(model: &Model, opts: &RecordOptions) -> Vec<String> {
         .bodies
         .iter()
         .map(|b| {
-            let surface = surface::Surface::of_body(model, b);
+            let surface = surface::Surface::of_body(model, b, opts.surface);
             let lines = springs::selected(model, b, opts.springs, surface.is_some()).len();
             let what = match &surface {
+                Some(s) if s.stride() > 1 => format!(
+                    "surface of {} triangles, every {}th grid vertex ({} of {} masses, each \
+                     coloured by the most strained spring of its block; --surface full records \
+                     every vertex)",
+                    s.triangles.len(),
+                    s.stride(),
+                    s.vertex_mass.len(),
+                    b.masses.len()
+                ),
                 Some(s) => format!("surface of {} triangles", s.triangles.len()),
                 None => "masses".to_owned(),
             };

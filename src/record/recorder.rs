@@ -5,14 +5,15 @@
 use std::time::Instant;
 
 use glam::Vec3;
+use rayon::prelude::*;
 use rerun::RecordingStream;
 
 use super::error::RResult;
-use super::histogram;
 use super::options::RecordOptions;
 use super::palette::{color, strain_color};
 use super::series::When;
 use super::springs;
+use super::strain_summary::StrainSummary;
 use super::surface;
 use crate::model::{Model, Shape};
 use crate::state::Snapshot;
@@ -94,7 +95,6 @@ pub struct Recorder {
     pub(super) implicit: bool,
     /// `world/colliders/<kind>_<k>`, k counting colliders of one kind.
     pub(super) collider_paths: Vec<String>,
-    pub(super) histogram: Vec<u64>,
     /// `--springs` was not given: each body logs its default.
     pub(super) default_springs: bool,
 }
@@ -126,7 +126,7 @@ impl Recorder {
             .bodies
             .iter()
             .map(|b| {
-                let surface = surface::Surface::of_body(&model, b).map(|s| SurfaceRec {
+                let surface = surface::Surface::of_body(&model, b, opts.surface).map(|s| SurfaceRec {
                     path: root.world(&format!("{}/surface", b.name)),
                     whole_body: s.is_whole_body(b),
                     triangles: Vec::new(),
@@ -161,7 +161,6 @@ impl Recorder {
             bodies,
             implicit: false,
             collider_paths,
-            histogram: Vec::new(),
             default_springs: opts.springs.is_none(),
         }
     }
@@ -191,11 +190,11 @@ impl Recorder {
             }
         }
         self.log_colliders(snap)?;
-        self.log_scalars(snap)?;
-        histogram::counts(&snap.strain, range, &mut self.histogram);
+        let summary = StrainSummary::of(&snap.strain, range);
+        self.log_scalars(snap, summary.most)?;
         self.rec.log(
             self.root.series("stats/strain_histogram"),
-            &rerun::BarChart::update_fields().with_values(self.histogram.clone()),
+            &rerun::BarChart::update_fields().with_values(summary.counts),
         )?;
         self.rec.log(
             self.root.series("stats/record_ms"),
@@ -242,12 +241,12 @@ impl Recorder {
             s.surface.positions(&snap.positions, &mut s.positions);
         }
         surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
-        surface::vertex_strain(m, &snap.strain, &s.surface.vertex_mass, &mut s.strain);
+        s.surface.strain(m, &snap.strain, &mut s.strain);
         let two_sided = s.surface.two_sided;
         let range = self.strain_range;
         s.colors.clear();
         s.colors
-            .extend(s.strain.iter().zip(&s.normals).map(|(&strain, &n)| {
+            .par_extend(s.strain.par_iter().zip(&s.normals).map(|(&strain, &n)| {
                 color(surface::shaded(
                     strain_color(strain, range),
                     surface::shade(n, two_sided),

@@ -7,11 +7,12 @@ use super::series::all_series;
 use crate::state::Snapshot;
 
 impl Recorder {
-    pub(super) fn log_scalars(&self, snap: &Snapshot) -> RResult {
+    /// The frame's series; `most` the most strained spring (from the frame's
+    /// [`super::StrainSummary`]).
+    pub(super) fn log_scalars(&self, snap: &Snapshot, most: Option<(usize, f32)>) -> RResult {
         let (rec, m) = (&self.rec, &self.model);
         let e = &snap.energies;
         let st = &snap.stats;
-        let most = most_strained(&snap.strain);
         let value = |path: &str| -> f64 {
             match path {
                 "energy/kinetic" => e.kinetic_j,

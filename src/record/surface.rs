@@ -49,6 +49,8 @@ pub struct Surface {
     /// A lattice-filled mesh's vertices follow their cells' corners (then `vertex_mass` holds
     /// each vertex's nearest corner, whose strain colours it).
     embedding: Option<Vec<crate::mesh::Embedded>>,
+    /// A reduced surface: each vertex stands for a block of masses.
+    blocks: Option<Blocks>,
 }
 
 /// Grid axes of a body that have more than one mass, with their sizes and index strides.
@@ -61,20 +63,25 @@ fn grid_axes(grid: &[u32]) -> Vec<(usize, u32)> {
 }
 
 /// A body's surface as quads of four grid corners, counter-clockwise seen from the side they
-/// face, and whether it is two-sided (a sheet); `None` for a strand.
-fn surface_quads(n: [u32; 3], axes: &[(usize, u32)]) -> Option<(Vec<[[u32; 3]; 4]>, bool)> {
+/// face, and whether it is two-sided (a sheet); `None` for a strand. `coords[a]` are the grid
+/// indices along axis `a` that are vertices (all of them, or every k-th and the last).
+fn surface_quads(
+    n: [u32; 3],
+    axes: &[(usize, u32)],
+    coords: &[Vec<u32>; 3],
+) -> Option<(Vec<[[u32; 3]; 4]>, bool)> {
     let mut quads: Vec<[[u32; 3]; 4]> = Vec::new();
     let two_sided = match axes.len() {
         2 => {
             let (u, w) = (axes[0].0, axes[1].0);
-            push_face(&mut quads, n, u, w, None);
+            push_face(&mut quads, coords, u, w, None);
             true
         }
         3 => {
             // Six faces: for each axis d, the layer at index 0 and at n[d] − 1.
             for (d, u, w) in [(2, 0, 1), (0, 1, 2), (1, 2, 0)] {
-                push_face(&mut quads, n, u, w, Some((d, 0)));
-                push_face(&mut quads, n, u, w, Some((d, n[d] - 1)));
+                push_face(&mut quads, coords, u, w, Some((d, 0)));
+                push_face(&mut quads, coords, u, w, Some((d, n[d] - 1)));
             }
             false
         }
@@ -83,9 +90,44 @@ fn surface_quads(n: [u32; 3], axes: &[(usize, u32)]) -> Option<(Vec<[[u32; 3]; 4
     Some((quads, two_sided))
 }
 
+/// How much of a large grid body's surface a recording holds (`--surface`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum SurfaceDetail {
+    /// At most about 256 vertices along each grid axis: every k-th grid vertex (and the last),
+    /// each coloured by the most strained structural spring of the block of masses it stands
+    /// for, so that a hot spot never disappears.
+    #[default]
+    Auto,
+    /// Every vertex.
+    Full,
+}
+
+/// The most vertices a reduced surface has along a grid axis (about: the last index is kept).
+pub const MAX_SURFACE_SIDE: u32 = 256;
+
+/// The grid indices along an axis of `n` masses that are vertices: every `stride`-th and the last.
+fn axis_coords(n: u32, stride: u32) -> Vec<u32> {
+    let mut c: Vec<u32> = (0..n).step_by(stride as usize).collect();
+    if c.last() != Some(&(n - 1)) {
+        c.push(n - 1);
+    }
+    c
+}
+
+/// A reduced surface's vertices stand for blocks of masses: the structural springs that touch a
+/// block, with the vertex of each end (`NO_VERTEX` where an end is in no block).
+#[derive(Debug, Clone)]
+struct Blocks {
+    /// Every k-th grid vertex along each axis.
+    stride: u32,
+    springs: Vec<[u32; 3]>,
+}
+
+const NO_VERTEX: u32 = u32::MAX;
+
 impl Surface {
     /// The body's surface, or `None` for a strand (fewer than two grid axes with extent).
-    pub fn of_body(model: &Model, body: &BodyInfo) -> Option<Self> {
+    pub fn of_body(model: &Model, body: &BodyInfo, detail: SurfaceDetail) -> Option<Self> {
         let grid = match &body.shape {
             BodyShape::Grid(g) => g,
             BodyShape::Mesh(m) => return Some(Self::of_mesh(model, body, m)),
@@ -95,7 +137,17 @@ impl Surface {
         let stride = [1, n[0], n[0] * n[1]];
         let base = body.masses.start;
         let mass_at = |c: [u32; 3]| base + c[0] * stride[0] + c[1] * stride[1] + c[2] * stride[2];
-        let (quads, two_sided) = surface_quads(n, &axes)?;
+        // Every k-th vertex where an axis is longer than MAX_SURFACE_SIDE, unless full detail is
+        // asked for or a spring may tear (a torn triangle is a spring's, which a block hides).
+        let may_tear = !model.limits.is_empty()
+            && body.springs.clone().any(|s| model.limits[s as usize].break_strain.is_finite());
+        let k = match detail {
+            SurfaceDetail::Full => 1,
+            SurfaceDetail::Auto if may_tear => 1,
+            SurfaceDetail::Auto => n.iter().map(|&m| m.div_ceil(MAX_SURFACE_SIDE)).max().unwrap_or(1),
+        };
+        let coords = n.map(|m| axis_coords(m, k));
+        let (quads, two_sided) = surface_quads(n, &axes, &coords)?;
         // Vertices: every mass that a quad touches, in mass order.
         let mut used: Vec<u32> = quads.iter().flatten().map(|c| mass_at(*c)).collect();
         used.sort_unstable();
@@ -105,7 +157,12 @@ impl Surface {
             .enumerate()
             .map(|(v, m)| (*m, v as u32))
             .collect();
-        let spring_of = springs_by_ends(model, body);
+        // Which spring each triangle edge is matters only where springs may break.
+        let spring_of = if may_tear {
+            springs_by_ends(model, body)
+        } else {
+            HashMap::new()
+        };
         let x = &model.initial.x;
         let centre = {
             let r = body.masses.start as usize..body.masses.end as usize;
@@ -136,6 +193,31 @@ impl Surface {
             }
         }
         let can_tear = can_tear(model, &edge_springs);
+        let blocks = (k > 1).then(|| {
+            // A mass stands in the block of the vertex at or before it along each axis.
+            let rep = |c: u32| c - c % k;
+            let vertex_of_mass = |m: u32| {
+                let i = m - base;
+                let c = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
+                let on_face = axes.len() == 2 || (0..3).any(|a| c[a] == 0 || c[a] == n[a] - 1);
+                let r = [0, 1, 2].map(|a| if c[a] == n[a] - 1 { c[a] } else { rep(c[a]) });
+                on_face
+                    .then(|| vertex_of.get(&mass_at(r)).copied())
+                    .flatten()
+                    .unwrap_or(NO_VERTEX)
+            };
+            let springs = body
+                .springs
+                .clone()
+                .filter(|&s| model.spring_kind[s as usize] == SpringKindTag::Structural)
+                .filter_map(|s| {
+                    let sp = &model.springs[s as usize];
+                    let (va, vb) = (vertex_of_mass(sp.a), vertex_of_mass(sp.b));
+                    (va != NO_VERTEX || vb != NO_VERTEX).then_some([s, va, vb])
+                })
+                .collect();
+            Blocks { stride: k, springs }
+        });
         Some(Self {
             vertex_mass: used,
             triangles,
@@ -143,7 +225,22 @@ impl Surface {
             two_sided,
             can_tear,
             embedding: None,
+            blocks,
         })
+    }
+
+    /// Every how many grid vertices along an axis one is recorded (1: all of them).
+    pub fn stride(&self) -> u32 {
+        self.blocks.as_ref().map_or(1, |b| b.stride)
+    }
+
+    /// Each vertex's strain: [`vertex_strain`] at its mass, or on a reduced surface the most
+    /// strained intact structural spring touching its block of masses.
+    pub fn strain(&self, model: &Model, strain: &[f32], out: &mut Vec<f32>) {
+        match &self.blocks {
+            None => vertex_strain(model, strain, &self.vertex_mass, out),
+            Some(b) => block_strain(&b.springs, strain, self.vertex_mass.len(), out),
+        }
     }
 
     /// A mesh body's own triangles. Cloth tears where its edge springs break; a lattice's
@@ -172,6 +269,7 @@ impl Surface {
                     edge_springs,
                     two_sided,
                     embedding: None,
+                    blocks: None,
                 }
             }
             MeshVertices::Embedded(embedded) => Self {
@@ -181,6 +279,7 @@ impl Surface {
                 two_sided,
                 can_tear: false,
                 embedding: Some(embedded.clone()),
+                blocks: None,
             },
         }
     }
@@ -236,24 +335,24 @@ fn can_tear(model: &Model, edge_springs: &[[u32; 3]]) -> bool {
             .any(|&s| s != NO_SPRING && model.limits[s as usize].break_strain.is_finite())
 }
 
-/// Quads of one grid face spanned by axes `u` and `w`, at `layer = (axis, index)` for a block's
-/// face or across the whole (2D) grid.
+/// Quads of one grid face spanned by axes `u` and `w`, between consecutive vertex coordinates,
+/// at `layer = (axis, index)` for a block's face or across the whole (2D) grid.
 fn push_face(
     quads: &mut Vec<[[u32; 3]; 4]>,
-    n: [u32; 3],
+    coords: &[Vec<u32>; 3],
     u: usize,
     w: usize,
     layer: Option<(usize, u32)>,
 ) {
-    for j in 0..n[w].saturating_sub(1) {
-        for i in 0..n[u].saturating_sub(1) {
-            let corner = |di: u32, dj: u32| {
+    for jw in coords[w].windows(2) {
+        for iw in coords[u].windows(2) {
+            let corner = |di: usize, dj: usize| {
                 let mut c = [0u32; 3];
                 if let Some((d, k)) = layer {
                     c[d] = k;
                 }
-                c[u] = i + di;
-                c[w] = j + dj;
+                c[u] = iw[di];
+                c[w] = jw[dj];
                 c
             };
             quads.push([corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)]);
@@ -261,13 +360,62 @@ fn push_face(
     }
 }
 
+/// The fewest springs [`block_strain`] gives a thread.
+const BLOCK_CHUNK: usize = 1 << 16;
+
+/// The signed strain of the most strained intact structural spring touching each vertex's block
+/// (largest |strain|, the first in spring order on a tie; 0 where none), written into `out`.
+/// Chunks of springs run in parallel and merge in order, so the result is that of one pass.
+fn block_strain(springs: &[[u32; 3]], strain: &[f32], vertices: usize, out: &mut Vec<f32>) {
+    use rayon::prelude::*;
+    let stronger = |best: &mut f32, s: f32| {
+        if s.abs() > best.abs() {
+            *best = s;
+        }
+    };
+    let pass = |chunk: &[[u32; 3]]| {
+        let mut best = vec![0.0f32; vertices];
+        for &[s, va, vb] in chunk {
+            let e = strain[s as usize];
+            if e.is_nan() {
+                continue;
+            }
+            for v in [va, vb] {
+                if v != NO_VERTEX {
+                    stronger(&mut best[v as usize], e);
+                }
+            }
+        }
+        best
+    };
+    // One chunk per thread at most: each chunk fills a whole array of vertices.
+    let chunk = BLOCK_CHUNK.max(springs.len().div_ceil(rayon::current_num_threads()));
+    let merged = if springs.len() <= chunk {
+        pass(springs)
+    } else {
+        springs
+            .par_chunks(chunk)
+            .map(pass)
+            .reduce_with(|mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    stronger(x, y);
+                }
+                a
+            })
+            .unwrap_or_else(|| vec![0.0; vertices])
+    };
+    out.clear();
+    out.extend(merged);
+}
+
 /// The signed strain of the most strained intact structural spring at each mass of
 /// `vertex_mass` (largest |strain|; every kind counts where the model has no structural spring;
 /// 0 where none is intact), written into `out`.
 pub fn vertex_strain(model: &Model, strain: &[f32], vertex_mass: &[u32], out: &mut Vec<f32>) {
+    use rayon::prelude::*;
     let any_structural = model.spring_kind.contains(&SpringKindTag::Structural);
     out.clear();
-    out.extend(vertex_mass.iter().map(|&m| {
+    out.par_extend(vertex_mass.par_iter().map(|&m| {
         model
             .adjacency
             .of(m as usize)

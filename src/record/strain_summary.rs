@@ -1,0 +1,116 @@
+//! One pass over a frame's strains for what the whole model contributes to a frame: the most
+//! strained spring (`stats/max_strain`, `world/most_strained`) and the histogram's counts. The
+//! strains are split into chunks that fit a core's cache, each chunk's answers found on its own
+//! thread, and the answers merged in chunk order, so the result is that of a single pass
+//! whatever the number of threads (the first spring wins a tie, counts are sums).
+
+use rayon::prelude::*;
+
+use super::histogram;
+#[cfg(test)]
+use super::scalars::most_strained;
+
+/// Strains a chunk holds: 256 KiB of f32.
+const CHUNK: usize = 1 << 16;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrainSummary {
+    /// The most strained intact spring and its strain (largest |strain|, the first on a tie).
+    pub most: Option<(usize, f32)>,
+    /// The histogram's bars ([`histogram::counts`]).
+    pub counts: Vec<u64>,
+}
+
+impl StrainSummary {
+    pub fn of(strain: &[f32], range: f32) -> Self {
+        let chunk = |(k, c): (usize, &[f32])| Self {
+            most: most_of(c).map(|(i, s)| (k * CHUNK + i, s)),
+            counts: counts_of(c, range),
+        };
+        if strain.len() <= CHUNK {
+            return chunk((0, strain));
+        }
+        strain
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(chunk)
+            .reduce_with(Self::then)
+            .unwrap_or_else(|| chunk((0, &[])))
+    }
+
+    /// This summary followed by `later`'s (of the strains after these).
+    fn then(self, later: Self) -> Self {
+        let most = match (self.most, later.most) {
+            (Some(a), Some(b)) if b.1.abs() > a.1.abs() => Some(b),
+            (Some(a), _) => Some(a),
+            (None, b) => b,
+        };
+        let counts = self
+            .counts
+            .iter()
+            .zip(&later.counts)
+            .map(|(a, b)| a + b)
+            .collect();
+        Self { most, counts }
+    }
+}
+
+/// [`most_strained`] of a chunk: the largest |strain| found first in a pass the compiler can
+/// vectorise, then the first spring that has it.
+fn most_of(c: &[f32]) -> Option<(usize, f32)> {
+    // f32::max ignores NaN, as the broken springs must be.
+    let top = c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs()));
+    c.iter()
+        .position(|s| s.abs() == top)
+        .map(|i| (i, c[i]))
+}
+
+/// [`histogram::counts`] of a chunk: each strain's bar found in blocks (a loop without branches
+/// the compiler vectorises), then counted in four tallies taken in turn, since most strains fall
+/// in a bar or two and one tally would make each increment wait on the last.
+fn counts_of(c: &[f32], range: f32) -> Vec<u64> {
+    const NAN_BAR: usize = histogram::BINS + 2;
+    let mut tally = [[0u32; histogram::BINS + 3]; 4];
+    let mut bars = [0u8; 1024];
+    for block in c.chunks(1024) {
+        let per_bin = histogram::BINS as f32 / (2.0 * range);
+        for (b, &s) in bars.iter_mut().zip(block) {
+            // histogram::bar, spelled out so that this loop vectorises (an i32 conversion).
+            let q = ((s + range) * per_bin).max(-1.0).min(histogram::BINS as f32 - 1.0);
+            let q = if s > range { histogram::BINS as f32 } else { q };
+            let q = if s.is_nan() { NAN_BAR as f32 - 1.0 } else { q };
+            *b = (q + 1.0) as i32 as u8;
+        }
+        for (i, &b) in bars[..block.len()].iter().enumerate() {
+            tally[i & 3][usize::from(b)] += 1;
+        }
+    }
+    (0..histogram::BINS + 2)
+        .map(|b| tally.iter().map(|t| u64::from(t[b])).sum())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_merged_give_what_one_pass_gives() {
+        // Long enough for several chunks, with ties for the largest |strain| across chunks.
+        let n = 5 * CHUNK + 123;
+        let strain: Vec<f32> = (0..n)
+            .map(|i| match i {
+                _ if i % 1_000_003 == 7 => f32::NAN,
+                _ if i == 3 * CHUNK + 5 || i == CHUNK + 9 => -0.5,
+                _ if i == 4 * CHUNK => 0.5,
+                _ => ((i as f32) * 0.001).sin() * 0.2,
+            })
+            .collect();
+        let got = StrainSummary::of(&strain, 0.1);
+        let mut counts = Vec::new();
+        histogram::counts(&strain, 0.1, &mut counts);
+        assert_eq!(got.counts, counts);
+        assert_eq!(got.most, most_strained(&strain));
+        assert_eq!(got.most, Some((CHUNK + 9, -0.5)));
+    }
+}

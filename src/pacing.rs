@@ -88,3 +88,102 @@ impl Backend for Paced {
         self.inner.memory_bytes()
     }
 }
+
+/// Frames a run records before it judges whether the recorder sets the pace.
+const PACE_WARM_UP_FRAMES: u64 = 30;
+
+/// Recording time before the recorder is judged.
+const PACE_MIN_BUSY: Duration = Duration::from_millis(500);
+
+/// The simulation's side of a run's pace: how long it takes to make a frame by itself (stepping
+/// and reading back, not waiting for the recorder). Written by the simulation thread, read by
+/// the recorder's.
+#[derive(Debug, Default)]
+pub struct SimPace {
+    frames: std::sync::atomic::AtomicU64,
+    nanos: std::sync::atomic::AtomicU64,
+}
+
+impl SimPace {
+    /// One more frame, made in `took`.
+    pub fn made(&self, took: Duration) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.nanos
+            .fetch_add(u64::try_from(took.as_nanos()).unwrap_or(u64::MAX), Relaxed);
+        self.frames.fetch_add(1, Relaxed);
+    }
+
+    /// Frames per second the simulation makes by itself, once it has made some.
+    fn frames_per_sec(&self) -> Option<f64> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (frames, nanos) = (self.frames.load(Relaxed), self.nanos.load(Relaxed));
+        (frames > 0 && nanos > 0).then(|| frames as f64 / (nanos as f64 * 1e-9))
+    }
+}
+
+/// The recorder's side: the time it spends on each frame. It says once, with both rates, when
+/// the recorder is what holds the run back, instead of letting the run go slower in silence.
+#[derive(Debug, Default)]
+pub struct RecorderPace {
+    frames: u64,
+    busy: Duration,
+    said: bool,
+}
+
+impl RecorderPace {
+    /// One more frame recorded in `took`: the sentence to say, the first time the recorder
+    /// (after a warm-up) makes frames at under 80% of the simulation's rate.
+    pub fn recorded(&mut self, took: Duration, sim: &SimPace) -> Option<String> {
+        self.frames += 1;
+        self.busy += took;
+        // A run whose recording takes under half a second in all is not held back to speak of.
+        if self.said || self.frames < PACE_WARM_UP_FRAMES || self.busy < PACE_MIN_BUSY {
+            return None;
+        }
+        let recorder = self.frames as f64 / self.busy.as_secs_f64();
+        let simulation = sim.frames_per_sec()?;
+        (recorder < 0.8 * simulation).then(|| {
+            self.said = true;
+            format!(
+                "the recorder is holding the run back: it records {recorder:.1} frames/s, the \
+                 simulation makes {simulation:.1}; lighter frames go faster (--surface auto, the \
+                 default, fewer --springs, no --masses)"
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_recorder_is_named_once_when_it_is_the_slower_side() {
+        let sim = SimPace::default();
+        let mut rec = RecorderPace::default();
+        // The simulation makes a frame in 5 ms (200 frames/s), the recorder takes 20 ms.
+        for _ in 0..PACE_WARM_UP_FRAMES - 1 {
+            sim.made(Duration::from_millis(5));
+            assert_eq!(rec.recorded(Duration::from_millis(20), &sim), None);
+        }
+        let said = rec.recorded(Duration::from_millis(20), &sim).expect("said");
+        assert!(
+            said.contains("50.0 frames/s") && said.contains("200.0"),
+            "{said}"
+        );
+        assert_eq!(rec.recorded(Duration::from_millis(20), &sim), None, "once");
+        // A recorder as fast as the simulation says nothing.
+        let mut quick = RecorderPace::default();
+        for _ in 0..200 {
+            assert_eq!(quick.recorded(Duration::from_millis(5), &sim), None);
+        }
+        // Nor does a slower recorder in a run too short to matter.
+        let mut brief = RecorderPace::default();
+        for _ in 0..100 {
+            assert_eq!(
+                brief.recorded(Duration::from_millis(1), &SimPace::default()),
+                None
+            );
+        }
+    }
+}

@@ -8,7 +8,7 @@ use crossbeam_channel::Sender;
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::pacing::{Paced, Pacer};
+use crate::pacing::{Paced, Pacer, RecorderPace, SimPace};
 use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
 use crate::record::{RecordError, RecordOptions, Recorder};
@@ -189,16 +189,18 @@ impl Threads<'_> {
         let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
         // Set by the recorder when it can take no more: the simulation stops within a chunk.
         let halt = AtomicBool::new(false);
+        let pace = SimPace::default();
         std::thread::scope(|scope| {
             let sim = std::thread::Builder::new()
                 .name("hooke-sim".into())
                 .spawn_scoped(scope, {
                     let cancel = self.cancel.clone();
-                    let halt = &halt;
+                    let (halt, pace) = (&halt, &pace);
                     move || {
                         let stop = sim::Stop {
                             interrupt: &cancel,
                             halt: Some(halt),
+                            pace: Some(pace),
                         };
                         simulate(&tx, stop)
                     }
@@ -211,6 +213,7 @@ impl Threads<'_> {
                         opts: self.opts,
                         halt: &halt,
                         frame_rate_hz: self.frame_rate_hz,
+                        pace: &pace,
                     };
                     recording.record(rx, log)
                 });
@@ -240,6 +243,8 @@ struct Recording<'a> {
     /// Set when the recorder can take no more.
     halt: &'a AtomicBool,
     frame_rate_hz: f64,
+    /// How fast the simulation makes frames by itself.
+    pace: &'a SimPace,
 }
 
 impl Recording<'_> {
@@ -256,8 +261,10 @@ impl Recording<'_> {
             opts,
             halt,
             frame_rate_hz,
+            pace,
         } = self;
         let mut recorded = 0u64;
+        let mut recorder_pace = RecorderPace::default();
         let mut viewer_lost = false;
         let stop_simulation = |e: Error| {
             halt.store(true, Ordering::SeqCst);
@@ -265,10 +272,14 @@ impl Recording<'_> {
             Some(e)
         };
         for f in rx.iter() {
+            let started = std::time::Instant::now();
             let frame = match log(f, progress) {
                 Ok(frame) => frame,
                 Err(e) => return (recorded, stop_simulation(Error::RecorderGone(e))),
             };
+            if let Some(say) = recorder_pace.recorded(started.elapsed(), pace) {
+                progress.suspend(|| eprintln!("{say}"));
+            }
             // The flag first: the writer's lock may be held by a long write.
             let failed = opts.file.as_ref().filter(|f| f.failed());
             if let Some(failure) = failed.and_then(RrdFile::failure) {

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::backend::{Backend, BackendError};
+use crate::pacing::SimPace;
 use crate::state::{Snapshot, StepStats};
 
 /// Wall time one chunk of substeps aims at: a stop waits for at most the chunk in progress
@@ -25,6 +26,8 @@ pub struct Stop<'a> {
     pub interrupt: &'a AtomicBool,
     /// The recorder can take no more (a full disk, say): the run ends with its error.
     pub halt: Option<&'a AtomicBool>,
+    /// Where the simulation notes how long it takes to make each frame by itself.
+    pub pace: Option<&'a SimPace>,
 }
 
 impl Stop<'_> {
@@ -39,6 +42,7 @@ impl<'a> From<&'a AtomicBool> for Stop<'a> {
         Self {
             interrupt,
             halt: None,
+            pace: None,
         }
     }
 }
@@ -188,6 +192,9 @@ pub fn simulate<'a>(
             }
         }
         let collected = backend.collect_snapshot();
+        if let Some(p) = stop.pace {
+            p.made(start.elapsed());
+        }
         if whole {
             // A whole frame's cost, the wait for the last frame's read-back included: on a GPU
             // that wait is where the stepping time shows.

@@ -491,7 +491,8 @@ fn tearing_plasticity_and_self_collision_work_on_a_mesh_cloth() {
     assert!(contact > 0.0, "no contact");
     // The torn edges open the recorded surface.
     let surface =
-        hooke::record::surface::Surface::of_body(&model, &model.bodies[0], Default::default()).expect("a surface");
+        hooke::record::surface::Surface::of_body(&model, &model.bodies[0], Default::default())
+            .expect("a surface");
     assert!(surface.can_tear);
     let intact = surface.intact_triangles(&s.strain).len();
     assert!(

@@ -404,3 +404,88 @@ fn a_mesh_cloth_records_its_own_triangles_with_the_snapshot_positions_and_strain
         check_surface(&c, &model, snap, &want);
     }
 }
+
+/// A sheet longer than `MAX_SURFACE_SIDE` along x: 520 × 10, so one vertex in 3 (and the last).
+const BIG_SHEET: &str = "name = \"big\"\n[[bodies]]\nname = \"s\"\ngrid = [520, 10]\nspacing_m = 0.01\n\
+                         mass_kg = 1\n[bodies.springs]\nstructural = { stiffness_n_per_m = 100.0 }\n";
+
+#[test]
+fn a_large_sheet_records_one_vertex_in_k_and_keeps_each_blocks_hot_spot() {
+    use hooke::record::SurfaceDetail;
+    use surface::Surface;
+    let model = common::model_of(BIG_SHEET);
+    let b = &model.bodies[0];
+    let reduced = Surface::of_body(&model, b, SurfaceDetail::Auto).expect("a sheet");
+    let full = Surface::of_body(&model, b, SurfaceDetail::Full).expect("a sheet");
+    assert_eq!((reduced.stride(), full.stride()), (3, 1));
+    // x: 0, 3, …, 519 (174); y: 0, 3, 6, 9.
+    assert_eq!(reduced.vertex_mass.len(), 174 * 4);
+    assert_eq!(reduced.triangles.len(), 173 * 3 * 2);
+    assert_eq!(full.vertex_mass.len(), 520 * 10);
+    // One hot spring, between masses (4, 4) and (5, 4): inside the block of vertex (3, 3), and
+    // touching no vertex of the reduced surface.
+    let mass = |i: u32, j: u32| i + 520 * j;
+    let hot = model
+        .springs
+        .iter()
+        .position(|s| (s.a.min(s.b), s.a.max(s.b)) == (mass(4, 4), mass(5, 4)))
+        .expect("a structural spring there");
+    let mut strain = vec![0.001f32; model.spring_count()];
+    strain[hot] = -0.3;
+    let mut out = Vec::new();
+    reduced.strain(&model, &strain, &mut out);
+    let at = |s: &Surface, m: u32| {
+        s.vertex_mass
+            .iter()
+            .position(|&v| v == m)
+            .expect("a vertex")
+    };
+    assert_eq!(out[at(&reduced, mass(3, 3))], -0.3);
+    assert_eq!(out.iter().filter(|s| **s == -0.3).count(), 1, "one block");
+    assert!(out.iter().all(|s| *s == -0.3 || *s == 0.001));
+    // The full surface colours vertex (3, 3) by its own springs, which are cool.
+    full.strain(&model, &strain, &mut out);
+    assert_eq!(out[at(&full, mass(3, 3))], 0.001);
+    assert_eq!(out[at(&full, mass(4, 4))], -0.3);
+    // What a run says of it.
+    let said = hooke::record::describe(&model, &RecordOptions::default()).join("\n");
+    assert!(
+        said.contains("one grid vertex in 3") && said.contains("--surface full"),
+        "{said}"
+    );
+    // A body that may tear keeps every vertex: a torn triangle is a spring's.
+    let tearing = common::model_of(&format!("{BIG_SHEET}[bodies.tearing]\nmax_strain = 0.5\n"));
+    let s = Surface::of_body(&tearing, &tearing.bodies[0], SurfaceDetail::Auto).expect("a sheet");
+    assert_eq!(s.stride(), 1);
+}
+
+#[test]
+fn a_reduced_surface_is_what_the_recording_holds_and_full_is_asked_for_by_flag() {
+    let dir = temp_dir("surface-reduced");
+    let scene = dir.join("big.toml");
+    std::fs::write(&scene, format!("{BIG_SHEET}[solver]\nframes = 2\n"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    for (flag, vertices) in [("auto", 174 * 4), ("full", 520 * 10)] {
+        let path = dir.join(format!("{flag}.rrd"));
+        let out = common::hooke(&common::cpu_run(
+            &scene.to_string_lossy(),
+            &[
+                "--frames",
+                "2",
+                "--surface",
+                flag,
+                "--save",
+                &path.to_string_lossy(),
+            ],
+        ));
+        assert!(out.status.success(), "{}", common::text(&out.stderr));
+        let c = read_components(&path);
+        let pos = positions(at_frame(
+            &c,
+            "/world/s/surface",
+            "Mesh3D:vertex_positions",
+            2,
+        ));
+        assert_eq!(pos.len(), vertices, "--surface {flag}");
+    }
+}

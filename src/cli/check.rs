@@ -30,17 +30,17 @@ pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
             }
         );
     }
-    let size = hooke::recording_size::estimate(
-        model,
-        settings,
-        hooke::record::RecordOptions::default().for_scene(&loaded.scene),
-    )?;
+    let record = hooke::record::RecordOptions::default().for_scene(&loaded.scene);
+    let size = hooke::recording_size::estimate(model, settings, record)?;
     println!(
-        "recording (estimated from sample frames, default --springs): about {} per frame, {} for all {} frames",
+        "recording (estimated from sample frames, default --springs and --surface): about {} per frame, {} for all {} frames",
         hooke::rrd_file::human_bytes(size.bytes_per_frame),
         hooke::rrd_file::human_bytes(size.total(settings.frames)),
         settings.frames + 1
     );
+    for line in hooke::record::describe(model, &record) {
+        println!("  recording {line}");
+    }
     match device.backend {
         BackendKind::Cpu => println!("backend: cpu ({} threads)", rayon::current_num_threads()),
         BackendKind::Gpu => {

@@ -30,8 +30,8 @@ mod recorder;
 mod scalars;
 pub mod series;
 pub mod springs;
-mod strain_summary;
 mod statics;
+mod strain_summary;
 pub mod surface;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};

@@ -53,9 +53,9 @@ pub fn describe(model: &Model, opts: &RecordOptions) -> Vec<String> {
             let lines = springs::selected(model, b, opts.springs, surface.is_some()).len();
             let what = match &surface {
                 Some(s) if s.stride() > 1 => format!(
-                    "surface of {} triangles, every {}th grid vertex ({} of {} masses, each \
-                     coloured by the most strained spring of its block; --surface full records \
-                     every vertex)",
+                    "surface of {} triangles, one grid vertex in {} along each axis ({} of \
+                     {} masses, each coloured by the most strained spring of its block; \
+                     --surface full records every vertex)",
                     s.triangles.len(),
                     s.stride(),
                     s.vertex_mass.len(),

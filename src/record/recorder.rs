@@ -126,17 +126,18 @@ impl Recorder {
             .bodies
             .iter()
             .map(|b| {
-                let surface = surface::Surface::of_body(&model, b, opts.surface).map(|s| SurfaceRec {
-                    path: root.world(&format!("{}/surface", b.name)),
-                    whole_body: s.is_whole_body(b),
-                    triangles: Vec::new(),
-                    broken: None,
-                    positions: Vec::with_capacity(s.vertex_mass.len()),
-                    normals: Vec::with_capacity(s.vertex_mass.len()),
-                    strain: Vec::with_capacity(s.vertex_mass.len()),
-                    colors: Vec::with_capacity(s.vertex_mass.len()),
-                    surface: s,
-                });
+                let surface =
+                    surface::Surface::of_body(&model, b, opts.surface).map(|s| SurfaceRec {
+                        path: root.world(&format!("{}/surface", b.name)),
+                        whole_body: s.is_whole_body(b),
+                        triangles: Vec::new(),
+                        broken: None,
+                        positions: Vec::with_capacity(s.vertex_mass.len()),
+                        normals: Vec::with_capacity(s.vertex_mass.len()),
+                        strain: Vec::with_capacity(s.vertex_mass.len()),
+                        colors: Vec::with_capacity(s.vertex_mass.len()),
+                        surface: s,
+                    });
                 let selected = springs::selected(&model, b, opts.springs, surface.is_some());
                 BodyRec {
                     name: b.name.clone(),

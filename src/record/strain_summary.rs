@@ -60,9 +60,7 @@ impl StrainSummary {
 fn most_of(c: &[f32]) -> Option<(usize, f32)> {
     // f32::max ignores NaN, as the broken springs must be.
     let top = c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs()));
-    c.iter()
-        .position(|s| s.abs() == top)
-        .map(|i| (i, c[i]))
+    c.iter().position(|s| s.abs() == top).map(|i| (i, c[i]))
 }
 
 /// [`histogram::counts`] of a chunk: each strain's bar found in blocks (a loop without branches
@@ -76,7 +74,9 @@ fn counts_of(c: &[f32], range: f32) -> Vec<u64> {
         let per_bin = histogram::BINS as f32 / (2.0 * range);
         for (b, &s) in bars.iter_mut().zip(block) {
             // histogram::bar, spelled out so that this loop vectorises (an i32 conversion).
-            let q = ((s + range) * per_bin).max(-1.0).min(histogram::BINS as f32 - 1.0);
+            let q = ((s + range) * per_bin)
+                .max(-1.0)
+                .min(histogram::BINS as f32 - 1.0);
             let q = if s > range { histogram::BINS as f32 } else { q };
             let q = if s.is_nan() { NAN_BAR as f32 - 1.0 } else { q };
             *b = (q + 1.0) as i32 as u8;

@@ -140,11 +140,18 @@ impl Surface {
         // Every k-th vertex where an axis is longer than MAX_SURFACE_SIDE, unless full detail is
         // asked for or a spring may tear (a torn triangle is a spring's, which a block hides).
         let may_tear = !model.limits.is_empty()
-            && body.springs.clone().any(|s| model.limits[s as usize].break_strain.is_finite());
+            && body
+                .springs
+                .clone()
+                .any(|s| model.limits[s as usize].break_strain.is_finite());
         let k = match detail {
             SurfaceDetail::Full => 1,
             SurfaceDetail::Auto if may_tear => 1,
-            SurfaceDetail::Auto => n.iter().map(|&m| m.div_ceil(MAX_SURFACE_SIDE)).max().unwrap_or(1),
+            SurfaceDetail::Auto => n
+                .iter()
+                .map(|&m| m.div_ceil(MAX_SURFACE_SIDE))
+                .max()
+                .unwrap_or(1),
         };
         let coords = n.map(|m| axis_coords(m, k));
         let (quads, two_sided) = surface_quads(n, &axes, &coords)?;

@@ -87,6 +87,9 @@ impl Backend for Paced {
     fn memory_bytes(&self) -> Option<u64> {
         self.inner.memory_bytes()
     }
+    fn replays(&self) -> Option<u64> {
+        self.inner.replays()
+    }
 }
 
 /// Frames a run records before it judges whether the recorder sets the pace.

@@ -76,6 +76,7 @@ fn sample_frame(model: &Model, frame: u64, strain_range: f32, spacing: f32) -> S
             .iter()
             .map(|c| c.path.pose_at(frame as f64 / 60.0).position_m)
             .collect(),
+        digest: None,
     }
 }
 

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::pacing::{Paced, Pacer, RecorderPace, SimPace};
 use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
-use crate::record::{RecordError, RecordOptions, Recorder};
+use crate::record::{Digesting, RecordError, RecordOptions, Recorder};
 use crate::rrd_file::RrdFile;
 use crate::sim::{self, Delivery};
 use crate::state::Snapshot;
@@ -97,6 +97,8 @@ pub fn run(
     } else {
         be
     };
+    // Each snapshot's reductions over every spring are made on the simulation thread.
+    let be: Box<dyn Backend> = Box::new(Digesting::new(be, recorder.digester()));
     // The recorder hands logged snapshots back so that their buffers are reused.
     let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     let (frames, substeps) = (settings.frames, settings.substeps);

@@ -139,6 +139,21 @@ pub struct Snapshot {
     pub stats: StepStats,
     /// Collider positions (`model.effects.colliders` order) at this time.
     pub collider_positions: Vec<Vec3>,
+    /// What the recorder reads from every spring, when a stage before it (on the simulation
+    /// thread) has made it from these strains; `None`: the recorder makes it.
+    pub digest: Option<StrainDigest>,
+}
+
+/// The reductions over every spring of a frame that the recorder draws from: made beside the
+/// simulation, the recorder's own work per frame does not grow with the springs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StrainDigest {
+    /// The most strained intact spring and its strain.
+    pub most: Option<(usize, f32)>,
+    /// The strain histogram's bars.
+    pub histogram: Vec<u64>,
+    /// Per body (model order), each vertex's strain on a reduced surface; empty for the others.
+    pub surfaces: Vec<Vec<f32>>,
 }
 
 impl Snapshot {

@@ -489,3 +489,71 @@ fn a_reduced_surface_is_what_the_recording_holds_and_full_is_asked_for_by_flag()
         assert_eq!(pos.len(), vertices, "--surface {flag}");
     }
 }
+
+#[test]
+fn a_frame_digested_on_the_simulation_thread_records_exactly_as_one_the_recorder_digests() {
+    // The large sheet (a reduced surface, block strains) with a wave through it.
+    let scene = common::ok(hooke::scene::from_toml(
+        BIG_SHEET,
+        hooke::scene::SceneOrigin::Text,
+    ));
+    let loaded = hooke::scene::LoadedScene {
+        scene,
+        origin: hooke::scene::SceneOrigin::Text,
+        text: BIG_SHEET.to_owned(),
+    };
+    let model = common::model_of(BIG_SHEET);
+    let snaps: Vec<Snapshot> = (0..3u64)
+        .map(|k| {
+            let positions: Vec<Vec3> = model
+                .initial
+                .x
+                .iter()
+                .map(|x| *x + Vec3::Z * 0.002 * (x.x * 40.0 + k as f32).sin())
+                .collect();
+            Snapshot {
+                frame: k,
+                time_secs: k as f64 / 60.0,
+                steps: k,
+                strain: model.springs.iter().map(|s| s.strain(&positions)).collect(),
+                positions,
+                energies: Default::default(),
+                stats: Default::default(),
+                collider_positions: Vec::new(),
+                digest: None,
+            }
+        })
+        .collect();
+    let dir = temp_dir("digest");
+    let opts = RecordOptions::default();
+    let plain = dir.join("plain.rrd");
+    record(&loaded, &model, &snaps, opts, &plain);
+    let (rec, _) = common::ok(rerun::RecordingStreamBuilder::new("digest").memory());
+    let digester =
+        hooke::record::Recorder::new(rec, model.clone(), opts.for_scene(&loaded.scene)).digester();
+    let digested: Vec<Snapshot> = snaps
+        .iter()
+        .cloned()
+        .map(|mut s| {
+            digester.digest(&mut s);
+            s
+        })
+        .collect();
+    assert!(
+        digested[1]
+            .digest
+            .as_ref()
+            .is_some_and(|d| !d.surfaces[0].is_empty())
+    );
+    let made = dir.join("digested.rrd");
+    record(&loaded, &model, &digested, opts, &made);
+    let (mut a, mut b) = (read_components(&plain), read_components(&made));
+    for c in [&mut a, &mut b] {
+        // The time each frame took to record, and when the recording began, differ.
+        c.retain(|(e, _), _| e != "/stats/record_ms" && e != "/__properties");
+    }
+    assert_eq!(a.len(), b.len());
+    for (key, rows) in &a {
+        assert_eq!(Some(rows), b.get(key), "{key:?}");
+    }
+}

@@ -53,6 +53,10 @@ pub struct RecordBench {
     pub entity_bytes_per_frame: Vec<(String, f64)>,
     /// Arrow bytes logged once, before the first frame.
     pub static_bytes: u64,
+    /// Wall milliseconds per frame of the digest stage (the reductions over every spring), which
+    /// a run makes on the simulation thread; the passes above log digested frames, as a run's
+    /// recorder thread gets them.
+    pub digest_ms_per_frame: f64,
 }
 
 /// A sink that drops everything: what the recorder costs without any encoding or I/O.
@@ -116,6 +120,7 @@ fn bench_frames(model: &Model, frame_rate_hz: f64, count: usize) -> Vec<crate::s
                     .iter()
                     .map(|p| p.position_m)
                     .collect(),
+                digest: None,
             }
         })
         .collect()
@@ -149,6 +154,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
         frames,
         record: opts.record,
     };
+    let digest_ms_per_frame = bench.digest()?;
     let builder = || rerun::RecordingStreamBuilder::new("hooke-bench-record");
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
 
@@ -195,6 +201,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
         file_bytes_per_frame: file_bytes as f64 / opts.frames as f64,
         entity_bytes_per_frame,
         static_bytes,
+        digest_ms_per_frame,
     })
 }
 
@@ -226,6 +233,20 @@ impl Bench<'_> {
         )
         .map_err(RerunError::from)?;
         Ok(r)
+    }
+
+    /// Digest the distinct frames as a run's simulation thread does (the recorder's digester, on
+    /// every core): the wall milliseconds per frame it took.
+    fn digest(&mut self) -> Result<f64> {
+        let (rec, _) = rerun::RecordingStreamBuilder::new("hooke-bench-digest")
+            .memory()
+            .map_err(RerunError::from)?;
+        let digester = self.recorder(&rec)?.digester();
+        let start = Instant::now();
+        for f in &mut self.frames {
+            digester.digest(f);
+        }
+        Ok(start.elapsed().as_secs_f64() * 1e3 / self.frames.len().max(1) as f64)
     }
 
     /// Log `n` frames, cycling through the distinct ones (renumbered in place: a run hands the
@@ -335,6 +356,11 @@ pub fn format_record(b: &RecordBench) -> String {
                 .map_or_else(|| "unknown".to_owned(), |m| format!("{:.0} MiB", mib(m)))
         );
     }
+    let _ = write!(
+        s,
+        "\ndigest stage (every spring's reductions, on the simulation thread in a run): {:.2} ms per frame",
+        b.digest_ms_per_frame
+    );
     let total: f64 = b.entity_bytes_per_frame.iter().map(|(_, v)| v).sum();
     let _ = write!(
         s,

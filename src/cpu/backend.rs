@@ -154,7 +154,9 @@ impl Backend for CpuBackend {
             energies: Default::default(),
             stats,
             collider_positions: Vec::new(),
+            digest: None,
         });
+        snap.digest = None;
         snap.frame = frame;
         snap.time_secs = t;
         snap.steps = self.state.steps;

@@ -427,6 +427,7 @@ impl GpuBackend {
                 ..self.with_solve(p.stats, rb.solve)
             },
             collider_positions,
+            digest: None,
         }
     }
 }

@@ -21,6 +21,7 @@
 
 pub mod blueprint;
 mod compare;
+mod digest;
 mod error;
 pub mod histogram;
 mod legend;
@@ -36,12 +37,12 @@ pub mod surface;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
 pub use compare::{ColourBy, CompareLayout, CompareRecorder, EntryTally};
+pub use digest::{Digester, Digesting};
 pub use error::{LayoutError, RecordError};
 pub use options::{RecordOptions, describe};
 pub use palette::{Rgb, strain_color};
 pub use recorder::{Recorder, Root};
-pub use scalars::most_strained;
 pub use series::{MORE_SERIES, Plot, SERIES, Series, When};
 pub use springs::SpringSelection;
-pub use strain_summary::StrainSummary;
+pub use strain_summary::{StrainSummary, most_strained};
 pub use surface::{MAX_SURFACE_SIDE, SurfaceDetail};

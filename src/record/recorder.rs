@@ -191,11 +191,18 @@ impl Recorder {
             }
         }
         self.log_colliders(snap)?;
-        let summary = StrainSummary::of(&snap.strain, range);
-        self.log_scalars(snap, summary.most)?;
+        // Made on the simulation thread when a digest stage ran there; here otherwise.
+        let (most, counts) = match &snap.digest {
+            Some(d) => (d.most, d.histogram.clone()),
+            None => {
+                let s = StrainSummary::of(&snap.strain, range);
+                (s.most, s.counts)
+            }
+        };
+        self.log_scalars(snap, most)?;
         self.rec.log(
             self.root.series("stats/strain_histogram"),
-            &rerun::BarChart::update_fields().with_values(summary.counts),
+            &rerun::BarChart::update_fields().with_values(counts),
         )?;
         self.rec.log(
             self.root.series("stats/record_ms"),
@@ -242,7 +249,10 @@ impl Recorder {
             s.surface.positions(&snap.positions, &mut s.positions);
         }
         surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
-        s.surface.strain(m, &snap.strain, &mut s.strain);
+        match snap.digest.as_ref().and_then(|d| d.surfaces.get(bi)) {
+            Some(made) if !made.is_empty() => s.strain.clone_from(made),
+            _ => s.surface.strain(m, &snap.strain, &mut s.strain),
+        }
         let two_sided = s.surface.two_sided;
         let range = self.strain_range;
         s.colors.clear();

@@ -78,16 +78,3 @@ impl Recorder {
         Ok(())
     }
 }
-
-/// The intact spring with the largest |strain|, and its strain.
-pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
-    strain
-        .iter()
-        .copied()
-        .enumerate()
-        .filter(|(_, s)| !s.is_nan())
-        .fold(None, |best: Option<(usize, f32)>, (i, s)| match best {
-            Some((_, b)) if b.abs() >= s.abs() => best,
-            _ => Some((i, s)),
-        })
-}

@@ -7,8 +7,6 @@
 use rayon::prelude::*;
 
 use super::histogram;
-#[cfg(test)]
-use super::scalars::most_strained;
 
 /// Strains a chunk holds: 256 KiB of f32.
 const CHUNK: usize = 1 << 16;
@@ -53,6 +51,19 @@ impl StrainSummary {
             .collect();
         Self { most, counts }
     }
+}
+
+/// The intact spring with the largest |strain|, and its strain.
+pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
+    strain
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, s)| !s.is_nan())
+        .fold(None, |best: Option<(usize, f32)>, (i, s)| match best {
+            Some((_, b)) if b.abs() >= s.abs() => best,
+            _ => Some((i, s)),
+        })
 }
 
 /// [`most_strained`] of a chunk: the largest |strain| found first in a pass the compiler can

@@ -50,7 +50,7 @@ pub struct Surface {
     /// each vertex's nearest corner, whose strain colours it).
     embedding: Option<Vec<crate::mesh::Embedded>>,
     /// A reduced surface: each vertex stands for a block of masses.
-    blocks: Option<Blocks>,
+    blocks: Option<std::sync::Arc<Blocks>>,
 }
 
 /// Grid axes of a body that have more than one mass, with their sizes and index strides.
@@ -223,7 +223,7 @@ impl Surface {
                     (va != NO_VERTEX || vb != NO_VERTEX).then_some([s, va, vb])
                 })
                 .collect();
-            Blocks { stride: k, springs }
+            std::sync::Arc::new(Blocks { stride: k, springs })
         });
         Some(Self {
             vertex_mass: used,
@@ -244,10 +244,18 @@ impl Surface {
     /// Each vertex's strain: [`vertex_strain`] at its mass, or on a reduced surface the most
     /// strained intact structural spring touching its block of masses.
     pub fn strain(&self, model: &Model, strain: &[f32], out: &mut Vec<f32>) {
-        match &self.blocks {
+        match self.block_strain() {
             None => vertex_strain(model, strain, &self.vertex_mass, out),
-            Some(b) => block_strain(&b.springs, strain, self.vertex_mass.len(), out),
+            Some(b) => b.of(strain, out),
         }
+    }
+
+    /// A reduced surface's vertex strains, as a value another thread can make them with.
+    pub(super) fn block_strain(&self) -> Option<BlockStrain> {
+        self.blocks.as_ref().map(|b| BlockStrain {
+            blocks: b.clone(),
+            vertices: self.vertex_mass.len(),
+        })
     }
 
     /// A mesh body's own triangles. Cloth tears where its edge springs break; a lattice's
@@ -364,6 +372,19 @@ fn push_face(
             };
             quads.push([corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)]);
         }
+    }
+}
+
+/// What makes a reduced surface's vertex strains: its blocks' springs and how many vertices.
+#[derive(Debug, Clone)]
+pub(super) struct BlockStrain {
+    blocks: std::sync::Arc<Blocks>,
+    vertices: usize,
+}
+
+impl BlockStrain {
+    pub(super) fn of(&self, strain: &[f32], out: &mut Vec<f32>) {
+        block_strain(&self.blocks.springs, strain, self.vertices, out);
     }
 }
 

@@ -1,0 +1,104 @@
+//! The digest stage: the reductions over every spring that a frame's recording draws from (the
+//! histogram, the most strained spring, a reduced surface's block strains), made on the
+//! simulation thread as each snapshot is collected, so that the recorder thread's work per frame
+//! follows the surface it draws and not the springs behind it. On a GPU run the simulation
+//! thread mostly waits for the device, so this work is taken off the recorder for free; a
+//! snapshot without a digest (a comparison's entries, a test's) is digested by the recorder
+//! itself, with the same functions.
+
+use crate::backend::{Backend, BackendError};
+use crate::state::{Snapshot, State, StepStats, StrainDigest};
+
+use super::recorder::Recorder;
+use super::strain_summary::StrainSummary;
+use super::surface::BlockStrain;
+
+/// Makes a snapshot's [`StrainDigest`] for one recorder's options and surfaces.
+#[derive(Debug, Clone)]
+pub struct Digester {
+    strain_range: f32,
+    /// Per body, its reduced surface's block strains.
+    surfaces: Vec<Option<BlockStrain>>,
+}
+
+impl Digester {
+    pub fn digest(&self, snap: &mut Snapshot) {
+        let summary = StrainSummary::of(&snap.strain, self.strain_range);
+        let surfaces = self
+            .surfaces
+            .iter()
+            .map(|b| {
+                let mut out = Vec::new();
+                if let Some(b) = b {
+                    b.of(&snap.strain, &mut out);
+                }
+                out
+            })
+            .collect();
+        snap.digest = Some(StrainDigest {
+            most: summary.most,
+            histogram: summary.counts,
+            surfaces,
+        });
+    }
+}
+
+impl Recorder {
+    /// What makes this recorder's digests, to run where the snapshots are made.
+    pub fn digester(&self) -> Digester {
+        Digester {
+            strain_range: self.strain_range,
+            surfaces: self
+                .bodies
+                .iter()
+                .map(|b| b.surface.as_ref().and_then(|s| s.surface.block_strain()))
+                .collect(),
+        }
+    }
+}
+
+/// A backend whose snapshots come out digested.
+pub struct Digesting {
+    inner: Box<dyn Backend>,
+    digester: Digester,
+}
+
+impl Digesting {
+    pub fn new(inner: Box<dyn Backend>, digester: Digester) -> Self {
+        Self { inner, digester }
+    }
+}
+
+impl Backend for Digesting {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        self.inner.advance(substeps)
+    }
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        self.inner.request_snapshot(frame, stats)
+    }
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        let mut snap = self.inner.collect_snapshot()?;
+        if let Some(s) = &mut snap {
+            self.digester.digest(s);
+        }
+        Ok(snap)
+    }
+    fn state(&mut self) -> Result<State, BackendError> {
+        self.inner.state()
+    }
+    fn recycle(&mut self, snapshot: Snapshot) {
+        self.inner.recycle(snapshot)
+    }
+    fn finish(&mut self) -> Result<(), BackendError> {
+        self.inner.finish()
+    }
+    fn memory_bytes(&self) -> Option<u64> {
+        self.inner.memory_bytes()
+    }
+    fn replays(&self) -> Option<u64> {
+        self.inner.replays()
+    }
+}

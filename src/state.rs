@@ -141,7 +141,7 @@ pub struct Snapshot {
     pub collider_positions: Vec<Vec3>,
     /// What the recorder reads from every spring, when a stage before it (on the simulation
     /// thread) has made it from these strains; `None`: the recorder makes it.
-    pub digest: Option<StrainDigest>,
+    pub digest: Option<Box<StrainDigest>>,
 }
 
 /// The reductions over every spring of a frame that the recorder draws from: made beside the

@@ -155,6 +155,7 @@ impl Backend for Slow {
             energies: Default::default(),
             stats,
             collider_positions: Vec::new(),
+            digest: None,
         });
         Ok(())
     }

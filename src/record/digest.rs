@@ -35,11 +35,11 @@ impl Digester {
                 out
             })
             .collect();
-        snap.digest = Some(StrainDigest {
+        snap.digest = Some(Box::new(StrainDigest {
             most: summary.most,
             histogram: summary.counts,
             surfaces,
-        });
+        }));
     }
 }
 

@@ -97,6 +97,54 @@ pub trait Backend: Send {
     }
 }
 
+/// A backend whose snapshots pass through `then` as they are collected, on the thread that
+/// collects them (the simulation thread): `--realtime` holds each until its time, the recorder's
+/// digest stage reduces its strains. Everything else goes straight to `inner`.
+pub struct Then<F> {
+    inner: Box<dyn Backend>,
+    then: F,
+}
+
+impl<F: FnMut(&mut Snapshot) + Send> Then<F> {
+    pub fn new(inner: Box<dyn Backend>, then: F) -> Self {
+        Self { inner, then }
+    }
+}
+
+impl<F: FnMut(&mut Snapshot) + Send> Backend for Then<F> {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        self.inner.advance(substeps)
+    }
+    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
+        self.inner.request_snapshot(frame, stats)
+    }
+    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
+        let mut snap = self.inner.collect_snapshot()?;
+        if let Some(s) = &mut snap {
+            (self.then)(s);
+        }
+        Ok(snap)
+    }
+    fn state(&mut self) -> Result<State, BackendError> {
+        self.inner.state()
+    }
+    fn recycle(&mut self, snapshot: Snapshot) {
+        self.inner.recycle(snapshot)
+    }
+    fn finish(&mut self) -> Result<(), BackendError> {
+        self.inner.finish()
+    }
+    fn memory_bytes(&self) -> Option<u64> {
+        self.inner.memory_bytes()
+    }
+    fn replays(&self) -> Option<u64> {
+        self.inner.replays()
+    }
+}
+
 /// Advance `steps` steps in submissions of at most `batch` substeps (a GPU encodes each batch
 /// into one submission; the CPU does not care).
 pub fn advance_steps(be: &mut dyn Backend, steps: u64, batch: u32) -> Result<(), BackendError> {

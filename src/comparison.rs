@@ -12,7 +12,7 @@ use crossbeam_channel::Sender;
 use crate::backend::{Backend, BackendError};
 use crate::compare_entry::CompareEntry;
 use crate::error::{Error, Result};
-use crate::pacing::{Paced, Pacer};
+use crate::pacing::{Pacer, paced};
 use crate::prepare::PreparedComparison;
 use crate::progress::Progress;
 use crate::record::{CompareLayout, CompareRecorder, EntryTally};
@@ -106,7 +106,7 @@ pub fn run_comparison(
         .into_iter()
         .map(|e| -> Box<dyn Backend> {
             if opts.realtime {
-                Box::new(Paced::new(e.backend, Pacer::start(frame_rate_hz)))
+                paced(e.backend, Pacer::start(frame_rate_hz))
             } else {
                 e.backend
             }

@@ -1,13 +1,13 @@
 //! `--realtime`: a live view that never runs ahead of the wall clock.
 //!
-//! [`Paced`] wraps a backend and holds each snapshot until its time has come: frame k is handed
+//! [`paced`] wraps a backend and holds each snapshot until its time has come: frame k is handed
 //! out no earlier than k / frame_rate seconds of wall time after the first. A run that cannot keep
 //! up simply runs late; nothing is skipped to catch up.
 
 use std::time::{Duration, Instant};
 
-use crate::backend::{Backend, BackendError};
-use crate::state::{Snapshot, State, StepStats};
+use crate::backend::{Backend, Then};
+use crate::state::Snapshot;
 
 /// The wall-clock schedule of frames.
 #[derive(Debug, Clone, Copy)]
@@ -44,52 +44,13 @@ impl Pacer {
     }
 }
 
-/// A backend whose snapshots are released on the wall clock's schedule. Stepping is not held
-/// back: the next frame is stepped while this one waits (one frame ahead at most, since the
-/// simulation thread waits on each snapshot).
-pub struct Paced {
-    inner: Box<dyn Backend>,
-    pacer: Pacer,
-}
-
-impl Paced {
-    pub fn new(inner: Box<dyn Backend>, pacer: Pacer) -> Self {
-        Self { inner, pacer }
-    }
-}
-
-impl Backend for Paced {
-    fn describe(&self) -> String {
-        self.inner.describe()
-    }
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
-        self.inner.advance(substeps)
-    }
-    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
-        self.inner.request_snapshot(frame, stats)
-    }
-    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
-        let snap = self.inner.collect_snapshot()?;
-        if let Some(s) = &snap {
-            self.pacer.wait_for(s.frame);
-        }
-        Ok(snap)
-    }
-    fn state(&mut self) -> Result<State, BackendError> {
-        self.inner.state()
-    }
-    fn recycle(&mut self, snapshot: Snapshot) {
-        self.inner.recycle(snapshot)
-    }
-    fn finish(&mut self) -> Result<(), BackendError> {
-        self.inner.finish()
-    }
-    fn memory_bytes(&self) -> Option<u64> {
-        self.inner.memory_bytes()
-    }
-    fn replays(&self) -> Option<u64> {
-        self.inner.replays()
-    }
+/// `inner`, its snapshots released on the wall clock's schedule. Stepping is not held back: the
+/// next frame is stepped while this one waits (one frame ahead at most, since the simulation
+/// thread waits on each snapshot).
+pub fn paced(inner: Box<dyn Backend>, pacer: Pacer) -> Box<dyn Backend> {
+    Box::new(Then::new(inner, move |s: &mut Snapshot| {
+        pacer.wait_for(s.frame)
+    }))
 }
 
 /// Frames a run records before it judges whether the recorder sets the pace.

@@ -8,10 +8,10 @@ use crossbeam_channel::Sender;
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::pacing::{Paced, Pacer, RecorderPace, SimPace};
+use crate::pacing::{Pacer, RecorderPace, SimPace, paced};
 use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
-use crate::record::{Digesting, RecordError, RecordOptions, Recorder};
+use crate::record::{RecordError, RecordOptions, Recorder, digesting};
 use crate::rrd_file::RrdFile;
 use crate::sim::{self, Delivery};
 use crate::state::Snapshot;
@@ -93,12 +93,12 @@ pub fn run(
     let start = std::time::Instant::now();
     let mut progress = Progress::new(opts.progress, settings.frames + 1, &loaded.scene.name);
     let be: Box<dyn Backend> = if opts.realtime {
-        Box::new(Paced::new(be, Pacer::start(settings.frame_rate_hz)))
+        paced(be, Pacer::start(settings.frame_rate_hz))
     } else {
         be
     };
     // Each snapshot's reductions over every spring are made on the simulation thread.
-    let be: Box<dyn Backend> = Box::new(Digesting::new(be, recorder.digester()));
+    let be = digesting(be, recorder.digester());
     // The recorder hands logged snapshots back so that their buffers are reused.
     let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     let (frames, substeps) = (settings.frames, settings.substeps);

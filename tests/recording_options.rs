@@ -90,7 +90,7 @@ fn realtime_never_delivers_a_frame_before_its_time() {
         Step::new(settings.integrator, settings.dt_secs),
     ));
     let pacer = hooke::pacing::Pacer::start(settings.frame_rate_hz);
-    let mut paced = hooke::pacing::Paced::new(be, pacer);
+    let mut paced = hooke::pacing::paced(be, pacer);
     let (tx, rx) = crossbeam_channel::bounded(64);
     let frames = 12;
     let cancel = std::sync::atomic::AtomicBool::new(false);
@@ -101,7 +101,7 @@ fn realtime_never_delivers_a_frame_before_its_time() {
                 .collect::<Vec<_>>()
         });
         let out = hooke::sim::simulate(
-            &mut paced,
+            paced.as_mut(),
             frames,
             settings.substeps,
             &tx,

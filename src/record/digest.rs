@@ -6,8 +6,8 @@
 //! snapshot without a digest (a comparison's entries, a test's) is digested by the recorder
 //! itself, with the same functions.
 
-use crate::backend::{Backend, BackendError};
-use crate::state::{Snapshot, State, StepStats, StrainDigest};
+use crate::backend::{Backend, Then};
+use crate::state::{Snapshot, StrainDigest};
 
 use super::recorder::Recorder;
 use super::strain_summary::StrainSummary;
@@ -57,48 +57,7 @@ impl Recorder {
     }
 }
 
-/// A backend whose snapshots come out digested.
-pub struct Digesting {
-    inner: Box<dyn Backend>,
-    digester: Digester,
-}
-
-impl Digesting {
-    pub fn new(inner: Box<dyn Backend>, digester: Digester) -> Self {
-        Self { inner, digester }
-    }
-}
-
-impl Backend for Digesting {
-    fn describe(&self) -> String {
-        self.inner.describe()
-    }
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
-        self.inner.advance(substeps)
-    }
-    fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
-        self.inner.request_snapshot(frame, stats)
-    }
-    fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
-        let mut snap = self.inner.collect_snapshot()?;
-        if let Some(s) = &mut snap {
-            self.digester.digest(s);
-        }
-        Ok(snap)
-    }
-    fn state(&mut self) -> Result<State, BackendError> {
-        self.inner.state()
-    }
-    fn recycle(&mut self, snapshot: Snapshot) {
-        self.inner.recycle(snapshot)
-    }
-    fn finish(&mut self) -> Result<(), BackendError> {
-        self.inner.finish()
-    }
-    fn memory_bytes(&self) -> Option<u64> {
-        self.inner.memory_bytes()
-    }
-    fn replays(&self) -> Option<u64> {
-        self.inner.replays()
-    }
+/// `inner`, its snapshots digested by `digester` as they are collected.
+pub fn digesting(inner: Box<dyn Backend>, digester: Digester) -> Box<dyn Backend> {
+    Box::new(Then::new(inner, move |s: &mut Snapshot| digester.digest(s)))
 }

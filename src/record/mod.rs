@@ -37,7 +37,7 @@ pub mod surface;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
 pub use compare::{ColourBy, CompareLayout, CompareRecorder, EntryTally};
-pub use digest::{Digester, Digesting};
+pub use digest::{Digester, digesting};
 pub use error::{LayoutError, RecordError};
 pub use options::{RecordOptions, describe};
 pub use palette::{Rgb, strain_color};

@@ -92,13 +92,14 @@ pub fn run(
 
     let start = std::time::Instant::now();
     let mut progress = Progress::new(opts.progress, settings.frames + 1, &loaded.scene.name);
+    // Each snapshot's reductions over every spring are made on the simulation thread, before
+    // --realtime holds it (so that its release is not delayed by them).
+    let be = digesting(be, recorder.digester());
     let be: Box<dyn Backend> = if opts.realtime {
         paced(be, Pacer::start(settings.frame_rate_hz))
     } else {
         be
     };
-    // Each snapshot's reductions over every spring are made on the simulation thread.
-    let be = digesting(be, recorder.digester());
     // The recorder hands logged snapshots back so that their buffers are reused.
     let (back_tx, back_rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY + 2);
     let (frames, substeps) = (settings.frames, settings.substeps);

@@ -21,8 +21,15 @@ fn gpu_implicit_euler_matches_the_cpu() {
         return;
     }
     // hair: no contacts; cloth: falling towards its sphere, touching nothing in these frames;
-    // jello-sphere: resting on the ground, struck by the moving sphere from frame 15.
-    for (name, frames) in [("hair", 10), ("cloth", 6), ("jello-sphere", 20)] {
+    // jello-sphere: resting on the ground, struck by the moving sphere from frame 15; flag and
+    // blob, mesh bodies (cloth from an OBJ, a lattice-filled closed mesh), swinging and falling.
+    for (name, frames) in [
+        ("hair", 10),
+        ("cloth", 6),
+        ("jello-sphere", 20),
+        ("flag", 6),
+        ("blob", 10),
+    ] {
         implicit_parity(name, frames, hooke::gpu::ImplicitPath::InGroup);
     }
 }

@@ -13,22 +13,27 @@ pub fn counts(strain: &[f32], range: f32, out: &mut Vec<u64>) {
     out.clear();
     out.resize(BINS + 2, 0);
     for &s in strain {
-        if !s.is_nan() {
-            out[bar(s, range)] += 1;
+        let b = usize::from(bar(s, range));
+        if b != NAN_BAR {
+            out[b] += 1;
         }
     }
 }
 
-/// The bar of a strain that is not NaN. Written without branches (a clamp and a select), so
-/// that a loop over many strains vectorises.
+/// Where a NaN strain (a broken spring) goes: past the bars, counted by none.
+pub const NAN_BAR: usize = BINS + 2;
+
+/// The bar of a strain ([`NAN_BAR`] for NaN). Written without branches (clamps, selects and an
+/// i32 conversion), so that a loop over many strains vectorises (`StrainSummary`).
 #[inline]
-pub fn bar(s: f32, range: f32) -> usize {
+pub fn bar(s: f32, range: f32) -> u8 {
     let per_bin = BINS as f32 / (2.0 * range);
     // Bins from 1: below −range (q < 0) truncates to bar 0, the bar before the bins, with no
     // call to floor (a library call on baseline x86-64); s = +range falls in the last bin.
     let q = ((s + range) * per_bin).max(-1.0).min(BINS as f32 - 1.0);
     let q = if s > range { BINS as f32 } else { q };
-    (q + 1.0) as usize
+    let q = if s.is_nan() { NAN_BAR as f32 - 1.0 } else { q };
+    (q + 1.0) as i32 as u8
 }
 
 /// Centre of each bar: the bins', and one bin width beyond each end for the two outer bars.

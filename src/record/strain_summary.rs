@@ -78,19 +78,11 @@ fn most_of(c: &[f32]) -> Option<(usize, f32)> {
 /// the compiler vectorises), then counted in four tallies taken in turn, since most strains fall
 /// in a bar or two and one tally would make each increment wait on the last.
 fn counts_of(c: &[f32], range: f32) -> Vec<u64> {
-    const NAN_BAR: usize = histogram::BINS + 2;
-    let mut tally = [[0u32; histogram::BINS + 3]; 4];
+    let mut tally = [[0u32; histogram::NAN_BAR + 1]; 4];
     let mut bars = [0u8; 1024];
     for block in c.chunks(1024) {
-        let per_bin = histogram::BINS as f32 / (2.0 * range);
         for (b, &s) in bars.iter_mut().zip(block) {
-            // histogram::bar, spelled out so that this loop vectorises (an i32 conversion).
-            let q = ((s + range) * per_bin)
-                .max(-1.0)
-                .min(histogram::BINS as f32 - 1.0);
-            let q = if s > range { histogram::BINS as f32 } else { q };
-            let q = if s.is_nan() { NAN_BAR as f32 - 1.0 } else { q };
-            *b = (q + 1.0) as i32 as u8;
+            *b = histogram::bar(s, range);
         }
         for (i, &b) in bars[..block.len()].iter().enumerate() {
             tally[i & 3][usize::from(b)] += 1;

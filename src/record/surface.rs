@@ -432,8 +432,7 @@ fn block_strain(springs: &[[u32; 3]], strain: &[f32], vertices: usize, out: &mut
             })
             .unwrap_or_else(|| vec![0.0; vertices])
     };
-    out.clear();
-    out.extend(merged);
+    *out = merged;
 }
 
 /// The signed strain of the most strained intact structural spring at each mass of

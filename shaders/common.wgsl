@@ -19,12 +19,11 @@ override HAS_TEARING: bool = false;
 // Implicit Euler: compute_forces also linearises the contacts, and the solver's stopping rules
 // (set from src/physics/solver.rs, so both backends stop alike).
 override IMPLICIT: bool = false;
-override CG_TOLERANCE: f32 = 1e-4;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
-override NEWTON_FLOOR: f32 = 1e-2;
-override NEWTON_STALL: f32 = 0.5;
+override NEWTON_RESIDUAL: f32 = 3e-2;
+override CG_FORCING: f32 = 0.1;
 // Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads; at most 64).
 override GROUP_THREADS: u32 = 64u;
 // Where the one-workgroup step keeps the solver's vectors and spring terms (implicit_terms.wgsl,
@@ -106,15 +105,16 @@ struct Spring {
     damping: f32,
 }
 
-// XPBD: a spring's constants for the substep length h (XpbdSpring in src/cpu/xpbd.rs), and the
-// colour a dispatch of xpbd_solve_spring solves (XpbdColour in src/gpu/layout.rs).
+// XPBD: a spring's constants for the substep length h (XpbdSpring in src/cpu/xpbd.rs). And the
+// colour a dispatch of xpbd_solve_spring or vbd_solve_mass solves (ColourRange in
+// src/gpu/layout.rs).
 struct XpbdSpring {
     alpha_tilde: f32,
     gamma: f32,
 }
 
-struct XpbdColour {
-    // The colour's springs are colour_order[start .. start + count].
+struct ColourRange {
+    // The colour's springs (XPBD) or masses (VBD) are colour_order[start .. start + count].
     start: u32,
     count: u32,
     // 1 on a substep's first sweep: the multipliers start from zero.
@@ -277,7 +277,7 @@ fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, 
 
 // Implicit Euler's per-mass vectors, each a block of mass_count vec4s in the per-mass scratch
 // buffer (RK4's stage sums otherwise): Δv so far, the CG update δ, residual, preconditioned
-// residual, search direction, A·p, and the system's diagonal.
+// residual, search direction, A·p, and the inverted diagonal block (xx, yy, zz, xy; xz, yz).
 const DV_TOTAL: u32 = 0u;
 const DV: u32 = 1u;
 const RESIDUAL: u32 = 2u;
@@ -285,7 +285,8 @@ const PRECONDITIONED: u32 = 3u;
 const DIRECTION: u32 = 4u;
 const PRODUCT: u32 = 5u;
 const DIAGONAL: u32 = 6u;
-const SOLVER_VECTORS: u32 = 7u;
+const DIAGONAL_OFF: u32 = 7u;
+const SOLVER_VECTORS: u32 = 8u;
 
 fn block(k: u32, i: u32) -> u32 {
     return k * params.mass_count + i;

@@ -1,10 +1,11 @@
-// Implicit Euler (src/cpu/implicit.rs's implicit_step): Δv starts at zero; for each Newton iterate
-// (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv), forces_on (mass_force.wgsl) evaluates f and linearises the
-// contacts, and
+// Implicit Euler (src/cpu/implicit.rs's implicit_step): Δv starts at zero; for each
+// Newton iterate (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv), forces_on (mass_force.wgsl) evaluates f and
+// linearises the contacts, and
 //   (M − h D − h² K) δ = h f(x, v) − M Δv
-// is solved by matrix-free conjugate gradients with a Jacobi preconditioner; the step ends at the
-// last iterate. The arithmetic per mass is written once (the *_at functions in
-// implicit_terms.wgsl, compiled before this file); two ways run it:
+// is solved by matrix-free conjugate gradients with a 3 × 3 block-Jacobi preconditioner, to a
+// share of the Newton residual (inexact Newton); the step ends at the last iterate. The
+// arithmetic per mass is written once (the *_at functions in implicit_terms.wgsl, compiled
+// before this file); two ways run it:
 // - implicit_step: one workgroup loops over the whole step in one dispatch, every sum reduced in
 //   workgroup memory, every stopping rule decided on the device. For small systems
 //   (src/gpu/implicit/plan.rs says which): no host wait, one dispatch per step.
@@ -17,16 +18,16 @@
 
 // Bindings: `Solve` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force spring_records state_check implicit_terms
+// #import mass_force spring_records state_check system_blocks implicit_terms
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus.
 struct Solver {
     // r·z of the current iteration, and the β that cg_apply took for it (cg_advance's p).
     rz: f32,
     beta: f32,
-    // |h f| of the step's first Newton iterate: residuals are relative to it.
+    // |h f| of the step's first Newton iterate: Newton's residuals are relative to it.
     scale: f32,
-    // |r| / scale of the current solve.
+    // |r| / |b| of the current solve.
     residual: f32,
     // Largest final residual over the step's solves.
     max_residual: f32,
@@ -40,8 +41,8 @@ struct Solver {
     newton: u32,
     newton_pending: u32,
     converged: u32,
-    // |h f − M Δv| at the last Newton iterate (newton_stalled).
-    last_residual: f32,
+    // |b| of the current solve's start: its residual is relative to it.
+    b_norm: f32,
 }
 
 // What the per-pass kernels learn of a frame, read back once by the host (src/gpu/layout.rs's
@@ -137,16 +138,16 @@ fn group_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
 
 // ---- one workgroup, the whole step ----
 
-// The conjugate-gradient solve from implicit_rhs's start (r·z = `rz`, |b| = `b_norm`) to
-// |r| ≤ CG_TOLERANCE · `scale`, each thread on the masses lid, lid + GROUP_THREADS, …. Returns the
+// The conjugate-gradient solve from implicit_rhs's start (r·z = `rz`, |b| = `b_norm`) until
+// cg_goes_on says, each thread on the masses lid, lid + GROUP_THREADS, …. Returns the
 // iterations and the final relative residual (as src/cpu/implicit.rs's solve).
-fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32> {
+fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32) -> vec2<f32> {
     let n = params.mass_count;
-    if (b_norm == 0.0 || scale == 0.0) {
+    if (b_norm == 0.0) {
         return vec2<f32>(0.0);
     }
     var rz = rz_start;
-    var residual = b_norm / scale;
+    var residual = 1.0;
     var iterations = 0u;
     while (cg_goes_on(residual, iterations)) {
         iterations += 1u;
@@ -168,7 +169,7 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32, scale: f32) -> vec2<f32>
         let sums = group_reduce(lid, rr, false);
         let beta = sums.x / rz;
         rz = sums.x;
-        residual = sqrt(sums.y) / scale;
+        residual = sqrt(sums.y) / b_norm;
         for (var i = lid; i < n; i += GROUP_THREADS) {
             cg_direction_at(i, beta);
         }
@@ -187,7 +188,6 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
         implicit_begin_at(i);
     }
     var scale = 0.0;
-    var last_residual = F32_MAX;
     var iterations = 0u;
     var max_residual = 0.0;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
@@ -203,13 +203,13 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
         let t = group_reduce(lid, start, false);
         let b_norm = sqrt(t.y);
         if (scale == 0.0) {
-            scale = b_norm;
+            // The step's momentum change |h f| at its first iterate.
+            scale = sqrt(t.z);
         }
-        if (newton_stalled(b_norm, last_residual, scale)) {
+        if (newton_done(b_norm, scale)) {
             break;
         }
-        last_residual = b_norm;
-        let solved = solve_in_group(lid, t.x, b_norm, scale);
+        let solved = solve_in_group(lid, t.x, b_norm);
         iterations += u32(solved.x);
         max_residual = max(max_residual, solved.y);
         var norms = vec4<f32>(0.0);
@@ -234,7 +234,7 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
 // at most a cap the host picks for the device), each thread striding over the masses, so every
 // workgroup can sum all of the last pass's partials itself, in the same fixed order: a dot
 // product's total needs no dispatch of its own. A CG iteration is two dispatches:
-//   cg_advance: α from the p·Ap partials; p = z + βp, δ += αp, r −= αAp, z = r / diag; partials
+//   cg_advance: α from the p·Ap partials; p = z + βp, δ += αp, r −= αAp, z = B⁻¹r; partials
 //               (r·z, r·r);
 //   cg_apply:   β and the stopping rule from those partials; Ap with the next p taken on the fly
 //               (z + βp at each neighbour: p itself is only written by the next cg_advance);
@@ -328,7 +328,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
 // nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, F32_MAX);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0);
     if (scratch.frame.overran != 0u) {
         scratch.solver.converged = 1u;
     }
@@ -352,7 +352,8 @@ fn forces_and_rhs(
     store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
 }
 
-// After forces_and_rhs: r·z, the residual scale (the first iterate's |b|), and whether to iterate.
+// After forces_and_rhs: r·z, the residual scale (the first iterate's |h f|), and whether to
+// iterate.
 @compute @workgroup_size(64)
 fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (!newton_running(lid)) {
@@ -367,25 +368,25 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     scratch.frame.newton_most = max(scratch.frame.newton_most, sv.newton + 1u);
     let b_norm = sqrt(t.y);
     if (sv.scale == 0.0) {
-        sv.scale = b_norm;
+        sv.scale = sqrt(t.z);
     }
-    if (newton_stalled(b_norm, sv.last_residual, sv.scale)) {
-        // Newton has converged as far as f32 forces go: the step ends at this iterate.
+    if (newton_done(b_norm, sv.scale)) {
+        // The step's equations hold well enough: the step ends at this iterate.
         sv.cg_active = 0u;
         sv.newton_pending = 0u;
         sv.converged = 1u;
         scratch.solver = sv;
         return;
     }
-    sv.last_residual = b_norm;
     sv.rz = t.x;
     sv.iterations = 0u;
     sv.newton_pending = 1u;
-    if (b_norm == 0.0 || sv.scale == 0.0) {
+    sv.b_norm = b_norm;
+    if (b_norm == 0.0) {
         sv.residual = 0.0;
         sv.cg_active = 0u;
     } else {
-        sv.residual = b_norm / sv.scale;
+        sv.residual = 1.0;
         sv.cg_active = select(0u, 1u, cg_goes_on(sv.residual, 0u));
     }
     scratch.solver = sv;
@@ -410,7 +411,7 @@ fn cg_apply(
     }
     let t = grid_total(lid, RHS_SUMS, false);
     let first = sv.iterations == 0u;
-    sv.residual = sqrt(t.y) / sv.scale;
+    sv.residual = sqrt(t.y) / sv.b_norm;
     if (!cg_goes_on(sv.residual, sv.iterations)) {
         sv.cg_active = 0u;
         if (writer) {
@@ -431,7 +432,7 @@ fn cg_apply(
 }
 
 // The second half of a CG iteration: α = r·z / p·Ap, or the solve stops where it is; then each
-// mass's p = z + βp, δ += αp, r −= αAp, z = r / diag. Partials: (r·z, r·r).
+// mass's p = z + βp, δ += αp, r −= αAp, z = B⁻¹r. Partials: (r·z, r·r).
 @compute @workgroup_size(64)
 fn cg_advance(
     @builtin(global_invocation_id) gid: vec3<u32>,

@@ -45,9 +45,10 @@ fn set_term(slot: u32, value: vec4<f32>) {
 
 // ---- the stopping rules, as src/cpu/implicit.rs's ----
 
-// Whether CG goes on at relative residual `residual` after `iterations` iterations.
+// Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
+// after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
 fn cg_goes_on(residual: f32, iterations: u32) -> bool {
-    return residual > CG_TOLERANCE && iterations < CG_MAX_ITERATIONS;
+    return residual > CG_FORCING && iterations < CG_MAX_ITERATIONS;
 }
 
 // A solve whose p·Ap is not positive and finite stops where it is.
@@ -60,10 +61,10 @@ fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
     return step_norm <= NEWTON_TOLERANCE * size_norm || step_norm < 1e-7;
 }
 
-// Newton's residual has stalled at the floor of f32 forces (src/cpu/implicit.rs's newton_stalled):
-// below NEWTON_FLOOR of the step's first, and not halved since the last iterate's.
-fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
-    return residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last;
+// Newton's residual is small enough to end the step at this iterate: at most NEWTON_RESIDUAL of
+// the step's momentum change |h f| at its first iterate.
+fn newton_done(residual: f32, scale: f32) -> bool {
+    return residual <= NEWTON_RESIDUAL * scale;
 }
 
 // A finished step's CG iterations and residual, kept for the frame's snapshot.
@@ -74,34 +75,6 @@ fn book_solve(iterations: u32, residual: f32) {
 
 // ---- the system, per mass ----
 
-struct SpringTerms {
-    n: vec3<f32>,
-    // h²k along n, h²k·max(0, 1 − L/l) across it, h c along it.
-    stiff_along: f32,
-    stiff_across: f32,
-    damp_along: f32,
-}
-
-// One spring's share of the system at the iterate, seen from mass i (src/cpu/implicit.rs's
-// linearise; the sign of n does not matter, the terms are in n nᵀ).
-fn spring_terms(i: u32, nb: Neighbor) -> SpringTerms {
-    let s = springs[nb.spring];
-    let d = x_in[i].xyz - x_in[nb.other].xyz;
-    let len = length(d);
-    var t = SpringTerms(vec3<f32>(0.0), 0.0, 0.0, 0.0);
-    if (len > MIN_SPRING_LENGTH) {
-        let h = stage.dt;
-        let k = h * h * s.stiffness;
-        t.n = d * (1.0 / len);
-        t.stiff_along = k;
-        t.stiff_across = k * max(1.0 - s.rest / len, 0.0);
-        if (HAS_DAMPING) {
-            t.damp_along = h * s.damping;
-        }
-    }
-    return t;
-}
-
 fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
     let n2 = 2u * params.mass_count;
     let d = deriv[n2 + 2u * i].xyz;
@@ -111,14 +84,6 @@ fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
         o.x * p.x + d.y * p.y + o.z * p.z,
         o.y * p.x + o.z * p.y + d.z * p.z,
     );
-}
-
-fn own_mass_term(i: u32) -> f32 {
-    var drag = 0.0;
-    if (HAS_DRAG) {
-        drag = params.drag_per_s;
-    }
-    return mass[i].x * (1.0 + stage.dt * drag);
 }
 
 // ---- the passes, per mass: src/cpu/implicit.rs's functions of the same names ----
@@ -142,17 +107,32 @@ fn implicit_final_at(i: u32) {
     check_state(x[i].xyz, vn);
 }
 
-// Newton's right-hand side h f − M Δv, the Jacobi diagonal, and the solve's start from δ = 0:
-// r = b, z = r / diag, p = z. Returns (r·z, b·b).
+// The preconditioner's inverted block of mass i, stored symmetric in two vectors.
+fn block_inverse_at(i: u32) -> mat3x3<f32> {
+    let d = vector_at(DIAGONAL, i);
+    let o = vector_at(DIAGONAL_OFF, i);
+    return mat3x3<f32>(
+        vec3<f32>(d.x, d.w, o.x),
+        vec3<f32>(d.w, d.y, o.y),
+        vec3<f32>(o.x, o.y, d.z),
+    );
+}
+
+// Newton's right-hand side h f − M Δv, the inverted diagonal block of the block-Jacobi
+// preconditioner, and the solve's start from δ = 0: r = b, z = B⁻¹ r, p = z. Returns
+// (r·z, b·b, |h f|², 0).
 fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var b = vec3<f32>(0.0);
-    var diag = vec3<f32>(1.0);
+    var hf = vec3<f32>(0.0);
+    var inv = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
     if (mass[i].y != 0.0) {
         let m = mass[i].x;
-        b = stage.dt * m * deriv[2u * i].xyz - m * vector_at(DV_TOTAL, i).xyz;
-        diag = vec3<f32>(own_mass_term(i));
+        hf = stage.dt * m * deriv[2u * i].xyz;
+        b = hf - m * vector_at(DV_TOTAL, i).xyz;
+        var block = own_block(i);
         if (has_contact_terms()) {
-            diag += deriv[2u * params.mass_count + 2u * i].xyz;
+            let n2 = 2u * params.mass_count;
+            block += symmetric_block(deriv[n2 + 2u * i].xyz, deriv[n2 + 2u * i + 1u].xyz);
         }
         let end = offsets[i + 1u];
         for (var e = offsets[i]; e < end; e++) {
@@ -160,16 +140,18 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
             let along = t.stiff_along + t.damp_along;
             set_term(2u * e, vec4<f32>(t.n, along));
             set_term(2u * e + 1u, vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0));
-            diag += along * t.n * t.n + t.stiff_across * (vec3<f32>(1.0) - t.n * t.n);
+            block += spring_block(t);
         }
+        inv = invert_block(block);
     }
-    let z = b / diag;
+    let z = inv * b;
     set_vector(DV, i, vec4<f32>(0.0));
     set_vector(RESIDUAL, i, vec4<f32>(b, 0.0));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     set_vector(DIRECTION, i, vec4<f32>(z, 0.0));
-    set_vector(DIAGONAL, i, vec4<f32>(diag, 0.0));
-    return vec4<f32>(dot(b, z), dot(b, b), 0.0, 0.0);
+    set_vector(DIAGONAL, i, vec4<f32>(inv[0][0], inv[1][1], inv[2][2], inv[0][1]));
+    set_vector(DIAGONAL_OFF, i, vec4<f32>(inv[0][2], inv[1][2], 0.0, 0.0));
+    return vec4<f32>(dot(b, z), dot(b, b), dot(hf, hf), 0.0);
 }
 
 // The search direction at mass j: p, or (`pending`: the per-pass cg_apply, before cg_advance
@@ -206,11 +188,11 @@ fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
     return vec4<f32>(dot(pi, out), 0.0, 0.0, 0.0);
 }
 
-// δ += α p, r −= α Ap, z = r / diag. Returns (r·z, r·r).
+// δ += α p, r −= α Ap, z = B⁻¹ r. Returns (r·z, r·r).
 fn cg_update_at(i: u32, alpha: f32) -> vec4<f32> {
     set_vector(DV, i, vector_at(DV, i) + alpha * vector_at(DIRECTION, i));
     let r = vector_at(RESIDUAL, i).xyz - alpha * vector_at(PRODUCT, i).xyz;
-    let z = r / vector_at(DIAGONAL, i).xyz;
+    let z = block_inverse_at(i) * r;
     set_vector(RESIDUAL, i, vec4<f32>(r, 0.0));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);

@@ -152,3 +152,40 @@ fn xpbd_update_velocity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(
     x[i] = vec4<f32>(x[i].xyz + d, 0.0);
     check_state(x[i].xyz, vn);
 }
+
+// VBD (src/cpu/vbd.rs), around the block solves in vbd.wgsl: the first guess, in xt and vt (the
+// iterate vbd_solve_mass refines); then, after the sweeps and compute_forces at the iterate, the
+// new state and the ledger's rates there. `sums` keeps each mass's velocity at the start of the
+// last step (zero before the first), which the guess's acceleration is taken from.
+@compute @workgroup_size(64)
+fn vbd_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let h = stage.dt;
+    var g = vec3<f32>(0.0);
+    if (HAS_GRAVITY) {
+        g = params.gravity;
+    }
+    let g_len = length(g);
+    var down = vec3<f32>(0.0);
+    if (g_len > 0.0) {
+        down = g / g_len;
+    }
+    let v0 = v[i].xyz;
+    let fell = clamp(dot(v0 - sums[i].xyz, down) / h, 0.0, g_len);
+    let vk = v0 + h * fell * down;
+    vt[i] = vec4<f32>(vk, 0.0);
+    xt[i] = vec4<f32>(x[i].xyz + h * vk, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn vbd_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    sums[i] = v[i];
+    let vn = vt[i].xyz;
+    v[i] = vec4<f32>(vn, 0.0);
+    x[i] = xt[i];
+    ledger[i] += stage.dt * rate(i);
+    check_state(x[i].xyz, vn);
+}

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::backend;
 use crate::error::Result;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::Step;
 use crate::model::Model;
 use crate::select::Device;
 use crate::settings::Settings;
@@ -81,7 +81,7 @@ pub fn choose(
         .filter(|l| l.is_finite())
         .map(|l| 0.5 * l);
     // A scheme with no stable step at all (forward Euler undamped) still gets a small one.
-    let cap = if matches!(integrator, Integrator::Implicit | Integrator::Xpbd) {
+    let cap = if integrator.unconditionally_stable() {
         None
     } else {
         Some(cap.unwrap_or(frame / 1000.0))

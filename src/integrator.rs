@@ -27,6 +27,10 @@ pub enum Integrator {
     /// first order, stable at any dt on a spring, softer than the springs when substeps are
     /// large (see src/cpu/xpbd.rs).
     Xpbd,
+    /// Vertex Block Descent (Chen et al. 2024): backward Euler's equations solved by a fixed
+    /// number of Gauss–Seidel sweeps over the masses, each mass a 3 × 3 Newton step; first order,
+    /// for large steps at a fixed cost (see src/cpu/vbd.rs).
+    Vbd,
 }
 
 /// What an integrator needs beyond its name and step.
@@ -34,18 +38,24 @@ pub enum Integrator {
 pub struct StepOptions {
     /// XPBD's constraint iterations per substep (≥ 1; the others ignore it).
     pub xpbd_iterations: u32,
+    /// VBD's sweeps over the masses per step (≥ 1; the others ignore it).
+    pub vbd_iterations: u32,
 }
 
 impl Default for StepOptions {
     fn default() -> Self {
         Self {
             xpbd_iterations: DEFAULT_XPBD_ITERATIONS,
+            vbd_iterations: DEFAULT_VBD_ITERATIONS,
         }
     }
 }
 
 /// "Small Steps": one iteration per substep, and more substeps where accuracy is wanted.
 pub const DEFAULT_XPBD_ITERATIONS: u32 = 1;
+
+/// VBD's sweeps per step: NVIDIA Newton's cloth examples run 10.
+pub const DEFAULT_VBD_ITERATIONS: u32 = 10;
 
 /// How a backend steps: the integrator, its step and its options. Both backends take one; a
 /// run's comes from its [`Settings`](crate::settings::Settings).
@@ -76,23 +86,31 @@ impl Step {
 pub enum Unsupported {
     /// Mass–mass contact has no Jacobian in implicit Euler's system (a pair couples two masses
     /// along a normal that changes as they move): entering through the force only, stiff
-    /// contacts would stall Newton.
-    #[error("implicit Euler does not support {}", self.effect())]
-    MassContact,
+    /// contacts would stall Newton, and VBD, which solves the same system, likewise.
+    #[error("{} does not support {}", self.integrator_title(), self.effect())]
+    MassContact(Integrator),
 }
 
 impl Unsupported {
     /// The effect, as a message names it.
     pub fn effect(self) -> &'static str {
         match self {
-            Unsupported::MassContact => "mass–mass contact",
+            Unsupported::MassContact(_) => "mass–mass contact",
+        }
+    }
+
+    /// The integrator that refuses it, as a sentence names it.
+    fn integrator_title(self) -> &'static str {
+        match self {
+            Unsupported::MassContact(Integrator::Vbd) => "VBD",
+            Unsupported::MassContact(_) => "implicit Euler",
         }
     }
 
     /// The scene file's table that asks for the effect.
     pub fn scene_field(self) -> &'static str {
         match self {
-            Unsupported::MassContact => "effects.self_collision",
+            Unsupported::MassContact(_) => "effects.self_collision",
         }
     }
 
@@ -101,7 +119,7 @@ impl Unsupported {
     pub fn instead(self, quote: &str) -> String {
         let suggested: &[Integrator] = match self {
             // Forward Euler and RK2 have no step stable for sure, and XPBD softens the springs.
-            Unsupported::MassContact => &[
+            Unsupported::MassContact(_) => &[
                 Integrator::SemiImplicit,
                 Integrator::Verlet,
                 Integrator::Rk4,
@@ -123,7 +141,7 @@ impl Unsupported {
 /// An effect refused stands for a scene that asks for just that effect.
 impl AskedEffects for Unsupported {
     fn mass_contact(&self) -> bool {
-        matches!(self, Unsupported::MassContact)
+        matches!(self, Unsupported::MassContact(_))
     }
 }
 
@@ -137,15 +155,15 @@ pub trait AskedEffects {
 impl Integrator {
     /// Whether this integrator can simulate every effect in `effects`; the one it cannot, if any.
     pub fn supports(self, effects: &impl AskedEffects) -> Result<(), Unsupported> {
-        if self == Integrator::Implicit && effects.mass_contact() {
-            return Err(Unsupported::MassContact);
+        if matches!(self, Integrator::Implicit | Integrator::Vbd) && effects.mass_contact() {
+            return Err(Unsupported::MassContact(self));
         }
         Ok(())
     }
 }
 
 impl Integrator {
-    pub const ALL: [Integrator; 7] = [
+    pub const ALL: [Integrator; 8] = [
         Integrator::Euler,
         Integrator::SemiImplicit,
         Integrator::Rk2,
@@ -153,6 +171,7 @@ impl Integrator {
         Integrator::Verlet,
         Integrator::Implicit,
         Integrator::Xpbd,
+        Integrator::Vbd,
     ];
 
     /// The explicit schemes, which both backends run.
@@ -164,6 +183,15 @@ impl Integrator {
         Integrator::Verlet,
     ];
 
+    /// Whether every step is stable on a spring (implicit Euler, VBD and XPBD): no stable step
+    /// to estimate, and no substeps needed for stability.
+    pub fn unconditionally_stable(self) -> bool {
+        matches!(
+            self,
+            Integrator::Implicit | Integrator::Xpbd | Integrator::Vbd
+        )
+    }
+
     /// The name used on the command line and in scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -174,6 +202,7 @@ impl Integrator {
             Integrator::Verlet => "verlet",
             Integrator::Implicit => "implicit",
             Integrator::Xpbd => "xpbd",
+            Integrator::Vbd => "vbd",
         }
     }
 
@@ -183,7 +212,8 @@ impl Integrator {
             Integrator::Euler
             | Integrator::SemiImplicit
             | Integrator::Implicit
-            | Integrator::Xpbd => 1,
+            | Integrator::Xpbd
+            | Integrator::Vbd => 1,
             Integrator::Rk2 | Integrator::Verlet => 2,
             Integrator::Rk4 => 4,
         }
@@ -223,7 +253,8 @@ impl Integrator {
                     0.0,
                 ]
             }
-            Integrator::Implicit => {
+            // VBD's block solve of a lone linear oscillator is exact in one sweep.
+            Integrator::Implicit | Integrator::Vbd => {
                 // v₁ = v₀ + h a(x₀ + h v₁, v₁), solved exactly for the linear oscillator.
                 let v1 = (v - dt * omega * omega * x)
                     / (1.0 + 2.0 * zeta * omega * dt + omega * omega * dt * dt);
@@ -276,7 +307,7 @@ impl Integrator {
         if omega <= 0.0 {
             return Some(f64::INFINITY);
         }
-        if matches!(self, Integrator::Implicit | Integrator::Xpbd) {
+        if self.unconditionally_stable() {
             // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane. One XPBD
             // projection of a spring is a backward-Euler step of it (the tests check both).
             return Some(f64::INFINITY);

@@ -65,6 +65,8 @@ pub enum Notice {
     AutoDt(AutoDt),
     /// The step is above the estimated stable limit of the integrator.
     AboveStableLimit(String),
+    /// XPBD's or VBD's sweeps cannot converge the springs at the step (stable, but wrong).
+    SweepsShort(String),
 }
 
 impl std::fmt::Display for Notice {
@@ -72,7 +74,7 @@ impl std::fmt::Display for Notice {
         match self {
             Notice::Note(n) => write!(f, "note: {n}"),
             Notice::AutoDt(auto) => write!(f, "{auto}"),
-            Notice::AboveStableLimit(w) => write!(f, "warning: {w}"),
+            Notice::AboveStableLimit(w) | Notice::SweepsShort(w) => write!(f, "warning: {w}"),
         }
     }
 }
@@ -189,6 +191,9 @@ pub fn prepare_comparison(
                 if let Some(w) = crate::stability::dt_warning(&model, &settings) {
                     say(Notice::AboveStableLimit(format!("{entry}: {w}")));
                 }
+                if let Some(w) = crate::stability::sweep_warning(&model, &settings) {
+                    say(Notice::SweepsShort(format!("{entry}: {w}")));
+                }
             }
         }
         planned.push((*entry, settings));
@@ -240,6 +245,9 @@ pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepare
     } = plan(request, say)?;
     if let Some(w) = crate::stability::dt_warning(&model, &settings) {
         say(Notice::AboveStableLimit(w));
+    }
+    if let Some(w) = crate::stability::sweep_warning(&model, &settings) {
+        say(Notice::SweepsShort(w));
     }
     let backend = request.device.create(model.clone(), settings.step())?;
     Ok(Prepared {

@@ -1,6 +1,8 @@
 //! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
 
-use crate::integrator::{DEFAULT_XPBD_ITERATIONS, Integrator, Step, StepOptions, Unsupported};
+use crate::integrator::{
+    DEFAULT_VBD_ITERATIONS, DEFAULT_XPBD_ITERATIONS, Integrator, Step, StepOptions, Unsupported,
+};
 use crate::scene::Scene;
 
 /// A value the run cannot use, and what would fix it.
@@ -20,6 +22,10 @@ pub enum SettingsError {
         "invalid setting: --xpbd-iterations must be at least 1 (each substep projects every spring that many times)"
     )]
     NoXpbdIterations,
+    #[error(
+        "invalid setting: --vbd-iterations must be at least 1 (each step sweeps every mass that many times)"
+    )]
+    NoVbdIterations,
     #[error("invalid setting: --substeps must be at least 1")]
     NoSubsteps,
     #[error(
@@ -50,6 +56,7 @@ pub struct Overrides {
     pub frames: Option<u64>,
     pub duration_secs: Option<f64>,
     pub xpbd_iterations: Option<u32>,
+    pub vbd_iterations: Option<u32>,
 }
 
 /// How a run steps: `frames` frames of `substeps` steps of `dt_secs`.
@@ -80,6 +87,9 @@ fn check_overrides(scene: &Scene, o: &Overrides) -> Result<()> {
     }
     if o.xpbd_iterations == Some(0) {
         return Err(SettingsError::NoXpbdIterations);
+    }
+    if o.vbd_iterations == Some(0) {
+        return Err(SettingsError::NoVbdIterations);
     }
     if o.substeps == Some(0) {
         return Err(SettingsError::NoSubsteps);
@@ -155,6 +165,10 @@ impl Settings {
                     .xpbd_iterations
                     .or(s.xpbd_iterations)
                     .unwrap_or(DEFAULT_XPBD_ITERATIONS),
+                vbd_iterations: o
+                    .vbd_iterations
+                    .or(s.vbd_iterations)
+                    .unwrap_or(DEFAULT_VBD_ITERATIONS),
             },
             notes,
         })

@@ -108,7 +108,9 @@ pub struct StepStats {
     pub projections: u32,
     /// Implicit integrator: most conjugate-gradient iterations a step of this frame took.
     pub solver_iterations: u32,
-    /// Implicit integrator: largest final relative residual of a step of this frame.
+    /// Implicit Euler: the largest final residual of a step's linear solves this frame, each
+    /// relative to the Newton residual it started from (at most `CG_FORCING` when they
+    /// converged). VBD on the CPU: its largest step residual |h f − M Δv| / |h f|.
     pub solver_residual: f64,
 }
 

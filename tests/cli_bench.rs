@@ -20,6 +20,7 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
         "3",
         "--coarsest",
         "0",
+        "--no-fast-end",
         "--out",
         &dir.to_string_lossy(),
     ]);
@@ -98,6 +99,69 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
         svg.starts_with("<svg") && svg.contains("polyline") && svg.trim_end().ends_with("</svg>")
     );
     assert!(dir.join("accuracy-hair.md").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The fast end of the ladder: doublings of the scene's step up to one step per frame, where
+/// the explicit schemes diverge and implicit Euler and VBD stay stable (XPBD with one sweep
+/// stretches the strand there, its elastic energy growing: fast and wrong), and a table of each
+/// solver there.
+#[test]
+fn bench_accuracy_reaches_one_step_per_frame() {
+    let dir = temp_dir("accuracy-fast-end");
+    let out = hooke(&[
+        "bench",
+        "accuracy",
+        "hair",
+        "--backend",
+        "cpu",
+        "--duration",
+        "0.1",
+        "--points",
+        "2",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv =
+        std::fs::read_to_string(dir.join("accuracy-hair.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let at_frame: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<&str>>())
+        .filter(|r| (r[2].parse::<f64>().unwrap_or(0.0) * 60.0 - 1.0).abs() < 1e-9)
+        .collect();
+    assert_eq!(
+        at_frame.len(),
+        hooke::integrator::Integrator::ALL.len(),
+        "a row per integrator at 1/60 s:
+{csv}"
+    );
+    for r in &at_frame {
+        match r[1] {
+            "implicit" | "vbd" => assert_eq!(r[7], "true", "{csv}"),
+            "xpbd" => {}
+            _ => assert_eq!(r[7], "false", "{csv}"),
+        }
+    }
+    // Between the scene's step and the frame's, doublings: every step at most twice the next.
+    let mut steps: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.contains(",semi-implicit,"))
+        .filter_map(|l| l.split(',').nth(2)?.parse().ok())
+        .collect();
+    steps.dedup();
+    assert!(steps.len() >= 5, "{steps:?}");
+    assert!(
+        steps
+            .windows(2)
+            .all(|w| w[0] > w[1] && w[0] <= 2.0 * w[1] * 1.01),
+        "{steps:?}"
+    );
+    assert!(stdout.contains("| 1e-1 m |"), "{stdout}");
+    assert!(stdout.contains("At one step per frame"), "{stdout}");
     let _ = std::fs::remove_dir_all(dir);
 }
 

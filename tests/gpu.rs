@@ -68,7 +68,10 @@ fn gpu_xpbd_matches_the_cpu_for_every_built_in_scene() {
             _ => (1, 3, &[1][..]),
         };
         for &xpbd_iterations in sweeps {
-            let options = StepOptions { xpbd_iterations };
+            let options = StepOptions {
+                xpbd_iterations,
+                ..StepOptions::default()
+            };
             let (c, g, worst_x) =
                 run_both_with(&model, Integrator::Xpbd, dt, (frames, substeps), options);
             let fastest =

@@ -10,10 +10,13 @@ use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
 use hooke::integrator::{Integrator, Step};
 
-/// Implicit Euler on the GPU against the CPU, at one step per frame. Both stop their solves at the
-/// same relative residual (1e-4), but their dot products round differently (f32 per workgroup,
-/// f64 per mass), so the solutions agree to the solver's tolerance, not bit for bit: stated as
-/// 1e-4 m and 1e-2 m/s over these steps (measured on lavapipe: about 1e-6 m). These systems are
+/// Implicit Euler on the GPU against the CPU, at one step per frame. Both stop by the same rules
+/// (Newton once its residual is 3% of the step's momentum change, each solve at a tenth of its
+/// Newton residual), but their dot products round differently (f32 per workgroup, f64 per mass),
+/// so a solve may stop an iteration apart and the solutions agree to the solver's tolerance, not
+/// bit for bit: stated as 5e-4 m and 2e-2 m/s over these steps, and the dissipated energy within
+/// NEWTON_RESIDUAL of itself (measured on lavapipe: about 1e-6 m without contacts; 1.4e-4 m and
+/// 2% of the energy on jello-sphere, a block resting on the ground and struck). These systems are
 /// small: each step is one workgroup's dispatch.
 #[test]
 fn gpu_implicit_euler_matches_the_cpu() {
@@ -124,7 +127,7 @@ fn implicit_steps_take_one_workgroup_when_small() {
 }
 
 /// Where the one-workgroup step keeps its solver vectors and spring terms: workgroup memory when
-/// they fit the adapter's limit (hair: 700 + 740 vec4s, 24 KB with the sums' scratch), the
+/// they fit the adapter's limit (hair: 800 + 740 vec4s, 25 KB with the sums' scratch), the
 /// buffers otherwise and on the per-pass path. The in-group parity test above runs hair one way
 /// and jello-sphere the other on lavapipe (32 KB).
 #[test]
@@ -134,12 +137,12 @@ fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() 
     let home =
         |name: &str, path, bytes| hooke::gpu::SolverHome::of(&scene_model(name).0, path, bytes);
     let hair = Workgroup {
-        vectors: 700,
+        vectors: 800,
         terms: 740,
     };
     assert_eq!(home("hair", InGroup, 32 * 1024), hair);
-    assert_eq!(home("hair", InGroup, 24_224), hair);
-    assert_eq!(home("hair", InGroup, 24_223), Buffers);
+    assert_eq!(home("hair", InGroup, 25_824), hair);
+    assert_eq!(home("hair", InGroup, 25_823), Buffers);
     assert_eq!(home("hair", Passes, 1 << 20), Buffers);
     assert_eq!(home("jello", InGroup, 32 * 1024), Buffers);
 }
@@ -160,9 +163,13 @@ fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
         let sc = ok(cpu.advance(1));
         let sg = ok(gpu.advance(1));
         let sg = ok(gpu.snapshot(frame, sg)).stats;
+        // Each solve reaches a tenth of the Newton residual it started from (inexact Newton); a
+        // step whose warm start already meets Newton's rule solves nothing, but the first has
+        // no warm start.
         for (what, s) in [("cpu", sc), ("gpu", sg)] {
             assert!(
-                s.solver_iterations > 0 && s.solver_residual <= hooke::physics::CG_TOLERANCE,
+                (frame > 1 || s.solver_iterations > 0)
+                    && s.solver_residual <= hooke::physics::CG_FORCING,
                 "{name} {path:?} frame {frame} {what}: {} iterations, residual {}",
                 s.solver_iterations,
                 s.solver_residual
@@ -186,7 +193,7 @@ fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
         }
         let (ec, eg) = (c.ledger.dissipated_j(), g.ledger.dissipated_j());
         assert!(
-            (ec - eg).abs() <= 1e-3 * ec.abs().max(1e-3),
+            (ec - eg).abs() <= hooke::physics::NEWTON_RESIDUAL * ec.abs().max(1e-3),
             "{name} {path:?} frame {frame}: dissipated {ec} J on the CPU, {eg} J on the GPU"
         );
     }
@@ -197,7 +204,7 @@ fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
         .fold(0.0, f64::max);
     assert!(moved > 1e-3, "{name}: nothing moved");
     assert!(
-        worst_x <= 1e-4 && worst_v <= 1e-2,
+        worst_x <= 5e-4 && worst_v <= 2e-2,
         "{name} {path:?}: GPU implicit Euler differs from the CPU by {worst_x:.3e} m, {worst_v:.3e} m/s"
     );
     println!("{name} implicit {path:?}: |Δx| {worst_x:.2e} m, |Δv| {worst_v:.2e} m/s");

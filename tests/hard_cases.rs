@@ -416,9 +416,11 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
                 .map_err(|e| format!("{kind:?}, frame {frame}: {e}")));
             // The GPU's solve figures come back with the frame's snapshot.
             let s = ok(be.snapshot(frame, stats));
+            // Each solve reaches a tenth of the Newton residual it started from; a step whose
+            // warm start already meets Newton's rule solves nothing, but the first has none.
             assert!(
-                s.stats.solver_iterations > 0
-                    && s.stats.solver_residual <= hooke::physics::CG_TOLERANCE,
+                (frame > 1 || s.stats.solver_iterations > 0)
+                    && s.stats.solver_residual <= hooke::physics::CG_FORCING,
                 "{kind:?}, frame {frame}: {} iterations, residual {}",
                 s.stats.solver_iterations,
                 s.stats.solver_residual

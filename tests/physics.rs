@@ -49,9 +49,12 @@ fn free_fall_matches_each_schemes_exact_discrete_solution() {
         let s = run(&model, integrator, dt, steps);
         let bias = match integrator {
             Integrator::Euler => 0.5 * g * dt * t,
-            // Backward Euler on a constant force is semi-implicit Euler, and so is XPBD
-            // with no springs to project.
-            Integrator::SemiImplicit | Integrator::Implicit | Integrator::Xpbd => -0.5 * g * dt * t,
+            // Backward Euler on a constant force is semi-implicit Euler, and so are XPBD with
+            // no springs to project and VBD (whose block solve is backward Euler's, mass by mass).
+            Integrator::SemiImplicit
+            | Integrator::Implicit
+            | Integrator::Xpbd
+            | Integrator::Vbd => -0.5 * g * dt * t,
             _ => 0.0,
         };
         let y = f64::from(s.x[0].y);

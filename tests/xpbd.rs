@@ -16,6 +16,7 @@ use hooke::model::Model;
 fn positions_after(model: &Arc<Model>, dt: f64, duration: f64, iterations: u32) -> Vec<Vec3> {
     let options = StepOptions {
         xpbd_iterations: iterations,
+        ..StepOptions::default()
     };
     let mut be = CpuBackend::new(
         model.clone(),

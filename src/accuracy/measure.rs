@@ -28,6 +28,9 @@ pub struct AccuracyOptions {
     /// Time steps tried: the scene's dt × 2^k for k from `coarsest` down, `points` of them.
     pub points: u32,
     pub coarsest: i32,
+    /// Also the fast end: doublings of the largest of those steps up to one step per frame
+    /// (1/60 s at 60 frames/s), where only the unconditionally stable solvers survive.
+    pub fast_end: bool,
     pub out_dir: PathBuf,
     /// Also record the series to this .rrd file.
     pub rrd: Option<PathBuf>,
@@ -78,12 +81,11 @@ pub fn accuracy(
     if !(duration.is_finite() && duration > 0.0) {
         return Err(Error::Settings(SettingsError::Duration(duration)));
     }
-    let ladder: Vec<f64> = (0..opts.points.max(2))
-        .map(|k| {
-            let dt = scene_dt * 2f64.powi(opts.coarsest - k as i32);
-            // Whole steps that land on the duration.
-            duration / (duration / dt).round().max(1.0)
-        })
+    let frame_dt = Some(1.0 / planned.settings.frame_rate_hz).filter(|_| opts.fast_end);
+    let ladder: Vec<f64> = step_ladder(scene_dt, opts, frame_dt)
+        .into_iter()
+        // Whole steps that land on the duration.
+        .map(|dt| duration / (duration / dt).round().max(1.0))
         .collect();
     let finest = ladder.iter().copied().fold(f64::INFINITY, f64::min);
     let reference_dt = finest / 4.0;
@@ -124,6 +126,10 @@ pub fn accuracy(
         scene: planned.loaded.scene.name.clone(),
         duration_secs: duration,
         reference_dt_secs: reference_dt,
+        // As the ladder rounded it to whole steps.
+        frame_dt_secs: frame_dt
+            .and(ladder.first().copied())
+            .filter(|&top| top > scene_dt * 2f64.powi(opts.coarsest) * 1.01),
         rows,
         stable,
     };
@@ -132,6 +138,25 @@ pub fn accuracy(
         report::record(&result, path)?;
     }
     Ok(result)
+}
+
+/// The steps tried, largest first: the scene's dt × 2^k for k from `coarsest` down, and before
+/// them, up to `frame_dt` when given, doublings of the largest and the frame's step itself.
+pub fn step_ladder(scene_dt: f64, opts: &AccuracyOptions, frame_dt: Option<f64>) -> Vec<f64> {
+    let top = scene_dt * 2f64.powi(opts.coarsest);
+    let mut ladder = Vec::new();
+    if let Some(frame_dt) = frame_dt.filter(|&f| f > top * 1.01) {
+        ladder.push(frame_dt);
+        let mut dt = top * 2.0;
+        let mut faster = Vec::new();
+        while dt < frame_dt / 1.01 {
+            faster.push(dt);
+            dt *= 2.0;
+        }
+        ladder.extend(faster.into_iter().rev());
+    }
+    ladder.extend((0..opts.points.max(2)).map(|k| top * 2f64.powi(-(k as i32))));
+    ladder
 }
 
 /// An integrator that cannot simulate the scene's effects (validation refuses the pair) gets no

@@ -60,6 +60,8 @@ pub struct Accuracy {
     pub scene: String,
     pub duration_secs: f64,
     pub reference_dt_secs: f64,
+    /// One step per frame, when the ladder reached it (the fast end).
+    pub frame_dt_secs: Option<f64>,
     pub rows: Vec<Row>,
     pub stable: Vec<StableDt>,
 }

@@ -130,11 +130,11 @@ pub fn search_stable_dt_on(
 }
 
 /// Where to search each integrator's largest stable dt: 16× either side of the estimate (of
-/// the scene's dt where there is none); implicit Euler and XPBD (A-stable on one spring) from
+/// the scene's dt where there is none); implicit Euler, VBD and XPBD (A-stable on one spring) from
 /// the scene's dt to at least [`IMPLICIT_SEARCH_UP_TO_SECS`], in whole doublings.
 pub fn search_range(integrator: Integrator, estimate: Option<f64>, scene_dt: f64) -> (f64, f64) {
     match (integrator, estimate) {
-        (Integrator::Implicit | Integrator::Xpbd, _) => {
+        (i, _) if i.unconditionally_stable() => {
             let doublings = (IMPLICIT_SEARCH_UP_TO_SECS / scene_dt)
                 .log2()
                 .ceil()

@@ -174,9 +174,13 @@ pub enum BenchCommand {
         /// How many time steps: the scene's dt × 2^k, k = coarsest, coarsest − 1, …
         #[arg(long, default_value_t = 6)]
         points: u32,
-        /// The largest step is the scene's dt × 2^coarsest.
+        /// The largest of those steps is the scene's dt × 2^coarsest.
         #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
         coarsest: i32,
+        /// Leave out the fast end: by default the ladder goes on doubling up to one step per
+        /// frame (1/60 s at 60 frames/s), where only implicit Euler, VBD and XPBD survive.
+        #[arg(long)]
+        no_fast_end: bool,
         /// Where the table, CSV and chart go.
         #[arg(long, default_value = "bench-out")]
         out: std::path::PathBuf,
@@ -281,6 +285,9 @@ pub struct SolverArgs {
     /// one iteration each are cheaper for the same accuracy).
     #[arg(long, allow_negative_numbers = true)]
     pub xpbd_iterations: Option<u32>,
+    /// With --integrator vbd: sweeps over the masses per step (default 10).
+    #[arg(long, allow_negative_numbers = true)]
+    pub vbd_iterations: Option<u32>,
 }
 
 /// `--dt`: seconds, or `auto`.
@@ -335,6 +342,7 @@ impl SolverArgs {
             frames: self.frames,
             duration_secs: self.duration,
             xpbd_iterations: self.xpbd_iterations,
+            vbd_iterations: self.vbd_iterations,
         }
     }
 }

@@ -22,6 +22,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             duration,
             points,
             coarsest,
+            no_fast_end,
             out,
             save,
         } => {
@@ -30,6 +31,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                 duration_secs: duration,
                 points,
                 coarsest,
+                fast_end: !no_fast_end,
                 out_dir: out.clone(),
                 rrd: save.clone(),
             };

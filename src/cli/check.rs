@@ -6,7 +6,7 @@ use hooke::model::{BodyShape, Collider, MeshVertices, Model, Path, Shape, Spring
 use hooke::prepare::Planned;
 use hooke::select::BackendKind;
 use hooke::settings::Settings;
-use hooke::stability::{Modes, dt_warning, stable_steps};
+use hooke::stability::{Modes, dt_warning, stable_steps, sweep_warning};
 
 use super::args::DeviceArgs;
 
@@ -62,6 +62,9 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     solver(&mut s, model, settings);
     gpu_passes(&mut s, model, settings);
     if let Some(w) = dt_warning(model, settings) {
+        let _ = writeln!(s, "warning: {w}");
+    }
+    if let Some(w) = sweep_warning(model, settings) {
         let _ = writeln!(s, "warning: {w}");
     }
     s

@@ -16,7 +16,7 @@ use crate::state::Power;
 /// when `SPRINGS` is false (XPBD projects them as constraints instead), but with their dashpots'
 /// power, which the ledger books either way.
 #[inline(always)]
-fn force_on_mass<const SPRINGS: bool>(
+pub(super) fn force_on_mass<const SPRINGS: bool>(
     model: &Model,
     gather: &Gather,
     poses: &[Pose],
@@ -139,6 +139,13 @@ impl Gather {
     /// The springs as they are now.
     pub fn springs(&self) -> &[Spring] {
         &self.springs
+    }
+
+    /// Mass `i`'s springs as they are now, each with the mass at its other end.
+    pub(super) fn springs_of(&self, i: usize) -> impl Iterator<Item = (usize, &Spring)> {
+        self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+            .iter()
+            .map(|e| (e.other as usize, &e.spring))
     }
 
     /// Replace spring `k` (a new rest length, or broken) everywhere the force pass reads it.

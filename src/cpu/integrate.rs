@@ -8,6 +8,7 @@ use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::forces::{Gather, compute_external_forces, compute_forces};
 use super::implicit::{ImplicitWork, SolveStats, implicit_step};
 use super::springs::update_springs;
+use super::vbd::{VbdWork, vbd_step};
 use super::xpbd::XpbdWork;
 use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
@@ -30,6 +31,8 @@ pub struct Scratch {
     implicit: Option<ImplicitWork>,
     /// Only for XPBD.
     xpbd: Option<XpbdWork>,
+    /// Only for VBD.
+    vbd: Option<VbdWork>,
     options: StepOptions,
     dt_secs: f64,
 }
@@ -42,6 +45,7 @@ impl Scratch {
             limits: model.spring_limits(dt_secs),
             implicit: None,
             xpbd: None,
+            vbd: None,
             options,
             dt_secs,
             acc: vec![Vec3::ZERO; n],
@@ -89,7 +93,7 @@ macro_rules! for_each_mass {
     }};
 }
 
-/// Advance `state` by one step of `dt`; the implicit integrator reports its linear solve.
+/// Advance `state` by one step of `dt`; implicit Euler and VBD report their solve.
 pub fn step(
     model: &Model,
     integrator: Integrator,
@@ -109,6 +113,11 @@ pub fn step(
         Integrator::Implicit => {
             let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
             return Some(implicit_step(model, &mut s.gather, state, work, dt));
+        }
+        Integrator::Vbd => {
+            let iterations = s.options.vbd_iterations;
+            let work = s.vbd.get_or_insert_with(|| VbdWork::new(model, iterations));
+            return Some(vbd_step(model, &mut s.gather, state, work, dt));
         }
     }
     state.time_secs += f64::from(dt);

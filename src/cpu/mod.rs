@@ -18,6 +18,8 @@ pub(crate) mod law;
 pub(crate) mod reduce;
 pub(crate) mod springs;
 mod stencil;
+pub(crate) mod system_blocks;
+pub(crate) mod vbd;
 pub(crate) mod xpbd;
 
 pub use backend::CpuBackend;

@@ -98,6 +98,7 @@ impl GpuBackend {
             springs_change: model.effects.springs_change(),
             mass_contact: model.effects.self_collision.is_some(),
             xpbd: integrator == Integrator::Xpbd,
+            vbd: integrator == Integrator::Vbd,
             fused: links.is_some(),
         };
         let layouts = Layouts::new(device, needed);
@@ -208,12 +209,11 @@ impl GpuBackend {
         if self.explicit_path == ExplicitPath::Fused {
             return fused_step_plan(self.integrator, prime, odd);
         }
-        let sweeps = self.resources.xpbd.as_ref().map(|x| x.sweeps);
         step_plan(
             self.integrator,
             &self.model.effects,
             prime,
-            sweeps.unwrap_or_default(),
+            self.resources.sweeps(),
         )
     }
 
@@ -386,15 +386,19 @@ impl GpuBackend {
     }
 
     /// Implicit Euler's CG iterations and residual, the largest of any step of the frame, as the
-    /// device booked them.
+    /// device booked them; VBD's sweeps (its residual is not reduced on the device).
     fn with_solve(&self, stats: StepStats, (iterations, residual): (u32, f32)) -> StepStats {
-        if self.integrator != Integrator::Implicit {
-            return stats;
-        }
-        StepStats {
-            solver_iterations: iterations,
-            solver_residual: f64::from(residual),
-            ..stats
+        match self.integrator {
+            Integrator::Implicit => StepStats {
+                solver_iterations: iterations,
+                solver_residual: f64::from(residual),
+                ..stats
+            },
+            Integrator::Vbd => StepStats {
+                solver_iterations: self.resources.sweeps().iterations,
+                ..stats
+            },
+            _ => stats,
         }
     }
 

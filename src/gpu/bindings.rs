@@ -287,7 +287,7 @@ bind_groups! {
     XpbdSolve @ 0 {
         params: Uniform "Params",
         /// This group's colour and sweep, a window of one buffer holding them all.
-        colour: Window "XpbdColour",
+        colour: Window "ColourRange",
         /// The springs as they are now (plasticity and tearing change them).
         springs: Read "array<Spring>",
         constants: Read "array<XpbdSpring>",
@@ -300,6 +300,20 @@ bind_groups! {
         dx: ReadWrite "array<vec4<f32>>",
         /// Each spring's multiplier within the substep.
         lambda: ReadWrite "array<f32>",
+    }
+    /// VBD's block solve of one colour (vbd.wgsl): `compute_forces`' group (mass_force reads
+    /// it), a group per colour.
+    VbdSolve @ 0 = ForcesModel + {
+        /// This group's colour, a window of one buffer holding them all.
+        colour: Window "ColourRange",
+        /// Mass indices, colour by colour.
+        colour_order: Read "array<u32>",
+        /// The step's start.
+        x: Read "array<vec4<f32>>",
+        v: Read "array<vec4<f32>>",
+        /// The iterate (the xt and vt buffers): vbd_predict writes it, this refines it.
+        x_in: ReadWrite "array<vec4<f32>>",
+        v_in: ReadWrite "array<vec4<f32>>",
     }
     /// The fused steps (fused.wgsl); the state flows through group 1.
     Fused @ 0 {

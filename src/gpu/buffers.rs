@@ -4,6 +4,7 @@
 use glam::Vec3;
 use wgpu::util::DeviceExt as _;
 
+use super::bindings::buffers;
 use super::layout::{self, Collider, Params};
 use super::limits::{deriv_bytes, scratch_bytes};
 use crate::backend::RUNAWAY_SPEED_M_PER_S;
@@ -142,6 +143,21 @@ impl Bufs {
             counters: a.zeros("counters", 16),
             strain: a.zeros("strain", 4 * ns),
             partials: a.zeros("partials", 48 * partial_count as usize),
+        }
+    }
+}
+
+impl Bufs {
+    /// `compute_forces`' group, which implicit Euler's and VBD's extend.
+    pub(super) fn forces_model(&self) -> buffers::ForcesModel<'_> {
+        buffers::ForcesModel {
+            params: &self.params,
+            springs: &self.springs,
+            offsets: &self.offsets,
+            neighbors: &self.neighbors,
+            colliders: &self.colliders,
+            mass: &self.mass,
+            deriv: &self.deriv,
         }
     }
 }

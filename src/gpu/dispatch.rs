@@ -1,5 +1,5 @@
 //! What one dispatch of a step plan is: a kernel, the state it reads or the states it flows
-//! between, its stage slot and, for XPBD's projection, its colour. The plans (`plan.rs`,
+//! between, its stage slot and, for XPBD's projection and VBD's block solve, its colour. The plans (`plan.rs`,
 //! `implicit/plan.rs`) are lists of these; `encode.rs` records them.
 
 use super::kernels::Kernel;
@@ -25,15 +25,16 @@ pub enum Flow {
     CB,
 }
 
-/// One sweep of XPBD's projection over one colour of springs.
+/// One sweep over one colour: of springs (XPBD's projection) or of masses (VBD's block solve).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ColourPass {
     pub colour: u32,
-    /// The substep's first sweep, which starts the multipliers from zero.
+    /// The substep's first sweep, which starts XPBD's multipliers from zero (VBD: unused).
     pub first: bool,
 }
 
-/// XPBD's sweeps of a substep: the springs' colours, and the sweeps over all of them.
+/// XPBD's sweeps of a substep (the springs' colours) or VBD's of a step (the masses'), and the
+/// sweeps over all of them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Sweeps {
     pub colours: u32,
@@ -80,11 +81,11 @@ impl Dispatch {
         }
     }
 
-    /// XPBD's projection of one colour.
-    pub const fn colour(pass: ColourPass) -> Self {
+    /// A kernel over one colour (XPBD's projection, VBD's block solve).
+    pub const fn colour(kernel: Kernel, pass: ColourPass, slot: u32) -> Self {
         Self {
             colour: Some(pass),
-            ..Self::at(Kernel::XpbdSolveSpring, 0)
+            ..Self::at(kernel, slot)
         }
     }
 }

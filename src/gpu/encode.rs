@@ -32,15 +32,9 @@ impl Dispatcher<'_> {
             })
         };
         let pipeline = self.pipelines.get(d.kernel);
-        // XPBD's projection binds its colour's group and runs over its colour's springs.
+        // A colour's kernel binds its colour's group and runs over its colour's springs or masses.
         let (group0, groups) = match d.colour {
-            Some(pass) => {
-                let xpbd = self.resources.xpbd.as_ref();
-                (
-                    xpbd.and_then(|x| x.group(pass)),
-                    xpbd.and_then(|x| x.workgroups(pass.colour)),
-                )
-            }
+            Some(pass) => self.resources.colour_pass(d.kernel, pass),
             None => (
                 self.resources.group(spec.group),
                 self.resources.workgroups.of(spec.threads),

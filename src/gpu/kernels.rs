@@ -47,6 +47,8 @@ pub enum Needs {
     MassContact,
     /// The XPBD integrator.
     Xpbd,
+    /// The VBD integrator.
+    Vbd,
     /// The fused explicit steps (`plan::ExplicitPath::Fused`).
     Fused,
 }
@@ -225,6 +227,26 @@ macro_rules! kernel_table {
                 group: Integrate, threads: Masses, needs: Xpbd, cpu: (xpbd),
                 // dx (xt) read; x read and written; v written.
                 bytes: |z| z.n * (4 * 16),
+            }
+
+            VbdPredict = vbd_predict in Integrate {
+                group: Integrate, threads: Masses, needs: Vbd, cpu: (vbd),
+                // x, v and the last step's v (sums) read; the iterate (xt, vt) written.
+                bytes: |z| z.n * (5 * 16),
+            }
+            VbdFinal = vbd_final in Integrate {
+                group: Integrate, threads: Masses, needs: Vbd, cpu: (vbd),
+                // The iterate and rates read; x, v, sums written; ledger read and written.
+                bytes: |z| z.n * (2 * 16 + 16 + 3 * 16 + 2 * 16 + 16),
+            }
+
+            // ---- vbd.wgsl: VBD's masses, solved colour by colour ----
+            /// Dispatched once per colour and sweep; its bytes are per sweep over all colours.
+            VbdSolveMass = vbd_solve_mass in Vbd {
+                group: VbdSolve, threads: Colour, needs: Vbd, cpu: (vbd),
+                // Index, mass, offsets; the iterate read and written, the start read; each CSR
+                // entry's spring and the other end's iterate.
+                bytes: |z| z.n * (4 + 8 + 4 + 4 * 16 + 2 * 16) + z.ns * 2 * (8 + 20 + 2 * 16) + z.colliders,
             }
 
             // ---- xpbd.wgsl: XPBD's springs, projected colour by colour ----

@@ -97,7 +97,8 @@ pub struct SolverStatus {
     pub newton: u32,
     pub newton_pending: u32,
     pub converged: u32,
-    pub last_residual: f32,
+    /// |b| of the current solve's start: its residual is relative to it.
+    pub b_norm: f32,
 }
 
 /// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.
@@ -132,11 +133,12 @@ impl FrameSolve {
 
 pub use crate::physics::XpbdSpring;
 
-/// The colour one dispatch of `xpbd_solve_spring` solves (`XpbdColour` in WGSL): its springs are
-/// `colour_order[start..start + count]`; `first` on a substep's first sweep.
+/// The colour one dispatch of `xpbd_solve_spring` or `vbd_solve_mass` solves (`ColourRange` in
+/// WGSL): its springs or masses are `colour_order[start..start + count]`; `first` on a (sub)step's
+/// first sweep.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct XpbdColour {
+pub struct ColourRange {
     pub start: u32,
     pub count: u32,
     pub first: u32,
@@ -147,7 +149,7 @@ pub struct XpbdColour {
 pub const MAX_SPRING_KINDS: usize = 256;
 
 /// Implicit Euler's per-mass vectors (`SOLVER_VECTORS` in shaders/common.wgsl).
-pub const SOLVER_VECTORS: u64 = 7;
+pub const SOLVER_VECTORS: u64 = 8;
 
 /// The fused steps' spring kinds (`SpringKinds` in WGSL): (stiffness, damping, 0, 0) each.
 #[repr(C)]
@@ -166,7 +168,7 @@ impl Default for SpringKinds {
 pub const SHARED_STRUCTS: [(&str, usize); 13] = [
     ("SpringKinds", std::mem::size_of::<SpringKinds>()),
     ("XpbdSpring", std::mem::size_of::<XpbdSpring>()),
-    ("XpbdColour", std::mem::size_of::<XpbdColour>()),
+    ("ColourRange", std::mem::size_of::<ColourRange>()),
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),
     ("MassContact", std::mem::size_of::<MassContact>()),
     ("Solver", std::mem::size_of::<SolverStatus>()),

@@ -17,6 +17,7 @@ const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
+    // VBD keeps each mass's velocity at the last step's start in [i] (RK4 and Verlet use three).
     let per_mass = if integrator == Integrator::Implicit {
         16 * SOLVER_VECTORS
     } else {
@@ -25,10 +26,12 @@ pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
     per_mass * model.mass_count() as u64
 }
 
-/// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler with contacts
-/// their linearisation.
+/// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler and VBD with
+/// contacts their linearisation.
 pub fn deriv_bytes(model: &Model, integrator: Integrator) -> u64 {
-    let per_mass = if integrator == Integrator::Implicit && model.effects.has_contact() {
+    let per_mass = if matches!(integrator, Integrator::Implicit | Integrator::Vbd)
+        && model.effects.has_contact()
+    {
         64
     } else {
         32

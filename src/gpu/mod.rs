@@ -36,6 +36,7 @@ mod readback;
 mod resources;
 mod shaders;
 mod stages;
+mod vbd;
 mod xpbd;
 
 pub use backend::GpuBackend;

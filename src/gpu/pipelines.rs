@@ -81,6 +81,7 @@ pub struct Needed {
     pub springs_change: bool,
     pub mass_contact: bool,
     pub xpbd: bool,
+    pub vbd: bool,
     /// The fused explicit steps.
     pub fused: bool,
 }
@@ -94,6 +95,7 @@ impl Needed {
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
             Needs::Xpbd => self.xpbd,
+            Needs::Vbd => self.vbd,
             Needs::Fused => self.fused,
         }
     }

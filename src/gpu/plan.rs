@@ -74,12 +74,18 @@ pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Di
 
 /// XPBD's substep between the kick and the new state: every sweep over every colour.
 fn xpbd_sweeps(sweeps: Sweeps) -> impl Iterator<Item = Dispatch> {
+    colour_sweeps(Kernel::XpbdSolveSpring, sweeps, 0)
+}
+
+/// `kernel` over every colour of `sweeps`, once per sweep, at stage slot `slot`.
+fn colour_sweeps(kernel: Kernel, sweeps: Sweeps, slot: u32) -> impl Iterator<Item = Dispatch> {
     (0..sweeps.iterations).flat_map(move |it| {
         (0..sweeps.colours).map(move |colour| {
-            Dispatch::colour(ColourPass {
+            let pass = ColourPass {
                 colour,
                 first: it == 0,
-            })
+            };
+            Dispatch::colour(kernel, pass, slot)
         })
     })
 }
@@ -98,7 +104,7 @@ pub fn grid_build(state: StateIn, slot: u32) -> [Dispatch; 6] {
 }
 
 /// The dispatches of one step. `prime`: Verlet's first step also evaluates a(x_0); `sweeps`:
-/// XPBD's (unused by the other integrators). Implicit Euler's solve is planned below; only the
+/// XPBD's or VBD's (unused by the other integrators). Implicit Euler's solve is planned below; only the
 /// post-step passes are here for it.
 pub fn step_plan(
     integrator: Integrator,
@@ -144,8 +150,15 @@ pub fn step_plan(
             .collect(),
         // Implicit's solve is planned apart.
         Integrator::Implicit => Vec::new(),
+        // The guess; the block solves at the step's end (where backward Euler takes its forces
+        // and collider poses); the forces there for the ledger; the new state.
+        Integrator::Vbd => [at(VbdPredict, 0)]
+            .into_iter()
+            .chain(colour_sweeps(VbdSolveMass, sweeps, 3))
+            .chain([forces(XtVt, 3), at(VbdFinal, 3)])
+            .collect(),
     };
-    if effects.has_contact() && integrator != Integrator::Implicit {
+    if effects.has_contact() && !matches!(integrator, Integrator::Implicit | Integrator::Vbd) {
         plan.push(at(ProjectContacts, 3));
     }
     if effects.self_collision.is_some() {
@@ -222,7 +235,7 @@ pub fn step_passes(
         None => d.kernel.name().to_owned(),
     }));
     let why = match integrator {
-        Integrator::Implicit | Integrator::Xpbd => None,
+        Integrator::Implicit | Integrator::Xpbd | Integrator::Vbd => None,
         _ => why,
     };
     let effects = effect_constants(model)
@@ -248,6 +261,27 @@ pub struct DispatchCount {
     pub per_cg_iteration: u32,
 }
 
+/// The colour sweeps a step of `integrator` runs: XPBD's over the springs' colours, VBD's over
+/// the masses'; none for the others.
+pub fn sweeps_of(
+    model: &Model,
+    integrator: Integrator,
+    options: crate::integrator::StepOptions,
+) -> Sweeps {
+    match integrator {
+        Integrator::Xpbd => Sweeps {
+            colours: crate::physics::colour_springs(&model.springs, &model.inv_mass).colours()
+                as u32,
+            iterations: options.xpbd_iterations,
+        },
+        Integrator::Vbd => Sweeps {
+            colours: crate::physics::vbd_colouring(model).colours() as u32,
+            iterations: options.vbd_iterations,
+        },
+        _ => Sweeps::default(),
+    }
+}
+
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
 /// evaluates a(x₀)), as the plans above record them on `path`.
 pub fn dispatches_per_step(
@@ -258,15 +292,7 @@ pub fn dispatches_per_step(
 ) -> DispatchCount {
     use implicit::*;
     let count = |n: usize| n as u32;
-    let sweeps = Sweeps {
-        colours: match integrator {
-            Integrator::Xpbd => {
-                crate::physics::colour_springs(&model.springs, &model.inv_mass).colours() as u32
-            }
-            _ => 0,
-        },
-        iterations: options.xpbd_iterations,
-    };
+    let sweeps = sweeps_of(model, integrator, options);
     let steps = count(match explicit {
         ExplicitPath::Fused => fused_step_plan(integrator, false, false).len(),
         ExplicitPath::General => step_plan(integrator, &model.effects, false, sweeps).len(),

@@ -8,11 +8,15 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 5] = [
+const LIBRARIES: [(&str, &str); 6] = [
     ("mass_force", include_str!("../../shaders/mass_force.wgsl")),
     (
         "state_check",
         include_str!("../../shaders/state_check.wgsl"),
+    ),
+    (
+        "system_blocks",
+        include_str!("../../shaders/system_blocks.wgsl"),
     ),
     (
         "implicit_terms",
@@ -59,11 +63,12 @@ pub enum Program {
     Grid,
     CollideMasses,
     Xpbd,
+    Vbd,
     Fused,
 }
 
 impl Program {
-    pub const ALL: [Program; 10] = [
+    pub const ALL: [Program; 11] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -73,6 +78,7 @@ impl Program {
         Program::Grid,
         Program::CollideMasses,
         Program::Xpbd,
+        Program::Vbd,
         Program::Fused,
     ];
 
@@ -106,6 +112,7 @@ impl Program {
             Program::Grid => file!("grid.wgsl"),
             Program::CollideMasses => file!("collide_masses.wgsl"),
             Program::Xpbd => file!("xpbd.wgsl"),
+            Program::Vbd => file!("vbd.wgsl"),
             Program::Fused => file!("fused.wgsl"),
         }
     }

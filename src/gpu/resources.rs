@@ -4,12 +4,13 @@
 
 use super::bindings::{Group, GroupBuffers, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::dispatch::{Flow, StateIn};
-use super::kernels::{Path, Sizes, Threads};
+use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
+use super::kernels::{Kernel, Path, Sizes, Threads};
 use super::layout::{FrameSolve, MassContact};
 use super::links::Links;
 use super::pipelines::Layouts;
 use super::shaders::{WORKGROUP, groups_for};
+use super::vbd::{VbdBuffers, VbdSetup};
 use super::xpbd::{XpbdBuffers, XpbdSetup};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
@@ -29,7 +30,8 @@ pub struct Workgroups {
 }
 
 impl Workgroups {
-    /// `None` for a kernel over one XPBD colour: its count is the colour's (`XpbdBuffers`).
+    /// `None` for a kernel over one colour: its count is the colour's (`XpbdBuffers`,
+    /// `VbdBuffers`).
     pub fn of(&self, t: Threads) -> Option<(u32, u32)> {
         Some(match t {
             Threads::Masses => self.masses,
@@ -93,22 +95,10 @@ pub struct Resources {
     pub grid: Option<GridBuffers>,
     pub solver: Option<SolverBuffers>,
     pub xpbd: Option<XpbdBuffers>,
+    pub vbd: Option<VbdBuffers>,
     pub workgroups: Workgroups,
     /// Bytes of GPU memory held by the buffers above (all but the stage slots').
     pub memory_bytes: u64,
-}
-
-/// `compute_forces`' group, which implicit Euler's extends.
-fn forces_model(b: &Bufs) -> buffers::ForcesModel<'_> {
-    buffers::ForcesModel {
-        params: &b.params,
-        springs: &b.springs,
-        offsets: &b.offsets,
-        neighbors: &b.neighbors,
-        colliders: &b.colliders,
-        mass: &b.mass,
-        deriv: &b.deriv,
-    }
 }
 
 /// Bind group 0 of each kernel group, as they are made.
@@ -131,7 +121,7 @@ impl GroupSet<'_> {
 
     /// The groups every run binds.
     fn common(&mut self, b: &Bufs) {
-        self.set(forces_model(b));
+        self.set(b.forces_model());
         self.set(buffers::Integrate {
             params: &b.params,
             x: &b.x,
@@ -310,6 +300,18 @@ impl Resources {
                 };
                 XpbdBuffers::new(&mut a, &b, model, &setup)
             });
+        let vbd = layouts
+            .group(Group::VbdSolve)
+            .filter(|_| integrator == Integrator::Vbd)
+            .map(|layout| {
+                let setup = VbdSetup {
+                    layout,
+                    iterations: options.vbd_iterations,
+                    uniform_align: limits.min_uniform_buffer_offset_alignment,
+                    max_per_dim: max_dim,
+                };
+                VbdBuffers::new(&mut a, &b, model, &setup)
+            });
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
             workgroups.buckets = groups_for(grid.table_size, max_dim);
@@ -340,6 +342,7 @@ impl Resources {
             grid,
             solver,
             xpbd,
+            vbd,
             workgroups,
             memory_bytes: a.bytes,
         }
@@ -348,6 +351,41 @@ impl Resources {
     /// Bind group 0 of kernel group `g`; `None` for an effect the scene lacks.
     pub fn group(&self, g: Group) -> Option<&wgpu::BindGroup> {
         self.groups[g as usize].as_ref()
+    }
+
+    /// The bind group 0 and workgroups of `kernel` over one colour (XPBD's projection, VBD's
+    /// block solve); `None` when the run has no such colours.
+    pub fn colour_pass(
+        &self,
+        kernel: Kernel,
+        pass: ColourPass,
+    ) -> (Option<&wgpu::BindGroup>, Option<(u32, u32)>) {
+        match kernel {
+            Kernel::XpbdSolveSpring => {
+                let xpbd = self.xpbd.as_ref();
+                (
+                    xpbd.and_then(|x| x.group(pass)),
+                    xpbd.and_then(|x| x.workgroups(pass.colour)),
+                )
+            }
+            Kernel::VbdSolveMass => {
+                let vbd = self.vbd.as_ref();
+                (
+                    vbd.and_then(|x| x.group(pass)),
+                    vbd.and_then(|x| x.workgroups(pass.colour)),
+                )
+            }
+            _ => (None, None),
+        }
+    }
+
+    /// The colour sweeps of a step: XPBD's or VBD's (none for the other integrators).
+    pub fn sweeps(&self) -> Sweeps {
+        match (&self.xpbd, &self.vbd) {
+            (Some(x), _) => x.sweeps,
+            (_, Some(v)) => v.sweeps,
+            _ => Sweeps::default(),
+        }
     }
 
     /// Bind group 1 over `s`.
@@ -384,7 +422,7 @@ impl SolverBuffers {
         let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
         // The Newton iterate is the xt, vt pair; the solver's vectors live in `sums`.
         groups.set(buffers::Solve {
-            base: forces_model(b),
+            base: b.forces_model(),
             x: &b.x,
             v: &b.v,
             x_in: &b.xt,

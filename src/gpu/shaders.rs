@@ -10,7 +10,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
 /// Every shader program as compiled: (file name, source).
-pub fn programs() -> [(&'static str, String); 10] {
+pub fn programs() -> [(&'static str, String); 11] {
     Program::ALL.map(|p| (p.file(), source(p)))
 }
 
@@ -123,20 +123,22 @@ pub fn constants(
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
-        CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-        NEWTON_TOLERANCE,
+        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_TOLERANCE,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
     c.extend([
         ("XPBD", flag(integrator == Integrator::Xpbd)),
-        ("IMPLICIT", flag(integrator == Integrator::Implicit)),
+        // VBD's block solve takes the contacts' block from mass_force, as implicit Euler does.
+        (
+            "IMPLICIT",
+            flag(matches!(integrator, Integrator::Implicit | Integrator::Vbd)),
+        ),
         (
             "SEMI_IMPLICIT",
             flag(integrator == Integrator::SemiImplicit),
         ),
         ("KIND_SHIFT", f64::from(kind_shift)),
-        ("CG_TOLERANCE", CG_TOLERANCE),
         (
             "PAIR_STICK_SHARE",
             f64::from(crate::physics::PAIR_STICK_SHARE),
@@ -144,8 +146,8 @@ pub fn constants(
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
-        ("NEWTON_FLOOR", NEWTON_FLOOR),
-        ("NEWTON_STALL", NEWTON_STALL),
+        ("NEWTON_RESIDUAL", NEWTON_RESIDUAL),
+        ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
     ]);
     // A workgroup array has at least one element, used or not.

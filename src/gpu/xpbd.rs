@@ -5,7 +5,49 @@
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::dispatch::{ColourPass, Sweeps};
-use super::layout::XpbdColour;
+use super::layout::ColourRange;
+
+/// One uniform `ColourRange` per (colour, first sweep or not), each at an offset a binding may
+/// start at, in one buffer: the windows the colour kernels' bind groups hold.
+pub(super) struct ColourWindows {
+    uniform: wgpu::Buffer,
+    stride: usize,
+}
+
+impl ColourWindows {
+    /// The windows of the colours whose items start at `starts` (one more than colours).
+    pub(super) fn new(a: &mut Alloc<'_>, label: &str, starts: &[u32], align: u32) -> Self {
+        let stride = std::mem::size_of::<ColourRange>().next_multiple_of(align.max(1) as usize);
+        let colours = starts.len() - 1;
+        let mut uniforms = vec![0u8; (2 * colours).max(1) * stride];
+        for c in 0..colours {
+            for first in [0u32, 1] {
+                let u = ColourRange {
+                    start: starts[c],
+                    count: starts[c + 1] - starts[c],
+                    first,
+                    _pad: 0,
+                };
+                let at = (2 * c + first as usize) * stride;
+                uniforms[at..at + std::mem::size_of::<ColourRange>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
+            }
+        }
+        Self {
+            uniform: a.uniform(label, &uniforms),
+            stride,
+        }
+    }
+
+    /// Colour `c`'s window, on a first sweep or a later one.
+    pub(super) fn binding(&self, c: usize, first: bool) -> wgpu::BufferBinding<'_> {
+        wgpu::BufferBinding {
+            buffer: &self.uniform,
+            offset: ((2 * c + usize::from(first)) * self.stride) as u64,
+            size: wgpu::BufferSize::new(std::mem::size_of::<ColourRange>() as u64),
+        }
+    }
+}
 use super::shaders::groups_for;
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
@@ -36,33 +78,11 @@ impl XpbdBuffers {
         );
         let order = a.model("xpbd colour order", bytemuck::cast_slice(&colouring.order));
         let lambda = a.zeros("xpbd lambda", 4 * model.spring_count());
-        // One uniform per (colour, first sweep or not), each at an offset a binding may start at.
-        let stride =
-            std::mem::size_of::<XpbdColour>().next_multiple_of(s.uniform_align.max(1) as usize);
         let colours = colouring.colours();
-        let mut uniforms = vec![0u8; (2 * colours).max(1) * stride];
-        for c in 0..colours {
-            for first in [0u32, 1] {
-                let u = XpbdColour {
-                    start: colouring.starts[c],
-                    count: colouring.starts[c + 1] - colouring.starts[c],
-                    first,
-                    _pad: 0,
-                };
-                let at = (2 * c + first as usize) * stride;
-                uniforms[at..at + std::mem::size_of::<XpbdColour>()]
-                    .copy_from_slice(bytemuck::bytes_of(&u));
-            }
-        }
-        let uniform = a.uniform("xpbd colours", &uniforms);
-        let size = wgpu::BufferSize::new(std::mem::size_of::<XpbdColour>() as u64);
+        let windows = ColourWindows::new(a, "xpbd colours", &colouring.starts, s.uniform_align);
         let groups = (0..2 * colours)
             .map(|k| {
-                let colour = wgpu::BufferBinding {
-                    buffer: &uniform,
-                    offset: (k * stride) as u64,
-                    size,
-                };
+                let colour = windows.binding(k / 2, k % 2 == 1);
                 let group = buffers::XpbdSolve {
                     params: &b.params,
                     colour,

@@ -1,6 +1,6 @@
 //! The physics both backends compute from, owned by neither: XPBD's spring colouring and
-//! constants, implicit Euler's stopping rules, the hash grid's sizing and the mass–mass contact's
-//! constants. `cpu/` and `gpu/` import these; `gpu/` imports nothing from `cpu/`
+//! constants, VBD's mass colouring, implicit Euler's stopping rules, the hash grid's sizing and
+//! the mass–mass contact's constants. `cpu/` and `gpu/` import these; `gpu/` imports nothing from `cpu/`
 //! (`tests/layers.rs`). The force laws that have a WGSL twin stay with the CPU backend
 //! (`cpu/law.rs`), named as their kernels.
 
@@ -10,11 +10,10 @@ mod mass_contact;
 mod solver;
 mod xpbd;
 
-pub use colouring::{Colouring, colour_springs};
+pub use colouring::{Colouring, MassColouring, colour_masses, colour_springs, vbd_colouring};
 pub use grid::{SCAN_BLOCK, inv_cell_per_m, table_size};
 pub use mass_contact::PAIR_STICK_SHARE;
 pub use solver::{
-    CG_MAX_ITERATIONS, CG_TOLERANCE, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-    NEWTON_TOLERANCE,
+    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_TOLERANCE,
 };
 pub use xpbd::{XpbdSpring, xpbd_constants};

@@ -63,6 +63,9 @@ pub struct Solver {
     /// XPBD's constraint iterations per substep (`integrator = "xpbd"`); 1 when absent.
     #[serde(default)]
     pub xpbd_iterations: Option<u32>,
+    /// VBD's sweeps over the masses per step (`integrator = "vbd"`); 10 when absent.
+    #[serde(default)]
+    pub vbd_iterations: Option<u32>,
 }
 
 fn default_frame_rate() -> f64 {
@@ -79,6 +82,7 @@ impl Default for Solver {
             duration_secs: None,
             frames: None,
             xpbd_iterations: None,
+            vbd_iterations: None,
         }
     }
 }

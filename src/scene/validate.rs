@@ -138,6 +138,12 @@ fn solver(s: &super::format::Solver) -> Check {
             "must be at least 1 (each substep projects every spring that many times)",
         );
     }
+    if s.vbd_iterations == Some(0) {
+        return fail(
+            "solver.vbd_iterations",
+            "must be at least 1 (each step sweeps every mass that many times)",
+        );
+    }
     if s.frames == Some(0) {
         return fail("solver.frames", "must be at least 1");
     }

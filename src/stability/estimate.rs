@@ -129,7 +129,7 @@ fn region(modes: &Modes) -> Vec<(f64, f64)> {
 /// The estimate for one integrator.
 pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
     let w_max = modes.stiffest.value;
-    if matches!(integrator, Integrator::Implicit | Integrator::Xpbd) || w_max <= 0.0 {
+    if integrator.unconditionally_stable() || w_max <= 0.0 {
         // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane. One XPBD projection
         // of a spring is a backward-Euler step of it.
         return StableStep {

@@ -23,6 +23,8 @@ override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
 override NEWTON_RESIDUAL: f32 = 3e-2;
+override NEWTON_FLOOR: f32 = 1e-2;
+override NEWTON_STALL: f32 = 0.5;
 override CG_FORCING: f32 = 0.1;
 // Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads; at most 64).
 override GROUP_THREADS: u32 = 64u;

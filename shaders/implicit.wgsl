@@ -43,6 +43,12 @@ struct Solver {
     converged: u32,
     // |b| of the current solve's start: its residual is relative to it.
     b_norm: f32,
+    // |h f − M Δv| at the last Newton iterate (newton_stalled).
+    last_residual: f32,
+    // To 64 bytes: the partials after the two statuses and the frame record start 16-aligned.
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // What the per-pass kernels learn of a frame, read back once by the host (src/gpu/layout.rs's
@@ -188,6 +194,7 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
         implicit_begin_at(i);
     }
     var scale = 0.0;
+    var last_residual = F32_MAX;
     var iterations = 0u;
     var max_residual = 0.0;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
@@ -206,9 +213,10 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
             // The step's momentum change |h f| at its first iterate.
             scale = sqrt(t.z);
         }
-        if (newton_done(b_norm, scale)) {
+        if (newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) {
             break;
         }
+        last_residual = b_norm;
         let solved = solve_in_group(lid, t.x, b_norm);
         iterations += u32(solved.x);
         max_residual = max(max_residual, solved.y);
@@ -328,7 +336,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
 // nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, F32_MAX, 0u, 0u, 0u);
     if (scratch.frame.overran != 0u) {
         scratch.solver.converged = 1u;
     }
@@ -370,7 +378,7 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (sv.scale == 0.0) {
         sv.scale = sqrt(t.z);
     }
-    if (newton_done(b_norm, sv.scale)) {
+    if (newton_done(b_norm, sv.scale) || newton_stalled(b_norm, sv.last_residual, sv.scale)) {
         // The step's equations hold well enough: the step ends at this iterate.
         sv.cg_active = 0u;
         sv.newton_pending = 0u;
@@ -378,6 +386,7 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
         scratch.solver = sv;
         return;
     }
+    sv.last_residual = b_norm;
     sv.rz = t.x;
     sv.iterations = 0u;
     sv.newton_pending = 1u;

@@ -61,10 +61,17 @@ fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
     return step_norm <= NEWTON_TOLERANCE * size_norm || step_norm < 1e-7;
 }
 
-// Newton's residual is small enough to end the step at this iterate: at most NEWTON_RESIDUAL of
-// the step's momentum change |h f| at its first iterate.
+// Newton's residual is small enough to end the step at this iterate: at most NEWTON_RESIDUAL (the
+// host sets it for the run's step: src/physics/solver.rs's newton_residual) of the step's
+// momentum change |h f| at its first iterate.
 fn newton_done(residual: f32, scale: f32) -> bool {
     return residual <= NEWTON_RESIDUAL * scale;
+}
+
+// Newton's residual has stalled at the floor of f32 forces (src/cpu/implicit.rs's newton_stalled):
+// below NEWTON_FLOOR of |h f|, and not halved since the last iterate's.
+fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
+    return residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last;
 }
 
 // A finished step's CG iterations and residual, kept for the frame's snapshot.

@@ -202,3 +202,55 @@ fn bad_vbd_settings_are_refused_with_what_would_fix_them() {
         "{err}"
     );
 }
+
+/// `check` and `run` say when XPBD's or VBD's sweeps cannot converge the springs at the step
+/// (fast and wrong), with the sweeps or the step that would; not at a step where they do.
+#[test]
+fn check_and_run_warn_when_the_sweeps_fall_short() {
+    let scene = "bench/scenes/cloth-60hz.toml";
+    for (integrator, said) in [
+        ("xpbd", "`xpbd` with 1 sweep per substep corrects only"),
+        ("vbd", "`vbd` with 10 sweeps per step corrects only"),
+    ] {
+        let out = hooke(&[
+            "check",
+            scene,
+            "--integrator",
+            integrator,
+            "--backend",
+            "cpu",
+        ]);
+        let stdout = text(&out.stdout);
+        assert!(out.status.success() && stdout.contains(said), "{stdout}");
+        assert!(stdout.contains("body 'cloth'"), "{stdout}");
+    }
+    let out = hooke(&["check", scene, "--integrator", "vbd", "--backend", "cpu"]);
+    assert!(text(&out.stdout).contains("mass colours × 10 sweep(s)"));
+    let dir = common::temp_dir("vbd-warning");
+    let file = dir.join("cloth.rrd");
+    let out = hooke(&cpu_run(
+        scene,
+        &[
+            "--integrator",
+            "vbd",
+            "--frames",
+            "2",
+            "--save",
+            &file.to_string_lossy(),
+        ],
+    ));
+    let stderr = text(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("`vbd` with 10 sweeps per step corrects only"),
+        "{stderr}"
+    );
+    // Hair at its own step: one sweep of XPBD is enough.
+    let out = hooke(&["check", "hair", "--integrator", "xpbd", "--backend", "cpu"]);
+    assert!(
+        !text(&out.stdout).contains("corrects only"),
+        "{}",
+        text(&out.stdout)
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

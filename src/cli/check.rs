@@ -288,6 +288,13 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                     i.name()
                 );
             }
+            Some(_) if i == hooke::integrator::Integrator::Vbd => {
+                let _ = writeln!(
+                    s,
+                    "    {:<14} any in theory (backward Euler's equations; too few sweeps leave a stiff body soft, and this command says so below){mark}",
+                    i.name()
+                );
+            }
             Some(_) if i == hooke::integrator::Integrator::Implicit => {
                 let _ = writeln!(
                     s,
@@ -331,6 +338,15 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
             "  XPBD: {colours} spring colours × {} iteration(s): {} xpbd_solve_spring dispatches per substep",
             settings.options.xpbd_iterations,
             colours as u32 * settings.options.xpbd_iterations
+        );
+    }
+    if settings.integrator == hooke::integrator::Integrator::Vbd {
+        let colours = hooke::physics::vbd_colouring(model).colours();
+        let _ = writeln!(
+            s,
+            "  VBD: {colours} mass colours × {} sweep(s): {} vbd_solve_mass dispatches per step",
+            settings.options.vbd_iterations,
+            colours as u32 * settings.options.vbd_iterations
         );
     }
     let _ = writeln!(

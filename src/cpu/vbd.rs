@@ -5,7 +5,7 @@
 //! Backward Euler asks for the velocity v at the end of the step with
 //!   m (v − v₀) = h f(x₀ + h v, v)   for every mass,
 //! which is the minimum of the variational energy the paper descends. VBD sweeps the masses
-//! colour by colour (`physics::colour_masses`: no two masses of a colour share a spring) and moves
+//! colour by colour (`physics::vbd_colouring`: no two masses of a colour share a spring) and moves
 //! each one alone to where its own equation holds, to first order, with its neighbours held:
 //!   Δvᵢ = Aᵢᵢ⁻¹ (h fᵢ − mᵢ (vᵢ − v₀ᵢ)),   xᵢ = x₀ᵢ + h vᵢ,
 //! Aᵢᵢ being mass i's 3 × 3 diagonal block of implicit Euler's system (M − h D − h² K), the

@@ -125,7 +125,7 @@ impl GpuBackend {
         };
         let constants = constants(
             &model,
-            integrator,
+            (integrator, dt_secs),
             kind_shift,
             (group_threads, home.workgroup_arrays()),
         );

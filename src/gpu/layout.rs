@@ -99,6 +99,9 @@ pub struct SolverStatus {
     pub converged: u32,
     /// |b| of the current solve's start: its residual is relative to it.
     pub b_norm: f32,
+    pub last_residual: f32,
+    /// To 64 bytes, so that the partials after two statuses and a `FrameSolve` start 16-aligned.
+    pub _pad: [u32; 3],
 }
 
 /// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.
@@ -130,6 +133,10 @@ impl FrameSolve {
     pub const OFFSET: u64 = 2 * std::mem::size_of::<SolverStatus>() as u64;
     pub const SIZE: u64 = std::mem::size_of::<FrameSolve>() as u64;
 }
+
+// The solver's per-workgroup partials (vec4s) follow the two statuses and the frame record: WGSL
+// starts them at the next multiple of 16, and the host sizes the scratch as if they follow at once.
+const _: () = assert!((FrameSolve::OFFSET + FrameSolve::SIZE) % 16 == 0);
 
 pub use crate::physics::XpbdSpring;
 

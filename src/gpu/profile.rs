@@ -17,8 +17,11 @@ impl GpuBackend {
             .sum()
     }
 
-    /// GPU time of each kernel per step, averaged over `steps` steps, each dispatch timed in its
-    /// own pass with timestamp queries. `None` when the adapter has no timestamp queries.
+    /// GPU time of each kernel per step, averaged over `steps` steps (fewer when their
+    /// dispatches' two timestamps each would pass a query set's limit), each dispatch timed in
+    /// its own pass with timestamp queries. `None` when the adapter has no timestamp queries, or
+    /// when one step alone has more dispatches than a query set can time (VBD's or XPBD's
+    /// sweeps over many colours).
     pub fn profile_kernels(
         &mut self,
         steps: u32,
@@ -26,6 +29,12 @@ impl GpuBackend {
         if !self.ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY) || steps == 0 {
             return Ok(None);
         }
+        let per_step = 2 * self.step_plan(false, false).len() as u32;
+        let fit = wgpu::QUERY_SET_MAX_QUERIES / per_step.max(1);
+        if fit == 0 {
+            return Ok(None);
+        }
+        let steps = steps.min(fit);
         self.prepare_stages(steps);
         let dispatches = self.plan_steps(steps);
         let count = 2 * dispatches.len() as u32;

@@ -112,18 +112,19 @@ pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
 const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 
 /// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
-/// solver's stopping rules (the CPU's, so both backends stop alike), and where the fused steps'
+/// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), and where the fused steps'
 /// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s.
 pub fn constants(
     model: &Model,
-    integrator: Integrator,
+    (integrator, dt_secs): (Integrator, f64),
     kind_shift: u32,
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
-        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_TOLERANCE,
+        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
+        NEWTON_TOLERANCE, newton_residual,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -146,7 +147,9 @@ pub fn constants(
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
-        ("NEWTON_RESIDUAL", NEWTON_RESIDUAL),
+        ("NEWTON_RESIDUAL", newton_residual(dt_secs)),
+        ("NEWTON_FLOOR", NEWTON_FLOOR),
+        ("NEWTON_STALL", NEWTON_STALL),
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
     ]);

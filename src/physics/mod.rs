@@ -14,6 +14,7 @@ pub use colouring::{Colouring, MassColouring, colour_masses, colour_springs, vbd
 pub use grid::{SCAN_BLOCK, inv_cell_per_m, table_size};
 pub use mass_contact::PAIR_STICK_SHARE;
 pub use solver::{
-    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_TOLERANCE,
+    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL,
+    NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL, NEWTON_TOLERANCE, newton_residual,
 };
 pub use xpbd::{XpbdSpring, xpbd_constants};

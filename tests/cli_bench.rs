@@ -5,10 +5,10 @@ mod common;
 
 use common::{hooke, temp_dir, text};
 
-#[test]
-fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
-    let dir = temp_dir("accuracy");
-    let out = hooke(&[
+/// `hooke bench accuracy hair` on the CPU over 0.1 s into `dir`, with `rest`: its stdout and CSV.
+fn hair_accuracy(dir: &std::path::Path, rest: &[&str]) -> (String, String) {
+    let dir = dir.to_string_lossy();
+    let mut args = vec![
         "bench",
         "accuracy",
         "hair",
@@ -16,18 +16,21 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
         "cpu",
         "--duration",
         "0.1",
-        "--points",
-        "3",
-        "--coarsest",
-        "0",
-        "--no-fast-end",
         "--out",
-        &dir.to_string_lossy(),
-    ]);
-    let stdout = text(&out.stdout);
+        &dir,
+    ];
+    args.extend_from_slice(rest);
+    let out = hooke(&args);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let csv =
-        std::fs::read_to_string(dir.join("accuracy-hair.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let csv = std::fs::read_to_string(std::path::Path::new(&*dir).join("accuracy-hair.csv"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    (text(&out.stdout), csv)
+}
+
+#[test]
+fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
+    let dir = temp_dir("accuracy");
+    let (stdout, csv) = hair_accuracy(&dir, &["--points", "3", "--coarsest", "0", "--no-fast-end"]);
     let rows: Vec<Vec<&str>> = csv
         .lines()
         .skip(1)
@@ -109,23 +112,7 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
 #[test]
 fn bench_accuracy_reaches_one_step_per_frame() {
     let dir = temp_dir("accuracy-fast-end");
-    let out = hooke(&[
-        "bench",
-        "accuracy",
-        "hair",
-        "--backend",
-        "cpu",
-        "--duration",
-        "0.1",
-        "--points",
-        "2",
-        "--out",
-        &dir.to_string_lossy(),
-    ]);
-    let stdout = text(&out.stdout);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let csv =
-        std::fs::read_to_string(dir.join("accuracy-hair.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let (stdout, csv) = hair_accuracy(&dir, &["--points", "2"]);
     let at_frame: Vec<Vec<&str>> = csv
         .lines()
         .skip(1)

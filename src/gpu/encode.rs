@@ -34,7 +34,7 @@ impl Dispatcher<'_> {
         let pipeline = self.pipelines.get(d.kernel);
         // A colour's kernel binds its colour's group and runs over its colour's springs or masses.
         let (group0, groups) = match d.colour {
-            Some(pass) => self.resources.colour_pass(d.kernel, pass),
+            Some(pass) => self.resources.colour_pass(pass),
             None => (
                 self.resources.group(spec.group),
                 self.resources.workgroups.of(spec.threads),

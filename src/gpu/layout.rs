@@ -136,7 +136,7 @@ impl FrameSolve {
 
 // The solver's per-workgroup partials (vec4s) follow the two statuses and the frame record: WGSL
 // starts them at the next multiple of 16, and the host sizes the scratch as if they follow at once.
-const _: () = assert!((FrameSolve::OFFSET + FrameSolve::SIZE) % 16 == 0);
+const _: () = assert!((FrameSolve::OFFSET + FrameSolve::SIZE).is_multiple_of(16));
 
 pub use crate::physics::XpbdSpring;
 

@@ -19,6 +19,7 @@ mod backend;
 #[doc(hidden)]
 pub mod bindings;
 mod buffers;
+mod colours;
 mod context;
 mod dispatch;
 mod encode;

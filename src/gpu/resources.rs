@@ -4,14 +4,15 @@
 
 use super::bindings::{Group, GroupBuffers, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
+use super::colours::ColourGroups;
 use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
-use super::kernels::{Kernel, Path, Sizes, Threads};
+use super::kernels::{Path, Sizes, Threads};
 use super::layout::{FrameSolve, MassContact};
 use super::links::Links;
 use super::pipelines::Layouts;
 use super::shaders::{WORKGROUP, groups_for};
-use super::vbd::{VbdBuffers, VbdSetup};
-use super::xpbd::{XpbdBuffers, XpbdSetup};
+use super::vbd::{VbdSetup, vbd_groups};
+use super::xpbd::{XpbdSetup, xpbd_groups};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 
@@ -30,8 +31,7 @@ pub struct Workgroups {
 }
 
 impl Workgroups {
-    /// `None` for a kernel over one colour: its count is the colour's (`XpbdBuffers`,
-    /// `VbdBuffers`).
+    /// `None` for a kernel over one colour: its count is the colour's (`ColourGroups`).
     pub fn of(&self, t: Threads) -> Option<(u32, u32)> {
         Some(match t {
             Threads::Masses => self.masses,
@@ -94,8 +94,8 @@ pub struct Resources {
     flows: Vec<Option<wgpu::BindGroup>>,
     pub grid: Option<GridBuffers>,
     pub solver: Option<SolverBuffers>,
-    pub xpbd: Option<XpbdBuffers>,
-    pub vbd: Option<VbdBuffers>,
+    /// XPBD's or VBD's colour groups (a run has one integrator).
+    pub colours: Option<ColourGroups>,
     pub workgroups: Workgroups,
     /// Bytes of GPU memory held by the buffers above (all but the stage slots').
     pub memory_bytes: u64,
@@ -298,7 +298,7 @@ impl Resources {
                     uniform_align: limits.min_uniform_buffer_offset_alignment,
                     max_per_dim: max_dim,
                 };
-                XpbdBuffers::new(&mut a, &b, model, &setup)
+                xpbd_groups(&mut a, &b, model, &setup)
             });
         let vbd = layouts
             .group(Group::VbdSolve)
@@ -310,7 +310,7 @@ impl Resources {
                     uniform_align: limits.min_uniform_buffer_offset_alignment,
                     max_per_dim: max_dim,
                 };
-                VbdBuffers::new(&mut a, &b, model, &setup)
+                vbd_groups(&mut a, &b, model, &setup)
             });
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
@@ -341,8 +341,7 @@ impl Resources {
             flows,
             grid,
             solver,
-            xpbd,
-            vbd,
+            colours: xpbd.or(vbd),
             workgroups,
             memory_bytes: a.bytes,
         }
@@ -353,39 +352,19 @@ impl Resources {
         self.groups[g as usize].as_ref()
     }
 
-    /// The bind group 0 and workgroups of `kernel` over one colour (XPBD's projection, VBD's
-    /// block solve); `None` when the run has no such colours.
-    pub fn colour_pass(
-        &self,
-        kernel: Kernel,
-        pass: ColourPass,
-    ) -> (Option<&wgpu::BindGroup>, Option<(u32, u32)>) {
-        match kernel {
-            Kernel::XpbdSolveSpring => {
-                let xpbd = self.xpbd.as_ref();
-                (
-                    xpbd.and_then(|x| x.group(pass)),
-                    xpbd.and_then(|x| x.workgroups(pass.colour)),
-                )
-            }
-            Kernel::VbdSolveMass => {
-                let vbd = self.vbd.as_ref();
-                (
-                    vbd.and_then(|x| x.group(pass)),
-                    vbd.and_then(|x| x.workgroups(pass.colour)),
-                )
-            }
-            _ => (None, None),
-        }
+    /// The bind group 0 and workgroups of a kernel over one colour (XPBD's projection, VBD's
+    /// block solve); `None` when the run has no colours.
+    pub fn colour_pass(&self, pass: ColourPass) -> (Option<&wgpu::BindGroup>, Option<(u32, u32)>) {
+        let colours = self.colours.as_ref();
+        (
+            colours.and_then(|c| c.group(pass)),
+            colours.and_then(|c| c.workgroups(pass.colour)),
+        )
     }
 
     /// The colour sweeps of a step: XPBD's or VBD's (none for the other integrators).
     pub fn sweeps(&self) -> Sweeps {
-        match (&self.xpbd, &self.vbd) {
-            (Some(x), _) => x.sweeps,
-            (_, Some(v)) => v.sweeps,
-            _ => Sweeps::default(),
-        }
+        self.colours.as_ref().map(|c| c.sweeps).unwrap_or_default()
     }
 
     /// Bind group 1 over `s`.

@@ -1,0 +1,96 @@
+//! The colour kernels' bind groups (XPBD's projection over spring colours, VBD's block solve over
+//! mass colours): a window of one uniform buffer per colour and kind of sweep, and the groups,
+//! workgroups and sweeps a plan's colour dispatches find (`Resources::colour_pass`).
+
+use super::buffers::Alloc;
+use super::dispatch::{ColourPass, Sweeps};
+use super::layout::ColourRange;
+use super::shaders::groups_for;
+
+/// One uniform `ColourRange` per (colour, first sweep or not), each at an offset a binding may
+/// start at, in one buffer: the windows the colour kernels' bind groups hold.
+pub(super) struct ColourWindows {
+    uniform: wgpu::Buffer,
+    stride: usize,
+}
+
+impl ColourWindows {
+    /// The windows of the colours whose items start at `starts` (one more than colours).
+    pub(super) fn new(a: &mut Alloc<'_>, label: &str, starts: &[u32], align: u32) -> Self {
+        let stride = std::mem::size_of::<ColourRange>().next_multiple_of(align.max(1) as usize);
+        let colours = starts.len() - 1;
+        let mut uniforms = vec![0u8; (2 * colours).max(1) * stride];
+        for c in 0..colours {
+            for first in [0u32, 1] {
+                let u = ColourRange {
+                    start: starts[c],
+                    count: starts[c + 1] - starts[c],
+                    first,
+                    _pad: 0,
+                };
+                let at = (2 * c + first as usize) * stride;
+                uniforms[at..at + std::mem::size_of::<ColourRange>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
+            }
+        }
+        Self {
+            uniform: a.uniform(label, &uniforms),
+            stride,
+        }
+    }
+
+    /// Colour `c`'s window, on a first sweep or a later one.
+    pub(super) fn binding(&self, c: usize, first: bool) -> wgpu::BufferBinding<'_> {
+        wgpu::BufferBinding {
+            buffer: &self.uniform,
+            offset: ((2 * c + usize::from(first)) * self.stride) as u64,
+            size: wgpu::BufferSize::new(std::mem::size_of::<ColourRange>() as u64),
+        }
+    }
+}
+
+/// A colour kernel's bind groups, one per colour and kind of sweep (`kinds`: 2 when a step's
+/// first sweep binds its own window, as XPBD's does to reset its multipliers; 1 for VBD), the
+/// workgroups over each colour's items, and a step's sweeps.
+pub struct ColourGroups {
+    groups: Vec<wgpu::BindGroup>,
+    kinds: usize,
+    workgroups: Vec<(u32, u32)>,
+    pub sweeps: Sweeps,
+}
+
+impl ColourGroups {
+    /// `groups` in colour order (each colour's `kinds` together) over the colours whose items
+    /// start at `starts`, swept `iterations` times a step.
+    pub(super) fn new(
+        groups: Vec<wgpu::BindGroup>,
+        kinds: usize,
+        (starts, max_per_dim): (&[u32], u32),
+        iterations: u32,
+    ) -> Self {
+        let workgroups: Vec<(u32, u32)> = starts
+            .windows(2)
+            .map(|w| groups_for(w[1] - w[0], max_per_dim))
+            .collect();
+        Self {
+            groups,
+            kinds,
+            sweeps: Sweeps {
+                colours: workgroups.len() as u32,
+                iterations,
+            },
+            workgroups,
+        }
+    }
+
+    /// Bind group 0 of a sweep over one colour.
+    pub fn group(&self, pass: ColourPass) -> Option<&wgpu::BindGroup> {
+        let first = usize::from(pass.first && self.kinds == 2);
+        self.groups.get(self.kinds * pass.colour as usize + first)
+    }
+
+    /// Workgroups over one colour's items.
+    pub fn workgroups(&self, colour: u32) -> Option<(u32, u32)> {
+        self.workgroups.get(colour as usize).copied()
+    }
+}

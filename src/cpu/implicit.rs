@@ -5,7 +5,9 @@
 //! Backward Euler asks for Δv with M Δv = h f(x₀ + h (v₀ + Δv), v₀ + Δv). Newton's method on
 //! that, from Δv = 0, solves at each iterate (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv)
 //!   (M − h D − h² K) δ = h f(x, v) − M Δv,   Δv ← Δv + δ,
-//! with K = ∂f/∂x and D = ∂f/∂v at the iterate, until δ is small. (A single iteration, as in
+//! with K = ∂f/∂x and D = ∂f/∂v at the iterate, until the residual is within the step's
+//! tolerance (`physics::newton_residual`: 3% of |h f| at one step per frame, less at smaller
+//! steps), stalls at the floor of f32 forces, or δ is small. (A single iteration, as in
 //! Baraff & Witkin, over-stretches stiff springs when a step rotates them far; iterating to
 //! convergence keeps the step dissipative.)
 //! Per spring (unit direction n, length l, rest L): −K = k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)],

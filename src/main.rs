@@ -21,6 +21,16 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     let matches = Cli::command().get_matches();
+    #[cfg(unix)]
+    if matches!(matches.subcommand_name(), Some("scenes" | "check")) {
+        // SAFETY: no other thread exists yet. These commands only print: a closed standard
+        // output (`hooke scenes | head`) ends them quietly, as it does a Unix filter, instead of
+        // a panic in `println!`. Not for `run` or `bench`, whose connections and files must see
+        // a lost peer as an error to report, never as a signal.
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+    }
     let result = Cli::from_arg_matches(&matches)
         .map_err(anyhow::Error::from)
         .and_then(|cli| dispatch(cli, &matches));

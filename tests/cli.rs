@@ -26,6 +26,29 @@ fn scenes_lists_every_built_in_with_a_description() {
     }
 }
 
+/// A command that only prints, its standard output closed before it writes (`hooke scenes |
+/// head -0`), ends quietly, as a Unix filter does: no panic in `println!`.
+#[cfg(unix)]
+#[test]
+fn printing_commands_end_quietly_when_their_output_is_closed() {
+    use std::os::unix::process::ExitStatusExt as _;
+    for args in [&["scenes"][..], &["check", "hair", "--backend", "cpu"][..]] {
+        let (reader, writer) = std::io::pipe().unwrap_or_else(|e| panic!("a pipe: {e}"));
+        drop(reader);
+        let out = hooke_command(args)
+            .stdout(std::process::Stdio::from(writer))
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run hooke: {e}"));
+        let stderr = text(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            out.status.success() || out.status.signal() == Some(13),
+            "{args:?}: {:?}, {stderr}",
+            out.status
+        );
+    }
+}
+
 #[test]
 fn built_in_names_and_their_files_are_the_same_scene() {
     for b in hooke::scene::BUILT_IN {

@@ -3,10 +3,9 @@
 //! that both backends stop a solve alike.
 
 /// Inexact Newton: each linear solve stops once its residual is this share of the Newton
-/// residual it started from (a tenth; a solve to 1e-4 of the step's momentum change, as before,
-/// took 3-5x the iterations). Solving further buys nothing, as the system is only the step's
-/// linearisation; on jello and cloth at 1/60 s it cut the CG iterations 2-4x (BENCHMARKS.md,
-/// "Implicit Euler and VBD at one step per frame").
+/// residual it started from (it went to 1e-4 of the step's |h f|). Solving further buys little,
+/// as the system is only the linearisation at the current iterate (BENCHMARKS.md, "Implicit
+/// Euler and VBD at one step per frame").
 pub const CG_FORCING: f64 = 0.1;
 /// Newton stops when the update is this small relative to Δv (or Δv is below 1e-7 m/s).
 pub const NEWTON_TOLERANCE: f64 = 1e-4;
@@ -15,9 +14,9 @@ pub const NEWTON_MAX_ITERATIONS: u32 = 10;
 /// At one step per frame (`NEWTON_RESIDUAL_STEP_SECS`), Newton stops once its residual
 /// |h f − M Δv| is at most this share of the step's momentum change |h f| (taken at the first
 /// iterate): the step's equations hold to 3%. Measured on jello and cloth at 1/60 s over 1 s,
-/// positions then differ from a solve to the f32 floor by 1.6e-2 and 1.3e-2 m RMS, against 1.2
-/// and 0.09 m between implicit Euler at 1/60 s and semi-implicit Euler at the scenes' own steps:
-/// a tenth of the scheme's own error or less, at a third to a fifth of the cost.
+/// positions then differ from a solve to the f32 floor by 2.7e-2 and 2.1e-2 m RMS, against 1.2
+/// and 0.09 m between implicit Euler at 1/60 s and semi-implicit Euler at the scenes' own steps
+/// (2% and a quarter of the scheme's own error), at a third and a fifth of the cost.
 pub const NEWTON_RESIDUAL: f64 = 3e-2;
 /// The step `NEWTON_RESIDUAL` is set for.
 pub const NEWTON_RESIDUAL_STEP_SECS: f64 = 1.0 / 60.0;

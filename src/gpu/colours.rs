@@ -49,6 +49,15 @@ impl ColourWindows {
     }
 }
 
+/// What a colour kernel's groups are made from: its bind group layout, a step's sweeps, and the
+/// adapter's limits.
+pub struct ColourSetup<'a> {
+    pub layout: &'a wgpu::BindGroupLayout,
+    pub iterations: u32,
+    pub uniform_align: u32,
+    pub max_per_dim: u32,
+}
+
 /// A colour kernel's bind groups, one per colour and kind of sweep (`kinds`: 2 when a step's
 /// first sweep binds its own window, as XPBD's does to reset its multipliers; 1 for VBD), the
 /// workgroups over each colour's items, and a step's sweeps.

@@ -4,15 +4,15 @@
 
 use super::bindings::{Group, GroupBuffers, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::colours::ColourGroups;
+use super::colours::{ColourGroups, ColourSetup};
 use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
 use super::kernels::{Path, Sizes, Threads};
 use super::layout::{FrameSolve, MassContact};
 use super::links::Links;
 use super::pipelines::Layouts;
 use super::shaders::{WORKGROUP, groups_for};
-use super::vbd::{VbdSetup, vbd_groups};
-use super::xpbd::{XpbdSetup, xpbd_groups};
+use super::vbd::vbd_groups;
+use super::xpbd::xpbd_groups;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 
@@ -287,31 +287,24 @@ impl Resources {
             }
             s
         });
-        let xpbd_layout = layouts.group(Group::XpbdSolve);
-        let xpbd = xpbd_layout
-            .filter(|_| integrator == Integrator::Xpbd)
-            .map(|layout| {
-                let setup = XpbdSetup {
-                    layout,
-                    dt_secs,
-                    iterations: options.xpbd_iterations,
-                    uniform_align: limits.min_uniform_buffer_offset_alignment,
-                    max_per_dim: max_dim,
-                };
-                xpbd_groups(&mut a, &b, model, &setup)
-            });
-        let vbd = layouts
-            .group(Group::VbdSolve)
-            .filter(|_| integrator == Integrator::Vbd)
-            .map(|layout| {
-                let setup = VbdSetup {
-                    layout,
-                    iterations: options.vbd_iterations,
-                    uniform_align: limits.min_uniform_buffer_offset_alignment,
-                    max_per_dim: max_dim,
-                };
+        // XPBD's or VBD's colour groups, the run's integrator's.
+        let colour_setup = |layout, iterations| ColourSetup {
+            layout,
+            iterations,
+            uniform_align: limits.min_uniform_buffer_offset_alignment,
+            max_per_dim: max_dim,
+        };
+        let colours = match integrator {
+            Integrator::Xpbd => layouts.group(Group::XpbdSolve).map(|layout| {
+                let setup = colour_setup(layout, options.xpbd_iterations);
+                xpbd_groups(&mut a, &b, (model, dt_secs), &setup)
+            }),
+            Integrator::Vbd => layouts.group(Group::VbdSolve).map(|layout| {
+                let setup = colour_setup(layout, options.vbd_iterations);
                 vbd_groups(&mut a, &b, model, &setup)
-            });
+            }),
+            _ => None,
+        };
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
             workgroups.buckets = groups_for(grid.table_size, max_dim);
@@ -341,7 +334,7 @@ impl Resources {
             flows,
             grid,
             solver,
-            colours: xpbd.or(vbd),
+            colours,
             workgroups,
             memory_bytes: a.bytes,
         }

@@ -4,24 +4,16 @@
 
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::colours::{ColourGroups, ColourWindows};
+use super::colours::{ColourGroups, ColourSetup, ColourWindows};
 use crate::model::Model;
 use crate::physics::vbd_colouring;
-
-/// What the VBD buffers are made from: the run's sweeps, and the adapter's limits.
-pub struct VbdSetup<'a> {
-    pub layout: &'a wgpu::BindGroupLayout,
-    pub iterations: u32,
-    pub uniform_align: u32,
-    pub max_per_dim: u32,
-}
 
 /// VBD's colour groups.
 pub(super) fn vbd_groups(
     a: &mut Alloc<'_>,
     b: &Bufs,
     model: &Model,
-    s: &VbdSetup<'_>,
+    s: &ColourSetup<'_>,
 ) -> ColourGroups {
     let colouring = vbd_colouring(model);
     let order = a.model("vbd colour order", bytemuck::cast_slice(&colouring.order));

@@ -4,30 +4,21 @@
 
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::colours::{ColourGroups, ColourWindows};
+use super::colours::{ColourGroups, ColourSetup, ColourWindows};
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
 
-/// What the XPBD buffers are made from: the run's substep and sweeps, and the adapter's limits.
-pub struct XpbdSetup<'a> {
-    pub layout: &'a wgpu::BindGroupLayout,
-    pub dt_secs: f64,
-    pub iterations: u32,
-    pub uniform_align: u32,
-    pub max_per_dim: u32,
-}
-
-/// XPBD's colour groups, with its constants and multipliers.
+/// XPBD's colour groups for substeps of `dt_secs`, with its constants and multipliers.
 pub(super) fn xpbd_groups(
     a: &mut Alloc<'_>,
     b: &Bufs,
-    model: &Model,
-    s: &XpbdSetup<'_>,
+    (model, dt_secs): (&Model, f64),
+    s: &ColourSetup<'_>,
 ) -> ColourGroups {
     let colouring = colour_springs(&model.springs, &model.inv_mass);
     let constants = a.model(
         "xpbd constants",
-        bytemuck::cast_slice(&xpbd_constants(&model.springs, s.dt_secs)),
+        bytemuck::cast_slice(&xpbd_constants(&model.springs, dt_secs)),
     );
     let order = a.model("xpbd colour order", bytemuck::cast_slice(&colouring.order));
     let lambda = a.zeros("xpbd lambda", 4 * model.spring_count());

@@ -1,9 +1,9 @@
 //! `collide_masses` and `mass_contact_energy`: contact between mass points, each a sphere of the
-//! scene's radius, found through the hash grid ([`MassGrid`]). Mirrors
+//! scene's radius, found through the neighbour lists ([`Neighbours`]). Mirrors
 //! `shaders/collide_masses.wgsl`.
 //!
-//! Each mass gathers the pairs it is in from its own side, over its grid candidates in the
-//! grid's fixed order, so every mass is written by one task and the sums are deterministic. The
+//! Each mass gathers the pairs it is in from its own side, by increasing index of the other
+//! mass, so every mass is written by one task and the sums are deterministic. The
 //! pair force is always computed with the lower mass index first and negated for the other mass,
 //! so the two sides are exact negatives (momentum is conserved up to the rounding of each mass's
 //! own sum).
@@ -12,8 +12,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use super::grid::{MassGrid, grid_cell};
 use super::law::contact_force;
+use super::neighbours::Neighbours;
 use crate::model::{MassContact, Model};
 use crate::physics::PAIR_STICK_SHARE;
 
@@ -55,19 +55,13 @@ pub fn pair_contact(
     ))
 }
 
-/// Whether masses `i` and `j` may touch at all under the scene's rule.
-#[inline(always)]
-fn may_touch(model: &Model, c: &MassContact, i: usize, j: usize) -> bool {
-    j != i && (c.within_bodies || model.mass_body[i] != model.mass_body[j])
-}
-
 /// Sum of the pair forces on mass `i` and its share of the pairs' dissipation: half of each pair's,
 /// all of it when the other mass is pinned (a pinned mass does not move, so nothing flows there).
 #[inline(always)]
 fn contact_on_mass(
     model: &Model,
     c: &MassContact,
-    grid: &MassGrid,
+    neighbours: &Neighbours,
     x: &[Vec3],
     v: &[Vec3],
     i: usize,
@@ -77,10 +71,8 @@ fn contact_on_mass(
     let (xi, vi) = (x[i], v[i]);
     let mut f = Vec3::ZERO;
     let mut dissipated = 0.0f32;
-    grid.for_each_candidate(grid_cell(xi, grid.inv_cell_per_m()), |j| {
-        if !may_touch(model, c, i, j) {
-            return;
-        }
+    for &j in neighbours.of(i) {
+        let j = j as usize;
         let wj = model.inv_mass[j];
         let (me, other) = ((xi, vi, wi), (x[j], v[j], wj));
         let (first, second) = if i < j { (me, other) } else { (other, me) };
@@ -92,17 +84,17 @@ fn contact_on_mass(
             }
             dissipated += if wj == 0.0 { diss } else { 0.5 * diss };
         }
-    });
+    }
     (f, dissipated)
 }
 
 /// Add the mass–mass contact forces at (x, v) to the accelerations `acc` (which
-/// `compute_forces` has just written); returns the power they dissipate. `grid` must be built
-/// from `x`.
+/// `compute_forces` has just written); returns the power they dissipate. `neighbours` must hold
+/// every pair that can touch at `x` ([`Neighbours::update`]).
 pub fn collide_masses(
     model: &Model,
     c: &MassContact,
-    grid: &MassGrid,
+    neighbours: &Neighbours,
     x: &[Vec3],
     v: &[Vec3],
     dt: f32,
@@ -116,7 +108,7 @@ pub fn collide_masses(
             if w == 0.0 {
                 continue;
             }
-            let (f, dissipated) = contact_on_mass(model, c, grid, x, v, i, dt);
+            let (f, dissipated) = contact_on_mass(model, c, neighbours, x, v, i, dt);
             // Added to compute_forces' acceleration, as the GPU adds to its output.
             *a += f * w;
             sum += f64::from(dissipated);
@@ -135,25 +127,23 @@ pub fn collide_masses(
     }
 }
 
-/// Energy stored in the compressed pair springs, ½ k (2r − d)² per touching pair (pairs of two
-/// pinned masses exert nothing and hold nothing). `grid` must be built from `x`.
-pub fn mass_contact_energy(model: &Model, c: &MassContact, grid: &MassGrid, x: &[Vec3]) -> f64 {
+/// Energy stored in the compressed pair springs, ½ k (2r − d)² per touching pair, each counted
+/// at its lower mass (pairs of two pinned masses exert nothing and hold nothing). `neighbours`
+/// must hold every pair that can touch at `x`.
+pub fn mass_contact_energy(c: &MassContact, neighbours: &Neighbours, x: &[Vec3]) -> f64 {
     let k = f64::from(c.contact.stiffness_n_per_m);
     let diameter = 2.0 * c.radius_m;
     let mut e = 0.0f64;
     for (i, &xi) in x.iter().enumerate() {
-        grid.for_each_candidate(grid_cell(xi, grid.inv_cell_per_m()), |j| {
-            if j <= i || !may_touch(model, c, i, j) {
-                return;
+        for &j in neighbours.of(i) {
+            if (j as usize) <= i {
+                continue;
             }
-            if model.inv_mass[i] + model.inv_mass[j] == 0.0 {
-                return;
-            }
-            let depth = f64::from(diameter) - f64::from(xi.distance(x[j]));
+            let depth = f64::from(diameter) - f64::from(xi.distance(x[j as usize]));
             if depth > 0.0 {
                 e += 0.5 * k * depth * depth;
             }
-        });
+        }
     }
     e
 }
@@ -198,12 +188,11 @@ mod tests {
         });
         let model = mb.build();
         let (x, v) = (&model.initial.x, &model.initial.v);
-        let mut grid = MassGrid::new(x.len(), c.radius_m);
-        grid.build(x);
+        let neighbours = Neighbours::built_at(&model, &c, x);
         let mut total = Vec3::ZERO;
         let mut touching = 0;
         for i in 0..x.len() {
-            let (f, _) = contact_on_mass(&model, &c, &grid, x, v, i, 1e-3);
+            let (f, _) = contact_on_mass(&model, &c, &neighbours, x, v, i, 1e-3);
             total += f;
             if f != Vec3::ZERO {
                 touching += 1;
@@ -211,7 +200,11 @@ mod tests {
         }
         assert!(touching > 20, "only {touching} masses touch");
         let scale: f32 = (0..x.len())
-            .map(|i| contact_on_mass(&model, &c, &grid, x, v, i, 1e-3).0.length())
+            .map(|i| {
+                contact_on_mass(&model, &c, &neighbours, x, v, i, 1e-3)
+                    .0
+                    .length()
+            })
             .sum();
         assert!(
             total.length() <= 1e-5 * scale,

@@ -7,8 +7,8 @@ use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::collide_masses::collide_masses;
-use super::grid::MassGrid;
 use super::law::{contact_force, spring_force};
+use super::neighbours::Neighbours;
 use crate::model::{Model, Pose, Spring, poses_at};
 use crate::state::Power;
 
@@ -87,7 +87,7 @@ pub(super) fn force_on_mass<const SPRINGS: bool>(
 /// as `model.adjacency`: the gather streams through one array instead of chasing a spring index
 /// per neighbour. (The GPU reads springs by index; its caches make that cheap.) It also holds the
 /// live springs, which plasticity and tearing change during a run, and with mass–mass contact
-/// the hash grid that each force evaluation rebuilds.
+/// the neighbour lists, which a force evaluation rebuilds only when they have gone stale.
 #[derive(Debug, Default)]
 pub struct Gather {
     offsets: Vec<u32>,
@@ -95,7 +95,7 @@ pub struct Gather {
     springs: Vec<Spring>,
     /// The two entries of each spring; only when springs change during the run.
     entries_of: Vec<[u32; 2]>,
-    mass_grid: Option<MassGrid>,
+    neighbours: Option<Neighbours>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -129,10 +129,10 @@ impl Gather {
                 .collect(),
             springs: model.springs.clone(),
             entries_of,
-            mass_grid: model
+            neighbours: model
                 .effects
                 .self_collision
-                .map(|c| MassGrid::new(model.mass_count(), c.radius_m)),
+                .map(|c| Neighbours::new(model.mass_count(), &c)),
         }
     }
 
@@ -229,10 +229,9 @@ fn forces<const SPRINGS: bool>(
             .fold([0.0; 4], add)
     };
     let mut contact_w = total[2];
-    if let (Some(c), Some(grid)) = (&model.effects.self_collision, gather.mass_grid.as_mut()) {
-        // The grid of the positions this evaluation reads, as the GPU builds it.
-        grid.build(x);
-        contact_w += collide_masses(model, c, grid, x, v, dt, acc);
+    if let (Some(c), Some(nb)) = (&model.effects.self_collision, gather.neighbours.as_mut()) {
+        nb.update(model, c, x);
+        contact_w += collide_masses(model, c, nb, x, v, dt, acc);
     }
     Power {
         damping_w: total[0],

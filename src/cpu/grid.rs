@@ -39,10 +39,16 @@ pub struct MassGrid {
 }
 
 impl MassGrid {
+    /// Cells `2 · radius_m` wide: a touching pair lies in the same or neighbouring cells.
     pub fn new(mass_count: usize, radius_m: f32) -> Self {
+        Self::with_inv_cell(mass_count, inv_cell_per_m(radius_m))
+    }
+
+    /// Cells `1 / inv_cell_per_m` wide.
+    pub fn with_inv_cell(mass_count: usize, inv_cell_per_m: f32) -> Self {
         let table = table_size(mass_count) as usize;
         Self {
-            inv_cell_per_m: inv_cell_per_m(radius_m),
+            inv_cell_per_m,
             mask: table as u32 - 1,
             cell_start: vec![0; table + 1],
             sorted: vec![0; mass_count],

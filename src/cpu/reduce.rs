@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::collide_masses::mass_contact_energy;
-use super::grid::MassGrid;
+use super::neighbours::Neighbours;
 use crate::model::{Model, Spring, poses_at};
 use crate::state::{Energies, State};
 
@@ -61,9 +61,8 @@ pub fn compute_energies(model: &Model, springs: &[Spring], state: &State) -> Ene
         }
     }
     if let Some(c) = &fx.self_collision {
-        let mut grid = MassGrid::new(x.len(), c.radius_m);
-        grid.build(x);
-        e.contact_j += mass_contact_energy(model, c, &grid, x);
+        let neighbours = Neighbours::built_at(model, c, x);
+        e.contact_j += mass_contact_energy(c, &neighbours, x);
     }
     e
 }

@@ -7,3 +7,25 @@
 /// the ledger counting energy that never left. A quarter keeps eight simultaneous pairs from
 /// overshooting; sticking then takes a few steps instead of one.
 pub const PAIR_STICK_SHARE: f32 = 0.25;
+
+/// The neighbour lists' skin as a share of the contact radius. A mass's list holds every mass
+/// within `2 r + skin` of it when the lists were built, so it stays complete (holds every mass
+/// it can touch) until some mass has moved half the skin. A wider skin rebuilds less often and
+/// visits more candidates each evaluation.
+pub const NEIGHBOUR_SKIN_SHARE: f32 = 1.0;
+
+/// How far a mass may move from where the lists were built before they are rebuilt: 90% of half
+/// the skin, so that the f32 rounding of the distances tested at the build never drops a pair
+/// that could touch.
+const MOVED_SHARE_OF_HALF_SKIN: f32 = 0.9;
+
+/// Distance within which the lists take a pair, `2 r + skin`; also the cell of the grid they
+/// are built with, so that such a pair lies in the same or neighbouring cells.
+pub fn neighbour_reach_m(radius_m: f32) -> f32 {
+    (2.0 + NEIGHBOUR_SKIN_SHARE) * radius_m
+}
+
+/// The displacement since the last build past which a mass makes the lists stale.
+pub fn neighbour_moved_limit_m(radius_m: f32) -> f32 {
+    MOVED_SHARE_OF_HALF_SKIN * 0.5 * NEIGHBOUR_SKIN_SHARE * radius_m
+}

@@ -12,7 +12,9 @@ mod xpbd;
 
 pub use colouring::{Colouring, MassColouring, colour_masses, colour_springs, vbd_colouring};
 pub use grid::{SCAN_BLOCK, inv_cell_per_m, table_size};
-pub use mass_contact::PAIR_STICK_SHARE;
+pub use mass_contact::{
+    NEIGHBOUR_SKIN_SHARE, PAIR_STICK_SHARE, neighbour_moved_limit_m, neighbour_reach_m,
+};
 pub use solver::{
     CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL,
     NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL, NEWTON_TOLERANCE, newton_residual,

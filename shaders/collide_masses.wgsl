@@ -1,11 +1,13 @@
 // collide_masses and mass_contact_energy: contact between mass points, each a sphere of the
-// scene's radius, found through the hash grid that grid.wgsl built from the same positions.
-// Mirrors src/cpu/collide_masses.rs: each mass gathers its pairs by increasing index of the other
-// mass, and every pair is computed lower index first and negated for the other mass, so the two
-// sides are exact negatives.
+// scene's radius, found through the neighbour lists that grid.wgsl keeps. Mirrors
+// src/cpu/collide_masses.rs: each mass gathers its pairs by increasing index of the other mass,
+// and every pair is computed lower index first and negated for the other mass, so the two sides
+// are exact negatives.
 
 // Bindings: `CollideMasses` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// The lists and the grid are grid.wgsl's, built or kept by the passes before.
+// #import neighbour_walk
 
 struct Pair {
     touching: bool,
@@ -43,54 +45,68 @@ fn may_touch(i: u32, j: u32) -> bool {
     return j != i && (contact.within_bodies != 0u || mass_body[i] != mass_body[j]);
 }
 
-// Cell k of the 27 around a mass's own (z, y, x each from −1 to +1).
-fn cell_offset(k: u32) -> vec3<i32> {
-    return vec3<i32>(i32(k % 3u) - 1, i32((k / 3u) % 3u) - 1, i32(k / 9u) - 1);
+fn record(i: u32) -> u32 {
+    return contact.list_head + i * (4u + contact.list_slots);
 }
 
-// The first slot from `at` (up to `end`) of a bucket whose mass lies in `cell`: a bucket holds
-// every cell hashed to it, and each of the 27 cursors takes only its own cell's masses, so a
-// bucket two of the cells share yields each mass once.
-fn skip_to_cell(at: u32, end: u32, cell: vec3<i32>) -> u32 {
-    var s = at;
-    while (s < end && any(grid_cell(x_in[sorted[s]].xyz, contact.inv_cell) != cell)) {
-        s++;
+// Where mass j was when the lists were built (grid.wgsl's grid_count stored it).
+fn listed_position(j: u32) -> vec3<f32> {
+    let r = record(j);
+    return vec3<f32>(bitcast<f32>(neighbours[r + 1u]), bitcast<f32>(neighbours[r + 2u]), bitcast<f32>(neighbours[r + 3u]));
+}
+
+// The cell mass j was binned in at the build: the walk of a mass whose list overflowed.
+fn listed_cell(j: u32) -> vec3<i32> {
+    return grid_cell(listed_position(j), contact.inv_cell);
+}
+
+// Where mass i's candidates come from, by increasing index: its list, or, when the list
+// overflowed its slots, the walk over the grid it was built from (which yields the same masses
+// in the same order, and more). The walk itself is a variable of its own: naga 30's SPIR-V
+// writer fails on a pointer to a struct's member passed on.
+struct Listed {
+    listed: bool,
+    next: u32,
+    count: u32,
+    first: u32,
+}
+
+fn candidates(i: u32, walk: ptr<function, Walk>) -> Listed {
+    let r = record(i);
+    let count = neighbours[r];
+    let listed = count <= contact.list_slots;
+    if (!listed) {
+        *walk = walk_start(listed_cell(i));
     }
-    return s;
+    return Listed(listed, 0u, count, r + 4u);
+}
+
+fn next_candidate(c: ptr<function, Listed>, walk: ptr<function, Walk>) -> u32 {
+    if ((*c).listed) {
+        if ((*c).next == (*c).count) {
+            return WALK_DONE;
+        }
+        let j = neighbours[(*c).first + (*c).next];
+        (*c).next++;
+        return j;
+    }
+    return walk_next(walk);
 }
 
 // Sum of the pair forces on mass i and its share of their dissipation, the pairs taken by
-// increasing index of the other mass (the order src/cpu/neighbours.rs's lists hold): the 27
-// cells' buckets, each sorted by mass index, merged.
-fn contact_on_mass(i: u32, c: vec3<i32>) -> Pair {
+// increasing index of the other mass (as src/cpu/collide_masses.rs's contact_on_mass).
+fn contact_on_mass(i: u32) -> Pair {
     let wi = mass[i].y;
     let xi = x_in[i].xyz;
     let vi = v_in[i].xyz;
     var out = Pair(false, vec3<f32>(0.0), 0.0);
-    var at: array<u32, 27>;
-    var end: array<u32, 27>;
-    for (var k = 0u; k < 27u; k++) {
-        let cell = c + cell_offset(k);
-        let b = grid_hash(cell, contact.table_mask);
-        end[k] = cell_start[b + 1u];
-        at[k] = skip_to_cell(cell_start[b], end[k], cell);
-    }
+    var walk: Walk;
+    var c = candidates(i, &walk);
     loop {
-        var j = 0xffffffffu;
-        var first = 27u;
-        for (var k = 0u; k < 27u; k++) {
-            if (at[k] < end[k]) {
-                let m = sorted[at[k]];
-                if (m < j) {
-                    j = m;
-                    first = k;
-                }
-            }
-        }
-        if (first == 27u) {
+        let j = next_candidate(&c, &walk);
+        if (j == WALK_DONE) {
             break;
         }
-        at[first] = skip_to_cell(at[first] + 1u, end[first], c + cell_offset(first));
         if (!may_touch(i, j)) {
             continue;
         }
@@ -114,13 +130,18 @@ fn contact_on_mass(i: u32, c: vec3<i32>) -> Pair {
     return out;
 }
 
+// The last pass of an evaluation to read the lists: it clears their stale flag, which every pass
+// before it has read.
 @compute @workgroup_size(64)
 fn collide_masses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
+    if (i == 0u) {
+        neighbours[0] = 0u;
+    }
     if (i >= params.mass_count) { return; }
     let wi = mass[i].y;
     if (wi == 0.0) { return; }
-    let p = contact_on_mass(i, grid_cell(x_in[i].xyz, contact.inv_cell));
+    let p = contact_on_mass(i);
     deriv[2u * i] = vec4<f32>(deriv[2u * i].xyz + p.force * wi, 0.0);
     deriv[2u * i + 1u].z += p.dissipated;
 }
@@ -129,7 +150,8 @@ var<workgroup> energy_sh: array<f32, 64>;
 
 // ½ k (2r − d)² per touching pair, each counted at its lower mass, summed per workgroup into the
 // contact energy of compute_energies' partial sum of the same workgroup (dispatched over the
-// masses, each workgroup g covers masses 64g .. 64g + 63 as compute_energies' does).
+// masses, each workgroup g covers masses 64g .. 64g + 63 as compute_energies' does). Like
+// collide_masses, it reads the lists last and clears their stale flag.
 @compute @workgroup_size(64)
 fn mass_contact_energy(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -138,32 +160,26 @@ fn mass_contact_energy(
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
     let i = thread_index(gid, groups);
+    if (i == 0u) {
+        neighbours[0] = 0u;
+    }
     var e = 0.0;
     if (i < params.mass_count) {
         let xi = x_in[i].xyz;
         let diameter = 2.0 * contact.radius;
-        let c = grid_cell(xi, contact.inv_cell);
-        for (var dz = -1; dz <= 1; dz++) {
-            for (var dy = -1; dy <= 1; dy++) {
-                for (var dx = -1; dx <= 1; dx++) {
-                    let cell = c + vec3<i32>(dx, dy, dz);
-                    let b = grid_hash(cell, contact.table_mask);
-                    let end = cell_start[b + 1u];
-                    for (var s = cell_start[b]; s < end; s++) {
-                        let j = sorted[s];
-                        if (j <= i || !may_touch(i, j) || mass[i].y + mass[j].y == 0.0) {
-                            continue;
-                        }
-                        let xj = x_in[j].xyz;
-                        if (any(grid_cell(xj, contact.inv_cell) != cell)) {
-                            continue;
-                        }
-                        let depth = diameter - distance(xi, xj);
-                        if (depth > 0.0) {
-                            e += 0.5 * contact.stiffness * depth * depth;
-                        }
-                    }
-                }
+        var walk: Walk;
+        var c = candidates(i, &walk);
+        loop {
+            let j = next_candidate(&c, &walk);
+            if (j == WALK_DONE) {
+                break;
+            }
+            if (j <= i || !may_touch(i, j) || mass[i].y + mass[j].y == 0.0) {
+                continue;
+            }
+            let depth = diameter - distance(xi, x_in[j].xyz);
+            if (depth > 0.0) {
+                e += 0.5 * contact.stiffness * depth * depth;
             }
         }
     }

@@ -223,7 +223,7 @@ fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
 // Mass–mass contact and its hash grid (grid.wgsl, collide_masses.wgsl).
 struct MassContact {
     radius: f32,
-    // 1 / cell size; cells are 2 · radius wide.
+    // 1 / cell size; cells are one reach (2 · radius + skin) wide.
     inv_cell: f32,
     // Buckets − 1 (a power of two), and buckets / SCAN_BLOCK.
     table_mask: u32,
@@ -234,6 +234,13 @@ struct MassContact {
     damping_ratio: f32,
     // 1: masses of one body collide with each other too; 0: only masses of different bodies.
     within_bodies: u32,
+    // The neighbour lists' reach (2 r + skin) squared, and the squared displacement since the
+    // last build past which they are stale.
+    reach_sq: f32,
+    moved_sq: f32,
+    // Slots of a mass's list, and the words before the first mass's record.
+    list_slots: u32,
+    list_head: u32,
 }
 
 // The cell holding p: as src/cpu/grid.rs (multiply by the inverse cell size, floor, convert).

@@ -1,18 +1,64 @@
-// The hash grid of mass–mass contact, rebuilt at every force evaluation from the positions that
-// evaluation reads: grid_count (masses per bucket), the exclusive prefix sum over the table
-// (grid_scan_blocks scans each block of SCAN_BLOCK buckets, grid_scan_sums the blocks' totals,
-// grid_scan_add adds those back, so any table size works), grid_scatter (atomic, so in no fixed
-// order), then grid_sort_cells (each bucket by mass index: the same layout every run, and the
-// CPU's). Mirrors src/cpu/grid.rs.
+// Mass–mass contact's neighbour lists and the hash grid they are built with (cells one reach,
+// 2 r + skin, wide). Every force evaluation first runs neighbours_check: has some mass moved past
+// the limit since the last build? Only then do the build passes run (each returns at once
+// otherwise): grid_count (masses per bucket; each mass's position at the build), the exclusive
+// prefix sum over the table (grid_scan_blocks scans each block of SCAN_BLOCK buckets,
+// grid_scan_sums the blocks' totals, grid_scan_add adds those back, so any table size works),
+// grid_scatter (atomic, so in no fixed order), grid_sort_cells (each bucket by mass index: the
+// same layout every run, and the CPU's), then neighbour_lists. The pass that reads the lists
+// (collide_masses, mass_contact_energy) clears the flag. Mirrors src/cpu/grid.rs and
+// src/cpu/neighbours.rs.
+//
+// neighbours: [0] the lists are stale; [1] builds so far; then a record per mass from
+// contact.list_head, 4 + contact.list_slots words each: the list's length (past the slots, the
+// mass walks the grid instead), its position at the build (f32 bits), then the list.
+// grid_index: the bucket starts (one more than buckets), then the masses sorted by bucket.
 
 // Bindings: `Grid` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
+// #import neighbour_walk
+
+fn record(i: u32) -> u32 {
+    return contact.list_head + i * (4u + contact.list_slots);
+}
+
+fn lists_stale() -> bool {
+    return atomicLoad(&neighbours[0]) != 0u;
+}
+
+// At the build the positions are the evaluation's own.
+fn listed_cell(j: u32) -> vec3<i32> {
+    return grid_cell(x_in[j].xyz, contact.inv_cell);
+}
+
+// Flag the lists stale if mass i has moved past the limit since they were built (or is not
+// finite). As src/cpu/neighbours.rs's neighbours_check.
+@compute @workgroup_size(64)
+fn neighbours_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    let r = record(i);
+    let built = vec3<f32>(
+        bitcast<f32>(atomicLoad(&neighbours[r + 1u])),
+        bitcast<f32>(atomicLoad(&neighbours[r + 2u])),
+        bitcast<f32>(atomicLoad(&neighbours[r + 3u])),
+    );
+    let d = x_in[i].xyz - built;
+    if (!(dot(d, d) <= contact.moved_sq)) {
+        atomicOr(&neighbours[0], 1u);
+    }
+}
 
 @compute @workgroup_size(64)
 fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
-    let b = grid_hash(grid_cell(x_in[i].xyz, contact.inv_cell), contact.table_mask);
+    if (i >= params.mass_count || !lists_stale()) { return; }
+    let p = x_in[i].xyz;
+    let r = record(i);
+    atomicStore(&neighbours[r + 1u], bitcast<u32>(p.x));
+    atomicStore(&neighbours[r + 2u], bitcast<u32>(p.y));
+    atomicStore(&neighbours[r + 3u], bitcast<u32>(p.z));
+    let b = grid_hash(grid_cell(p, contact.inv_cell), contact.table_mask);
     mass_cell[i] = b;
     atomicAdd(&cell_count[b], 1u);
 }
@@ -33,17 +79,19 @@ fn scan_workgroup(lid: u32) {
 }
 
 // One workgroup per block of SCAN_BLOCK buckets, four per invocation: the exclusive prefix sum
-// within the block into cell_start, and the block's total into block_sums.
+// within the block into grid_index, and the block's total into block_sums.
 @compute @workgroup_size(64)
 fn grid_scan_blocks(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
+    // The passes with barriers run whole and store only when the lists are stale.
+    let stale = lists_stale();
     let block = wid.x + wid.y * groups.x;
     // A 2D dispatch may round up to a few workgroups more than blocks; they still reach the
     // barriers, and skip the memory.
-    let in_table = block < contact.block_count;
+    let in_table = block < contact.block_count && stale;
     let base = block * SCAN_BLOCK + 4u * lid;
     var c = vec4<u32>(0u);
     if (in_table) {
@@ -60,10 +108,10 @@ fn grid_scan_blocks(
     scan_workgroup(lid);
     if (in_table) {
         let first = scan_sh[lid] - total;
-        cell_start[base] = first;
-        cell_start[base + 1u] = first + c.x;
-        cell_start[base + 2u] = first + c.x + c.y;
-        cell_start[base + 3u] = first + c.x + c.y + c.z;
+        grid_index[base] = first;
+        grid_index[base + 1u] = first + c.x;
+        grid_index[base + 2u] = first + c.x + c.y;
+        grid_index[base + 3u] = first + c.x + c.y + c.z;
         if (lid == WORKGROUP - 1u) {
             block_sums[block] = scan_sh[lid];
         }
@@ -72,9 +120,10 @@ fn grid_scan_blocks(
 
 // One workgroup: the exclusive prefix sum of the block totals, in place, SCAN_BLOCK at a time
 // with a running carry (so any number of blocks); the grand total (the mass count) closes
-// cell_start.
+// the bucket starts.
 @compute @workgroup_size(64)
 fn grid_scan_sums(@builtin(local_invocation_index) lid: u32) {
+    let stale = lists_stale();
     let count = contact.block_count;
     var carry = 0u;
     for (var chunk = 0u; chunk < (count + SCAN_BLOCK - 1u) / SCAN_BLOCK; chunk++) {
@@ -91,7 +140,7 @@ fn grid_scan_sums(@builtin(local_invocation_index) lid: u32) {
         scan_workgroup(lid);
         var running = carry + scan_sh[lid] - total;
         for (var k = 0u; k < 4u; k++) {
-            if (base + k < count) {
+            if (base + k < count && stale) {
                 block_sums[base + k] = running;
             }
             running += c[k];
@@ -100,25 +149,25 @@ fn grid_scan_sums(@builtin(local_invocation_index) lid: u32) {
         // Everyone has read the chunk's total before the next chunk overwrites scan_sh.
         workgroupBarrier();
     }
-    if (lid == 0u) {
-        cell_start[contact.table_mask + 1u] = carry;
+    if (lid == 0u && stale) {
+        grid_index[contact.table_mask + 1u] = carry;
     }
 }
 
 @compute @workgroup_size(64)
 fn grid_scan_add(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let b = thread_index(gid, groups);
-    if (b > contact.table_mask) { return; }
-    cell_start[b] += block_sums[b / SCAN_BLOCK];
+    if (b > contact.table_mask || !lists_stale()) { return; }
+    grid_index[b] += block_sums[b / SCAN_BLOCK];
 }
 
 @compute @workgroup_size(64)
 fn grid_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
+    if (i >= params.mass_count || !lists_stale()) { return; }
     let b = mass_cell[i];
     let left = atomicSub(&cell_count[b], 1u);
-    sorted[cell_start[b] + left - 1u] = i;
+    grid_index[sorted_at() + grid_index[b] + left - 1u] = i;
 }
 
 // Insertion sort of each bucket: buckets hold a few masses (the table has twice as many buckets
@@ -126,16 +175,48 @@ fn grid_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 @compute @workgroup_size(64)
 fn grid_sort_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let b = thread_index(gid, groups);
-    if (b > contact.table_mask) { return; }
-    let first = cell_start[b];
-    let end = cell_start[b + 1u];
+    if (b > contact.table_mask || !lists_stale()) { return; }
+    let base = sorted_at();
+    let first = base + grid_index[b];
+    let end = base + grid_index[b + 1u];
     for (var s = first + 1u; s < end; s++) {
-        let m = sorted[s];
+        let m = grid_index[s];
         var t = s;
-        while (t > first && sorted[t - 1u] > m) {
-            sorted[t] = sorted[t - 1u];
+        while (t > first && grid_index[t - 1u] > m) {
+            grid_index[t] = grid_index[t - 1u];
             t--;
         }
-        sorted[t] = m;
+        grid_index[t] = m;
     }
+}
+
+// Mass i's list: every other mass within the reach, by increasing index, as many as the slots
+// hold; the length stored is the whole count, so that a mass whose list overflowed walks the grid
+// instead. (The CPU's lists also drop the pairs that can never touch; the pass that reads them
+// tests that rule for both, so the pairs summed are the same.)
+@compute @workgroup_size(64)
+fn neighbour_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count || !lists_stale()) { return; }
+    if (i == 0u) {
+        atomicAdd(&neighbours[1], 1u);
+    }
+    let xi = x_in[i].xyz;
+    let r = record(i);
+    var count = 0u;
+    var w = walk_start(listed_cell(i));
+    loop {
+        let j = walk_next(&w);
+        if (j == WALK_DONE) {
+            break;
+        }
+        let d = x_in[j].xyz - xi;
+        if (j != i && dot(d, d) < contact.reach_sq) {
+            if (count < contact.list_slots) {
+                atomicStore(&neighbours[r + 4u + count], j);
+            }
+            count++;
+        }
+    }
+    atomicStore(&neighbours[r], count);
 }

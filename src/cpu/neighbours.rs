@@ -57,7 +57,7 @@ impl Neighbours {
     /// Lists built at `x`, for a one-off use (a snapshot's energy).
     pub fn built_at(model: &Model, c: &MassContact, x: &[Vec3]) -> Self {
         let mut n = Self::new(x.len(), c);
-        n.rebuild(model, c, x);
+        n.neighbour_lists(model, c, x);
         n
     }
 
@@ -65,10 +65,10 @@ impl Neighbours {
     /// mass has moved past the limit since the last build (or there was none). Returns whether
     /// it rebuilt.
     pub fn update(&mut self, model: &Model, c: &MassContact, x: &[Vec3]) -> bool {
-        if !self.stale(x) {
+        if !self.neighbours_check(x) {
             return false;
         }
-        self.rebuild(model, c, x);
+        self.neighbour_lists(model, c, x);
         true
     }
 
@@ -83,8 +83,9 @@ impl Neighbours {
         &self.list[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
-    /// Whether some mass of `x` has moved past the limit since the last build.
-    fn stale(&self, x: &[Vec3]) -> bool {
+    /// Whether some mass of `x` has moved past the limit since the last build (or is not
+    /// finite): the lists are stale.
+    pub(crate) fn neighbours_check(&self, x: &[Vec3]) -> bool {
         if self.x_ref.len() != x.len() {
             return true;
         }
@@ -102,7 +103,8 @@ impl Neighbours {
         }
     }
 
-    fn rebuild(&mut self, model: &Model, c: &MassContact, x: &[Vec3]) {
+    /// Build the lists at `x`: the grid, then each mass's candidates within the reach.
+    pub(crate) fn neighbour_lists(&mut self, model: &Model, c: &MassContact, x: &[Vec3]) {
         self.grid.build(x);
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);

@@ -252,20 +252,22 @@ bind_groups! {
         /// compute_energies' partial sums (reduce.wgsl): sum_spring_work fills [3g + 2].z.
         partials: ReadWrite "array<vec4<f32>>",
     }
-    /// Mass–mass contact's hash grid (grid.wgsl).
+    /// Mass–mass contact's neighbour lists and their hash grid (grid.wgsl).
     Grid @ 0 {
         params: Uniform "Params",
         contact: Uniform "MassContact",
         /// Masses per bucket while building; grid_scatter counts each back down to zero, which
         /// is where the next build starts.
         cell_count: ReadWrite "array<atomic<u32>>",
-        /// Bucket b holds sorted[cell_start[b] .. cell_start[b + 1]]; one entry more than
-        /// buckets.
-        cell_start: ReadWrite "array<u32>",
+        /// The bucket starts (one more than buckets), then the masses sorted by bucket: bucket b
+        /// holds [table + 1 + start[b] .. table + 1 + start[b + 1]].
+        grid_index: ReadWrite "array<u32>",
         block_sums: ReadWrite "array<u32>",
         /// Bucket of each mass, from grid_count.
         mass_cell: ReadWrite "array<u32>",
-        sorted: ReadWrite "array<u32>",
+        /// [0] stale, [1] builds, then per mass its list's length, position at the build and
+        /// list (grid.wgsl).
+        neighbours: ReadWrite "array<atomic<u32>>",
     }
     /// `collide_masses`, `mass_contact_energy` (collide_masses.wgsl): with the state's x and v,
     /// the 8 storage buffers a stage may bind.
@@ -275,8 +277,9 @@ bind_groups! {
         mass: Read "array<vec2<f32>>",
         /// Body index of each mass.
         mass_body: Read "array<u32>",
-        cell_start: Read "array<u32>",
-        sorted: Read "array<u32>",
+        grid_index: Read "array<u32>",
+        /// The lists; these passes clear the stale flag ([0]) once they have read them.
+        neighbours: ReadWrite "array<u32>",
         /// compute_forces' output: [2i] acceleration, [2i+1] ledger rates; the pairs are added.
         deriv: ReadWrite "array<vec4<f32>>",
         /// compute_energies' per-workgroup sums (reduce.wgsl): the pair potential is added to

@@ -1,10 +1,11 @@
-//! Hooks for tests: the GPU's hash grid read back, and a device lost on purpose.
+//! Hooks for tests: the GPU's hash grid and its count of neighbour-list builds read back, and a
+//! device lost on purpose.
 
 use super::backend::GpuBackend;
 use super::context::ReadBackOf;
 use super::dispatch::StateIn;
 use super::encode::in_pass;
-use super::plan::grid_build;
+use super::plan::neighbour_update;
 use crate::backend::BackendError;
 
 /// The GPU's hash grid as read back for tests: bucket b holds
@@ -23,8 +24,9 @@ impl GpuBackend {
         self.ctx.lose_device();
     }
 
-    /// For tests: build the hash grid on the GPU from the current positions and read it back.
-    /// `None` without mass–mass contact.
+    /// For tests: make the neighbour lists valid for the current positions on the GPU (their
+    /// first build, on a fresh backend) and read back the hash grid they were built with. `None`
+    /// without mass–mass contact.
     #[doc(hidden)]
     pub fn mass_grid(&mut self) -> Result<Option<GridReadBack>, BackendError> {
         self.reserve_stage_slots(1);
@@ -33,20 +35,46 @@ impl GpuBackend {
         };
         let starts = 4 * (u64::from(g.table_size) + 1);
         let masses = 4 * self.model.mass_count() as u64;
+        let slot = self.stages.last();
+        let mut enc = self.ctx.encoder("grid");
+        in_pass(&mut enc, "grid", |pass| {
+            self.kernels()
+                .dispatch_all(pass, &neighbour_update(StateIn::XV, 0), slot)
+        })?;
+        let words = self.read_words(enc, &g.grid_index, starts + masses)?;
+        let (a, b) = words.split_at(starts as usize / 4);
+        Ok(Some(GridReadBack {
+            cell_start: a.to_vec(),
+            sorted: b.to_vec(),
+        }))
+    }
+
+    /// For tests: how many times the GPU has built its neighbour lists. `None` without mass–mass
+    /// contact.
+    #[doc(hidden)]
+    pub fn neighbour_builds(&mut self) -> Result<Option<u32>, BackendError> {
+        let Some(g) = self.resources.grid.as_ref() else {
+            return Ok(None);
+        };
+        let enc = self.ctx.encoder("neighbour builds");
+        let words = self.read_words(enc, &g.neighbours, 8)?;
+        Ok(Some(words[1]))
+    }
+
+    /// The first `bytes` of `buffer` after the commands of `enc`.
+    fn read_words(
+        &self,
+        mut enc: wgpu::CommandEncoder,
+        buffer: &wgpu::Buffer,
+        bytes: u64,
+    ) -> Result<Vec<u32>, BackendError> {
         let read = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("grid read"),
-            size: starts + masses,
+            label: Some("inspect read"),
+            size: bytes,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut enc = self.ctx.encoder("grid");
-        let slot = self.stages.last();
-        in_pass(&mut enc, "grid", |pass| {
-            self.kernels()
-                .dispatch_all(pass, &grid_build(StateIn::XV, 0), slot)
-        })?;
-        enc.copy_buffer_to_buffer(&g.cell_start, 0, &read, 0, starts);
-        enc.copy_buffer_to_buffer(&g.sorted, 0, &read, starts, masses);
+        enc.copy_buffer_to_buffer(buffer, 0, &read, 0, bytes);
         let index = self.ctx.queue.submit([enc.finish()]);
         let slice = read.slice(..);
         self.ctx.map_and_wait(&slice, index, ReadBackOf::Grid)?;
@@ -54,14 +82,9 @@ impl GpuBackend {
             let data = slice
                 .get_mapped_range()
                 .map_err(|e| self.ctx.read_back_failed(ReadBackOf::Grid, e))?;
-            let words: &[u32] = bytemuck::cast_slice(&data);
-            let (a, b) = words.split_at(starts as usize / 4);
-            GridReadBack {
-                cell_start: a.to_vec(),
-                sorted: b.to_vec(),
-            }
+            bytemuck::cast_slice::<u8, u32>(&data).to_vec()
         };
         read.unmap();
-        Ok(Some(out))
+        Ok(out)
     }
 }

@@ -363,11 +363,19 @@ macro_rules! kernel_table {
                 cpu: "per-workgroup sums of the energy update_springs let go, which the CPU's sums whole",
             }
 
-            // ---- grid.wgsl: mass–mass contact's hash grid, a counting sort by bucket ----
+            // ---- grid.wgsl: mass–mass contact's neighbour lists and their hash grid, a
+            // counting sort by bucket. The build passes run only when the check finds the lists
+            // stale; their traffic is that of a build. ----
+            NeighboursCheck = neighbours_check in Grid {
+                group: Grid + state, threads: Masses, needs: MassContact,
+                cpu: (neighbours::Neighbours),
+                // x and the position at the build in.
+                bytes: |z| z.n * (16 + 12),
+            }
             GridCount = grid_count in Grid {
                 group: Grid + state, threads: Masses, needs: MassContact, cpu: (grid::MassGrid),
-                // x in; each mass's bucket out; one atomic count per mass.
-                bytes: |z| z.n * (16 + 4 + 4),
+                // x in; position at the build, bucket out; one atomic count per mass.
+                bytes: |z| z.n * (16 + 12 + 4 + 4),
             }
             GridScanBlocks = grid_scan_blocks in Grid {
                 group: Grid, threads: ScanBlocks, needs: MassContact,
@@ -397,17 +405,25 @@ macro_rules! kernel_table {
                 bytes: |z| z.table * 8 + z.n * 8,
             }
 
+            NeighbourLists = neighbour_lists in Grid {
+                group: Grid + state, threads: Masses, needs: MassContact,
+                cpu: (neighbours::Neighbours),
+                // x per mass and per candidate (cached); starts; the list out.
+                bytes: |z| z.n * (16 + 4 + 4 * 16) + z.table * 4,
+            }
+
             // ---- collide_masses.wgsl ----
             CollideMasses = collide_masses in CollideMasses {
                 group: CollideMasses + state, threads: Masses, needs: MassContact, cpu: (collide_masses),
-                // x, v, mass, body per mass and per candidate (cached); starts; deriv in and out.
-                bytes: |z| z.n * (16 + 16 + 8 + 4 + 4 + 2 * 32) + z.table * 4,
+                // x, v, mass, body per mass and per candidate (cached); the list; deriv in and
+                // out.
+                bytes: |z| z.n * (16 + 16 + 8 + 4 + 4 + 4 * 16 + 2 * 32),
             }
             /// At snapshot time only.
             MassContactEnergy = mass_contact_energy in CollideMasses {
                 group: CollideMasses + state, threads: Masses, needs: MassContact,
                 cpu: (collide_masses),
-                bytes: |z| z.n * (16 + 8 + 4 + 4) + z.table * 4,
+                bytes: |z| z.n * (16 + 8 + 4 + 4 + 4 * 16),
             }
         }
     };

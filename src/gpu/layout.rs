@@ -67,7 +67,7 @@ pub struct Collider {
     pub _pad: [f32; 3],
 }
 
-/// Mass–mass contact and its hash grid (`MassContact` in WGSL).
+/// Mass–mass contact, its neighbour lists and their hash grid (`MassContact` in WGSL).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct MassContact {
@@ -79,6 +79,26 @@ pub struct MassContact {
     pub friction: f32,
     pub damping_ratio: f32,
     pub within_bodies: u32,
+    pub reach_sq: f32,
+    pub moved_sq: f32,
+    pub list_slots: u32,
+    pub list_head: u32,
+}
+
+/// Slots of a mass's neighbour list on the GPU. A mass with more masses in reach walks the grid
+/// instead, which yields the same pairs in the same order, only slower. With a skin of one
+/// radius a sheet's mass has 4–12 in reach and a mass packed among spheres of its size at
+/// most about 47: 28 holds the first case with room and leaves dense piles to the walk.
+pub const NEIGHBOUR_SLOTS: u32 = 28;
+
+/// Words of the neighbour buffer before the first mass's record: the stale flag, the count of
+/// builds, two unused.
+pub const NEIGHBOUR_HEAD: u32 = 4;
+
+/// Bytes of the neighbour buffer for `mass_count` masses: the head, then per mass its list's
+/// length, its position at the build and the slots.
+pub fn neighbour_bytes(mass_count: u64) -> u64 {
+    4 * (u64::from(NEIGHBOUR_HEAD) + mass_count * u64::from(4 + NEIGHBOUR_SLOTS))
 }
 
 /// Implicit Euler's solver state on the per-pass path (`Solver` in shaders/implicit.wgsl); the

@@ -67,8 +67,15 @@ pub fn check_fits(
         (
             "mass-contact hash grid",
             model.effects.self_collision.map_or(0, |_| {
-                4 * (u64::from(crate::physics::table_size(n as usize)) + 1)
+                4 * (u64::from(crate::physics::table_size(n as usize)) + 1 + n)
             }),
+        ),
+        (
+            "mass-contact neighbour lists",
+            model
+                .effects
+                .self_collision
+                .map_or(0, |_| super::layout::neighbour_bytes(n)),
         ),
     ];
     if let Some((what, bytes)) = largest.into_iter().find(|(_, bytes)| *bytes > limit) {

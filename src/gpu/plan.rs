@@ -28,7 +28,7 @@ fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> O
     } else if e.springs_change() {
         "plasticity or tearing changes the springs".to_owned()
     } else if e.self_collision.is_some() {
-        "mass–mass contact builds its grid between force evaluations".to_owned()
+        "mass–mass contact checks its neighbour lists between force evaluations".to_owned()
     } else if storage_buffers < super::limits::FUSED_STORAGE_BUFFERS_NEEDED {
         format!(
             "the adapter allows {storage_buffers} storage buffers per stage, the fused step needs {}",
@@ -90,16 +90,19 @@ fn colour_sweeps(kernel: Kernel, sweeps: Sweeps, slot: u32) -> impl Iterator<Ite
     })
 }
 
-/// Mass–mass contact's grid build from the positions of `state`, in order.
-pub fn grid_build(state: StateIn, slot: u32) -> [Dispatch; 6] {
+/// Mass–mass contact's neighbour lists made valid for the positions of `state`, in order: the
+/// check, then the grid and the lists, rebuilt only when the check found them stale.
+pub fn neighbour_update(state: StateIn, slot: u32) -> [Dispatch; 8] {
     use Kernel::*;
     [
+        Dispatch::reading(NeighboursCheck, state, slot),
         Dispatch::reading(GridCount, state, slot),
         Dispatch::at(GridScanBlocks, slot),
         Dispatch::at(GridScanSums, slot),
         Dispatch::at(GridScanAdd, slot),
         Dispatch::at(GridScatter, slot),
         Dispatch::at(GridSortCells, slot),
+        Dispatch::reading(NeighbourLists, state, slot),
     ]
 }
 
@@ -170,11 +173,11 @@ pub fn step_plan(
     plan
 }
 
-/// A force evaluation with mass–mass contact: the grid of its positions, the forces, then the
-/// pairs' added to them.
+/// A force evaluation with mass–mass contact: the neighbour lists made valid for its positions,
+/// the forces, then the pairs' added to them.
 fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
     match (d.kernel, d.state) {
-        (Kernel::ComputeForces, Some(state)) => grid_build(state, d.slot)
+        (Kernel::ComputeForces, Some(state)) => neighbour_update(state, d.slot)
             .into_iter()
             .chain([d, Dispatch::reading(Kernel::CollideMasses, state, d.slot)])
             .collect(),
@@ -468,7 +471,7 @@ mod tests {
                 plans.push(step_plan(integrator, &effects, false, sweeps));
             }
         }
-        plans.push(grid_build(StateIn::XV, 0).to_vec());
+        plans.push(neighbour_update(StateIn::XV, 0).to_vec());
         for integrator in FUSED {
             for (prime, odd) in [(false, false), (true, false), (false, true)] {
                 plans.push(fused_step_plan(integrator, prime, odd));

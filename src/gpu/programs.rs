@@ -8,8 +8,12 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 6] = [
+const LIBRARIES: [(&str, &str); 7] = [
     ("mass_force", include_str!("../../shaders/mass_force.wgsl")),
+    (
+        "neighbour_walk",
+        include_str!("../../shaders/neighbour_walk.wgsl"),
+    ),
     (
         "state_check",
         include_str!("../../shaders/state_check.wgsl"),

@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::dispatch::{Dispatch, StateIn};
 use super::encode::Dispatcher;
 use super::kernels::Kernel;
-use super::plan::grid_build;
+use super::plan::neighbour_update;
 use super::resources::Resources;
 use crate::backend::BackendError;
 use crate::state::StepStats;
@@ -92,7 +92,7 @@ pub fn encode_reductions(
         plan.push(Dispatch::at(Kernel::SumSpringWork, 0));
     }
     if mass_contact {
-        plan.extend(grid_build(StateIn::XV, 0));
+        plan.extend(neighbour_update(StateIn::XV, 0));
         plan.push(Dispatch::reading(Kernel::MassContactEnergy, StateIn::XV, 0));
     }
     kernels.dispatch_all(pass, &plan, slot)

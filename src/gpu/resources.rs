@@ -7,7 +7,7 @@ use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup};
 use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
 use super::kernels::{Path, Sizes, Threads};
-use super::layout::{FrameSolve, MassContact};
+use super::layout::{FrameSolve, MassContact, NEIGHBOUR_HEAD, NEIGHBOUR_SLOTS, neighbour_bytes};
 use super::links::Links;
 use super::pipelines::Layouts;
 use super::shaders::{WORKGROUP, groups_for};
@@ -51,10 +51,11 @@ impl Workgroups {
     }
 }
 
-/// Mass–mass contact's hash grid, as far as the host reads it.
+/// Mass–mass contact's hash grid and neighbour lists, as far as the host reads them.
 pub struct GridBuffers {
-    pub cell_start: wgpu::Buffer,
-    pub sorted: wgpu::Buffer,
+    /// The bucket starts, then the masses sorted by bucket.
+    pub grid_index: wgpu::Buffer,
+    pub neighbours: wgpu::Buffer,
     pub table_size: u32,
     pub block_count: u32,
 }
@@ -426,46 +427,60 @@ impl GridBuffers {
         let n = model.mass_count();
         let table_size = crate::physics::table_size(n);
         let block_count = table_size / crate::physics::SCAN_BLOCK;
+        let reach = crate::physics::neighbour_reach_m(c.radius_m);
+        let moved = crate::physics::neighbour_moved_limit_m(c.radius_m);
         let contact = MassContact {
             radius: c.radius_m,
-            inv_cell: crate::physics::inv_cell_per_m(c.radius_m),
+            // The same f32 as the CPU's grid (`Neighbours::new`), so both bin a mass alike.
+            inv_cell: 1.0 / reach,
             table_mask: table_size - 1,
             block_count,
             stiffness: c.contact.stiffness_n_per_m,
             friction: c.contact.friction,
             damping_ratio: c.contact.damping_ratio,
             within_bodies: u32::from(c.within_bodies),
+            reach_sq: reach * reach,
+            moved_sq: moved * moved,
+            list_slots: NEIGHBOUR_SLOTS,
+            list_head: NEIGHBOUR_HEAD,
         };
         let contact = a.uniform("mass contact", bytemuck::bytes_of(&contact));
         let bodies = a.model("mass bodies", bytemuck::cast_slice(&model.mass_body));
         let table = table_size as usize;
         let cell_count = a.zeros("cell count", 4 * table);
-        let cell_start = a.zeros("cell start", 4 * (table + 1));
+        let grid_index = a.zeros("grid index", 4 * (table + 1 + n));
         let block_sums = a.zeros("block sums", 4 * block_count as usize);
         let mass_cell = a.zeros("mass cell", 4 * n);
-        let sorted = a.zeros("sorted masses", 4 * n);
+        // Stale from the start: the first evaluation builds the lists.
+        let mut words = vec![0u32; (neighbour_bytes(n as u64) / 4) as usize];
+        words[0] = 1;
+        let neighbours = a.storage(
+            "neighbour lists",
+            bytemuck::cast_slice(&words),
+            super::buffers::COPY,
+        );
         groups.set(buffers::Grid {
             params: &b.params,
             contact: &contact,
             cell_count: &cell_count,
-            cell_start: &cell_start,
+            grid_index: &grid_index,
             block_sums: &block_sums,
             mass_cell: &mass_cell,
-            sorted: &sorted,
+            neighbours: &neighbours,
         });
         groups.set(buffers::CollideMasses {
             params: &b.params,
             contact: &contact,
             mass: &b.mass,
             mass_body: &bodies,
-            cell_start: &cell_start,
-            sorted: &sorted,
+            grid_index: &grid_index,
+            neighbours: &neighbours,
             deriv: &b.deriv,
             partials: &b.partials,
         });
         Self {
-            cell_start,
-            sorted,
+            grid_index,
+            neighbours,
             table_size,
             block_count,
         }

@@ -90,9 +90,12 @@ impl Neighbours {
             return true;
         }
         let moved = |(a, b): (&[Vec3], &[Vec3])| {
-            a.iter()
-                .zip(b)
-                .any(|(p, q)| !(p.distance_squared(*q) <= self.moved_sq))
+            a.iter().zip(b).any(|(p, q)| {
+                // Not within the limit, rather than past it: a NaN position makes the
+                // lists stale too.
+                let within = p.distance_squared(*q) <= self.moved_sq;
+                !within
+            })
         };
         if x.len() >= PARALLEL_MIN_MASSES {
             x.par_chunks(CHUNK)

@@ -194,13 +194,7 @@ fn grid_sort_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
 // hold; the length stored is the whole count, so that a mass whose list overflowed walks the grid
 // instead. (The CPU's lists also drop the pairs that can never touch; the pass that reads them
 // tests that rule for both, so the pairs summed are the same.)
-@compute @workgroup_size(64)
-fn neighbour_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count || !lists_stale()) { return; }
-    if (i == 0u) {
-        atomicAdd(&neighbours[1], 1u);
-    }
+fn list_mass(i: u32) {
     let xi = x_in[i].xyz;
     let r = record(i);
     var count = 0u;
@@ -219,4 +213,93 @@ fn neighbour_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
         }
     }
     atomicStore(&neighbours[r], count);
+}
+
+@compute @workgroup_size(64)
+fn neighbour_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count || !lists_stale()) { return; }
+    if (i == 0u) {
+        atomicAdd(&neighbours[1], 1u);
+    }
+    list_mass(i);
+}
+
+var<workgroup> stale_sh: u32;
+
+// The whole build in one workgroup, for a scene small enough (src/gpu/plan.rs's ListBuild) that
+// six dispatches' launches would cost more than the work: the passes above, one after another,
+// apart by barriers, the same buckets, order and lists. One dispatch whether or not the lists
+// are stale.
+@compute @workgroup_size(64)
+fn neighbours_build(@builtin(local_invocation_index) lid: u32) {
+    if (lid == 0u) {
+        stale_sh = atomicLoad(&neighbours[0]);
+    }
+    if (workgroupUniformLoad(&stale_sh) == 0u) {
+        return;
+    }
+    let n = params.mass_count;
+    // grid_count.
+    for (var i = lid; i < n; i += WORKGROUP) {
+        let p = x_in[i].xyz;
+        let r = record(i);
+        atomicStore(&neighbours[r + 1u], bitcast<u32>(p.x));
+        atomicStore(&neighbours[r + 2u], bitcast<u32>(p.y));
+        atomicStore(&neighbours[r + 3u], bitcast<u32>(p.z));
+        let b = grid_hash(grid_cell(p, contact.inv_cell), contact.table_mask);
+        mass_cell[i] = b;
+        atomicAdd(&cell_count[b], 1u);
+    }
+    storageBarrier();
+    // The exclusive prefix sum: each invocation a run of table / WORKGROUP buckets (the table is
+    // a whole number of SCAN_BLOCKs).
+    let table = contact.table_mask + 1u;
+    let per = table / WORKGROUP;
+    var total = 0u;
+    for (var b = lid * per; b < (lid + 1u) * per; b++) {
+        total += atomicLoad(&cell_count[b]);
+    }
+    scan_sh[lid] = total;
+    workgroupBarrier();
+    scan_workgroup(lid);
+    var running = scan_sh[lid] - total;
+    for (var b = lid * per; b < (lid + 1u) * per; b++) {
+        grid_index[b] = running;
+        running += atomicLoad(&cell_count[b]);
+    }
+    if (lid == WORKGROUP - 1u) {
+        grid_index[table] = running;
+    }
+    storageBarrier();
+    // grid_scatter.
+    for (var i = lid; i < n; i += WORKGROUP) {
+        let b = mass_cell[i];
+        let left = atomicSub(&cell_count[b], 1u);
+        grid_index[sorted_at() + grid_index[b] + left - 1u] = i;
+    }
+    storageBarrier();
+    // grid_sort_cells.
+    let base = sorted_at();
+    for (var b = lid; b < table; b += WORKGROUP) {
+        let first = base + grid_index[b];
+        let end = base + grid_index[b + 1u];
+        for (var s = first + 1u; s < end; s++) {
+            let m = grid_index[s];
+            var t = s;
+            while (t > first && grid_index[t - 1u] > m) {
+                grid_index[t] = grid_index[t - 1u];
+                t--;
+            }
+            grid_index[t] = m;
+        }
+    }
+    storageBarrier();
+    // neighbour_lists.
+    if (lid == 0u) {
+        atomicAdd(&neighbours[1], 1u);
+    }
+    for (var i = lid; i < n; i += WORKGROUP) {
+        list_mass(i);
+    }
 }

@@ -13,7 +13,7 @@ use super::implicit::{self, Budgets, ImplicitStep, Path, SolverHome};
 use super::layout::FrameSolve;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
-use super::plan::{self, ExplicitPath, fused_step_plan, step_plan};
+use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
 use super::shaders::constants;
@@ -212,9 +212,15 @@ impl GpuBackend {
         step_plan(
             self.integrator,
             &self.model.effects,
+            self.list_build(),
             prime,
             self.resources.sweeps(),
         )
+    }
+
+    /// How this run rebuilds mass–mass contact's neighbour lists.
+    pub(super) fn list_build(&self) -> ListBuild {
+        ListBuild::for_masses(self.model.mass_count())
     }
 
     /// Whether `steps` steps leave the state in B (fused Euler and semi-implicit Euler
@@ -316,7 +322,7 @@ impl GpuBackend {
         let which = (
             self.model.spring_count() > 0,
             e.springs_change(),
-            e.self_collision.is_some(),
+            e.self_collision.map(|_| self.list_build()),
         );
         let mut enc = self.ctx.encoder("snapshot");
         in_pass(&mut enc, "reduce", |pass| {

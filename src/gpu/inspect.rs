@@ -36,10 +36,11 @@ impl GpuBackend {
         let starts = 4 * (u64::from(g.table_size) + 1);
         let masses = 4 * self.model.mass_count() as u64;
         let slot = self.stages.last();
+        let build = self.list_build();
         let mut enc = self.ctx.encoder("grid");
         in_pass(&mut enc, "grid", |pass| {
             self.kernels()
-                .dispatch_all(pass, &neighbour_update(StateIn::XV, 0), slot)
+                .dispatch_all(pass, &neighbour_update(build, StateIn::XV, 0), slot)
         })?;
         let words = self.read_words(enc, &g.grid_index, starts + masses)?;
         let (a, b) = words.split_at(starts as usize / 4);

@@ -405,6 +405,13 @@ macro_rules! kernel_table {
                 bytes: |z| z.table * 8 + z.n * 8,
             }
 
+            /// The build above in one workgroup, for small scenes (`plan::ListBuild`).
+            NeighboursBuild = neighbours_build in Grid {
+                group: Grid + state, threads: OneGroup, needs: MassContact,
+                cpu: "grid_count to neighbour_lists in one workgroup; the CPU builds in Neighbours::neighbour_lists",
+                // As grid_count to neighbour_lists together.
+                bytes: |z| z.n * (16 + 12 + 4 + 4 + 16 + 16 + 4 + 4 * 16) + z.table * 16,
+            }
             NeighbourLists = neighbour_lists in Grid {
                 group: Grid + state, threads: Masses, needs: MassContact,
                 cpu: (neighbours::Neighbours),

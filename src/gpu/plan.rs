@@ -90,12 +90,39 @@ fn colour_sweeps(kernel: Kernel, sweeps: Sweeps, slot: u32) -> impl Iterator<Ite
     })
 }
 
+/// How a run rebuilds mass–mass contact's neighbour lists: a pass per phase (count, prefix sum,
+/// scatter, sort, lists), or all of them in one workgroup for a scene small enough that the
+/// launches of six more dispatches, paid at every force evaluation, would cost more than a
+/// rebuild in one workgroup, paid at one evaluation in ten or so.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ListBuild {
+    Passes,
+    OneGroup,
+}
+
+/// The most masses a run builds its lists for in one workgroup.
+pub const ONE_GROUP_BUILD_MASSES: usize = 4096;
+
+impl ListBuild {
+    pub fn for_masses(mass_count: usize) -> Self {
+        if mass_count <= ONE_GROUP_BUILD_MASSES {
+            ListBuild::OneGroup
+        } else {
+            ListBuild::Passes
+        }
+    }
+}
+
 /// Mass–mass contact's neighbour lists made valid for the positions of `state`, in order: the
 /// check, then the grid and the lists, rebuilt only when the check found them stale.
-pub fn neighbour_update(state: StateIn, slot: u32) -> [Dispatch; 8] {
+pub fn neighbour_update(build: ListBuild, state: StateIn, slot: u32) -> Vec<Dispatch> {
     use Kernel::*;
-    [
-        Dispatch::reading(NeighboursCheck, state, slot),
+    let check = Dispatch::reading(NeighboursCheck, state, slot);
+    if build == ListBuild::OneGroup {
+        return vec![check, Dispatch::reading(NeighboursBuild, state, slot)];
+    }
+    vec![
+        check,
         Dispatch::reading(GridCount, state, slot),
         Dispatch::at(GridScanBlocks, slot),
         Dispatch::at(GridScanSums, slot),
@@ -106,12 +133,14 @@ pub fn neighbour_update(state: StateIn, slot: u32) -> [Dispatch; 8] {
     ]
 }
 
-/// The dispatches of one step. `prime`: Verlet's first step also evaluates a(x_0); `sweeps`:
-/// XPBD's or VBD's (unused by the other integrators). Implicit Euler's solve is planned below; only the
+/// The dispatches of one step. `build`: how mass–mass contact rebuilds its lists (unused
+/// without it); `prime`: Verlet's first step also evaluates a(x_0); `sweeps`: XPBD's or VBD's
+/// (unused by the other integrators). Implicit Euler's solve is planned below; only the
 /// post-step passes are here for it.
 pub fn step_plan(
     integrator: Integrator,
     effects: &Effects,
+    build: ListBuild,
     prime: bool,
     sweeps: Sweeps,
 ) -> Vec<Dispatch> {
@@ -165,7 +194,10 @@ pub fn step_plan(
         plan.push(at(ProjectContacts, 3));
     }
     if effects.self_collision.is_some() {
-        plan = plan.into_iter().flat_map(with_mass_contact).collect();
+        plan = plan
+            .into_iter()
+            .flat_map(|d| with_mass_contact(d, build))
+            .collect();
     }
     if effects.springs_change() {
         plan.push(at(UpdateSprings, 3));
@@ -175,9 +207,9 @@ pub fn step_plan(
 
 /// A force evaluation with mass–mass contact: the neighbour lists made valid for its positions,
 /// the forces, then the pairs' added to them.
-fn with_mass_contact(d: Dispatch) -> Vec<Dispatch> {
+fn with_mass_contact(d: Dispatch, build: ListBuild) -> Vec<Dispatch> {
     match (d.kernel, d.state) {
-        (Kernel::ComputeForces, Some(state)) => neighbour_update(state, d.slot)
+        (Kernel::ComputeForces, Some(state)) => neighbour_update(build, state, d.slot)
             .into_iter()
             .chain([d, Dispatch::reading(Kernel::CollideMasses, state, d.slot)])
             .collect(),
@@ -231,7 +263,13 @@ pub fn step_passes(
     };
     let plan = match path {
         ExplicitPath::Fused => fused_step_plan(integrator, false, false),
-        ExplicitPath::General => step_plan(integrator, &model.effects, false, one_sweep),
+        ExplicitPath::General => step_plan(
+            integrator,
+            &model.effects,
+            ListBuild::for_masses(model.mass_count()),
+            false,
+            one_sweep,
+        ),
     };
     passes.extend(plan.into_iter().map(|d| match d.colour {
         Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
@@ -298,7 +336,14 @@ pub fn dispatches_per_step(
     let sweeps = sweeps_of(model, integrator, options);
     let steps = count(match explicit {
         ExplicitPath::Fused => fused_step_plan(integrator, false, false).len(),
-        ExplicitPath::General => step_plan(integrator, &model.effects, false, sweeps).len(),
+        ExplicitPath::General => step_plan(
+            integrator,
+            &model.effects,
+            ListBuild::for_masses(model.mass_count()),
+            false,
+            sweeps,
+        )
+        .len(),
     });
     match (integrator, path(model)) {
         (Integrator::Implicit, Path::InGroup) => DispatchCount {
@@ -381,6 +426,7 @@ mod tests {
         let general = per_spring(step_plan(
             integrator,
             &model.effects,
+            ListBuild::Passes,
             false,
             Sweeps::default(),
         ));
@@ -423,7 +469,13 @@ mod tests {
             colours: 4,
             iterations: 3,
         };
-        let plan = step_plan(Integrator::Xpbd, &Effects::default(), false, sweeps);
+        let plan = step_plan(
+            Integrator::Xpbd,
+            &Effects::default(),
+            ListBuild::Passes,
+            false,
+            sweeps,
+        );
         let names: Vec<&str> = plan.iter().map(|d| d.kernel.name()).collect();
         assert_eq!(names[..2], ["compute_forces", "xpbd_predict"]);
         assert_eq!(names.last(), Some(&"xpbd_update_velocity"));
@@ -467,11 +519,15 @@ mod tests {
                     colours: 3,
                     iterations: 2,
                 };
-                plans.push(step_plan(integrator, &effects, true, sweeps));
-                plans.push(step_plan(integrator, &effects, false, sweeps));
+                for build in [ListBuild::Passes, ListBuild::OneGroup] {
+                    plans.push(step_plan(integrator, &effects, build, true, sweeps));
+                    plans.push(step_plan(integrator, &effects, build, false, sweeps));
+                }
             }
         }
-        plans.push(neighbour_update(StateIn::XV, 0).to_vec());
+        for build in [ListBuild::Passes, ListBuild::OneGroup] {
+            plans.push(neighbour_update(build, StateIn::XV, 0));
+        }
         for integrator in FUSED {
             for (prime, odd) in [(false, false), (true, false), (false, true)] {
                 plans.push(fused_step_plan(integrator, prime, odd));

@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::dispatch::{Dispatch, StateIn};
 use super::encode::Dispatcher;
 use super::kernels::Kernel;
-use super::plan::neighbour_update;
+use super::plan::{ListBuild, neighbour_update};
 use super::resources::Resources;
 use crate::backend::BackendError;
 use crate::state::StepStats;
@@ -81,7 +81,7 @@ pub fn encode_reductions(
     kernels: &Dispatcher<'_>,
     pass: &mut wgpu::ComputePass<'_>,
     slot: u32,
-    (springs, springs_change, mass_contact): (bool, bool, bool),
+    (springs, springs_change, mass_contact): (bool, bool, Option<ListBuild>),
 ) -> Result<(), BackendError> {
     let mut plan = Vec::new();
     if springs {
@@ -91,8 +91,8 @@ pub fn encode_reductions(
     if springs_change {
         plan.push(Dispatch::at(Kernel::SumSpringWork, 0));
     }
-    if mass_contact {
-        plan.extend(neighbour_update(StateIn::XV, 0));
+    if let Some(build) = mass_contact {
+        plan.extend(neighbour_update(build, StateIn::XV, 0));
         plan.push(Dispatch::reading(Kernel::MassContactEnergy, StateIn::XV, 0));
     }
     kernels.dispatch_all(pass, &plan, slot)

@@ -33,10 +33,7 @@ fn listed_cell(j: u32) -> vec3<i32> {
 
 // Flag the lists stale if mass i has moved past the limit since they were built (or is not
 // finite). As src/cpu/neighbours.rs's neighbours_check.
-@compute @workgroup_size(64)
-fn neighbours_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
+fn moved_past_limit(i: u32) -> bool {
     let r = record(i);
     let built = vec3<f32>(
         bitcast<f32>(atomicLoad(&neighbours[r + 1u])),
@@ -44,7 +41,14 @@ fn neighbours_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         bitcast<f32>(atomicLoad(&neighbours[r + 3u])),
     );
     let d = x_in[i].xyz - built;
-    if (!(dot(d, d) <= contact.moved_sq)) {
+    return !(dot(d, d) <= contact.moved_sq);
+}
+
+@compute @workgroup_size(64)
+fn neighbours_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count) { return; }
+    if (moved_past_limit(i)) {
         atomicOr(&neighbours[0], 1u);
     }
 }
@@ -225,21 +229,33 @@ fn neighbour_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     list_mass(i);
 }
 
+var<workgroup> moved_sh: atomic<u32>;
 var<workgroup> stale_sh: u32;
 
-// The whole build in one workgroup, for a scene small enough (src/gpu/plan.rs's ListBuild) that
-// six dispatches' launches would cost more than the work: the passes above, one after another,
-// apart by barriers, the same buckets, order and lists. One dispatch whether or not the lists
-// are stale.
+// The check and the whole build in one workgroup, for a scene small enough (src/gpu/plan.rs's
+// ListBuild) that seven dispatches' launches would cost more than the work: neighbours_check
+// and the passes above, one after another, apart by barriers, the same buckets, order and
+// lists. One dispatch whether or not the lists are stale.
 @compute @workgroup_size(64)
 fn neighbours_build(@builtin(local_invocation_index) lid: u32) {
+    let n = params.mass_count;
+    // neighbours_check (stale from the start, until the first build).
     if (lid == 0u) {
-        stale_sh = atomicLoad(&neighbours[0]);
+        atomicStore(&moved_sh, atomicLoad(&neighbours[0]));
+    }
+    workgroupBarrier();
+    for (var i = lid; i < n; i += WORKGROUP) {
+        if (moved_past_limit(i)) {
+            atomicOr(&moved_sh, 1u);
+        }
+    }
+    workgroupBarrier();
+    if (lid == 0u) {
+        stale_sh = atomicLoad(&moved_sh);
     }
     if (workgroupUniformLoad(&stale_sh) == 0u) {
         return;
     }
-    let n = params.mass_count;
     // grid_count.
     for (var i = lid; i < n; i += WORKGROUP) {
         let p = x_in[i].xyz;

@@ -247,12 +247,12 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
     ),
     (
         "cloth-fold",
-        "neighbours_check → neighbours_build → compute_forces → collide_masses → semi_implicit_update → project_contacts",
+        "neighbours_build → compute_forces → collide_masses → semi_implicit_update → project_contacts",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_DAMPING",
     ),
     (
         "pile",
-        "neighbours_check → neighbours_build → compute_forces → collide_masses → semi_implicit_update → project_contacts",
+        "neighbours_build → compute_forces → collide_masses → semi_implicit_update → project_contacts",
         "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
     ),
     ("cloth-64", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),

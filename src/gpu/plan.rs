@@ -114,15 +114,15 @@ impl ListBuild {
 }
 
 /// Mass–mass contact's neighbour lists made valid for the positions of `state`, in order: the
-/// check, then the grid and the lists, rebuilt only when the check found them stale.
+/// check, then the grid and the lists, rebuilt only when the check found them stale (in one
+/// workgroup, one dispatch does it all).
 pub fn neighbour_update(build: ListBuild, state: StateIn, slot: u32) -> Vec<Dispatch> {
     use Kernel::*;
-    let check = Dispatch::reading(NeighboursCheck, state, slot);
     if build == ListBuild::OneGroup {
-        return vec![check, Dispatch::reading(NeighboursBuild, state, slot)];
+        return vec![Dispatch::reading(NeighboursBuild, state, slot)];
     }
     vec![
-        check,
+        Dispatch::reading(NeighboursCheck, state, slot),
         Dispatch::reading(GridCount, state, slot),
         Dispatch::at(GridScanBlocks, slot),
         Dispatch::at(GridScanSums, slot),

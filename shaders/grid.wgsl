@@ -53,10 +53,10 @@ fn neighbours_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     }
 }
 
-@compute @workgroup_size(64)
-fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.mass_count || !lists_stale()) { return; }
+// Each pass's work on one mass or bucket, which neighbours_build below also calls.
+
+// Mass i's position at the build, its bucket, and its count in the bucket.
+fn count_mass(i: u32) {
     let p = x_in[i].xyz;
     let r = record(i);
     atomicStore(&neighbours[r + 1u], bitcast<u32>(p.x));
@@ -65,6 +65,37 @@ fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let b = grid_hash(grid_cell(p, contact.inv_cell), contact.table_mask);
     mass_cell[i] = b;
     atomicAdd(&cell_count[b], 1u);
+}
+
+// Mass i into its bucket's slots (atomically, so in no fixed order).
+fn scatter_mass(i: u32) {
+    let b = mass_cell[i];
+    let left = atomicSub(&cell_count[b], 1u);
+    grid_index[sorted_at() + grid_index[b] + left - 1u] = i;
+}
+
+// Insertion sort of bucket b: buckets hold a few masses (the table has twice as many buckets as
+// masses, and a cell one reach wide holds few touching-distance spheres).
+fn sort_bucket(b: u32) {
+    let base = sorted_at();
+    let first = base + grid_index[b];
+    let end = base + grid_index[b + 1u];
+    for (var s = first + 1u; s < end; s++) {
+        let m = grid_index[s];
+        var t = s;
+        while (t > first && grid_index[t - 1u] > m) {
+            grid_index[t] = grid_index[t - 1u];
+            t--;
+        }
+        grid_index[t] = m;
+    }
+}
+
+@compute @workgroup_size(64)
+fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.mass_count || !lists_stale()) { return; }
+    count_mass(i);
 }
 
 var<workgroup> scan_sh: array<u32, 64>;
@@ -169,29 +200,14 @@ fn grid_scan_add(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 fn grid_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
     if (i >= params.mass_count || !lists_stale()) { return; }
-    let b = mass_cell[i];
-    let left = atomicSub(&cell_count[b], 1u);
-    grid_index[sorted_at() + grid_index[b] + left - 1u] = i;
+    scatter_mass(i);
 }
 
-// Insertion sort of each bucket: buckets hold a few masses (the table has twice as many buckets
-// as masses, and a cell 2 · radius wide holds few touching-distance spheres).
 @compute @workgroup_size(64)
 fn grid_sort_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let b = thread_index(gid, groups);
     if (b > contact.table_mask || !lists_stale()) { return; }
-    let base = sorted_at();
-    let first = base + grid_index[b];
-    let end = base + grid_index[b + 1u];
-    for (var s = first + 1u; s < end; s++) {
-        let m = grid_index[s];
-        var t = s;
-        while (t > first && grid_index[t - 1u] > m) {
-            grid_index[t] = grid_index[t - 1u];
-            t--;
-        }
-        grid_index[t] = m;
-    }
+    sort_bucket(b);
 }
 
 // Mass i's list: every other mass within the reach, by increasing index, as many as the slots
@@ -256,16 +272,8 @@ fn neighbours_build(@builtin(local_invocation_index) lid: u32) {
     if (workgroupUniformLoad(&stale_sh) == 0u) {
         return;
     }
-    // grid_count.
     for (var i = lid; i < n; i += WORKGROUP) {
-        let p = x_in[i].xyz;
-        let r = record(i);
-        atomicStore(&neighbours[r + 1u], bitcast<u32>(p.x));
-        atomicStore(&neighbours[r + 2u], bitcast<u32>(p.y));
-        atomicStore(&neighbours[r + 3u], bitcast<u32>(p.z));
-        let b = grid_hash(grid_cell(p, contact.inv_cell), contact.table_mask);
-        mass_cell[i] = b;
-        atomicAdd(&cell_count[b], 1u);
+        count_mass(i);
     }
     storageBarrier();
     // The exclusive prefix sum: each invocation a run of table / WORKGROUP buckets (the table is
@@ -288,30 +296,14 @@ fn neighbours_build(@builtin(local_invocation_index) lid: u32) {
         grid_index[table] = running;
     }
     storageBarrier();
-    // grid_scatter.
     for (var i = lid; i < n; i += WORKGROUP) {
-        let b = mass_cell[i];
-        let left = atomicSub(&cell_count[b], 1u);
-        grid_index[sorted_at() + grid_index[b] + left - 1u] = i;
+        scatter_mass(i);
     }
     storageBarrier();
-    // grid_sort_cells.
-    let base = sorted_at();
     for (var b = lid; b < table; b += WORKGROUP) {
-        let first = base + grid_index[b];
-        let end = base + grid_index[b + 1u];
-        for (var s = first + 1u; s < end; s++) {
-            let m = grid_index[s];
-            var t = s;
-            while (t > first && grid_index[t - 1u] > m) {
-                grid_index[t] = grid_index[t - 1u];
-                t--;
-            }
-            grid_index[t] = m;
-        }
+        sort_bucket(b);
     }
     storageBarrier();
-    // neighbour_lists.
     if (lid == 0u) {
         atomicAdd(&neighbours[1], 1u);
     }

@@ -151,19 +151,8 @@ pub fn mass_contact_energy(c: &MassContact, neighbours: &Neighbours, x: &[Vec3])
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ContactModel, Effects, ModelBuilder, damping_ratio_for_restitution};
-
-    fn contact(radius_m: f32) -> MassContact {
-        MassContact {
-            radius_m,
-            contact: ContactModel {
-                stiffness_n_per_m: 500.0,
-                friction: 0.3,
-                damping_ratio: damping_ratio_for_restitution(0.3),
-            },
-            within_bodies: true,
-        }
-    }
+    use crate::cpu::neighbours::tests::contact;
+    use crate::model::{Effects, ModelBuilder};
 
     /// A cluster of overlapping masses of different weights moving every which way: the contact
     /// forces sum to zero (each pair's two sides are exact negatives), and every pair in reach

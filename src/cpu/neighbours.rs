@@ -148,7 +148,7 @@ impl Neighbours {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::model::{ContactModel, Effects, ModelBuilder, damping_ratio_for_restitution};
 
@@ -170,7 +170,8 @@ mod tests {
         mb.build()
     }
 
-    fn contact(radius_m: f32) -> MassContact {
+    /// Mass contact of `radius_m` with a firm spring, some friction and a bounce.
+    pub(in crate::cpu) fn contact(radius_m: f32) -> MassContact {
         MassContact {
             radius_m,
             contact: ContactModel {

@@ -261,16 +261,7 @@ pub fn step_passes(
         colours: 1,
         iterations: 1,
     };
-    let plan = match path {
-        ExplicitPath::Fused => fused_step_plan(integrator, false, false),
-        ExplicitPath::General => step_plan(
-            integrator,
-            &model.effects,
-            ListBuild::for_masses(model.mass_count()),
-            false,
-            one_sweep,
-        ),
-    };
+    let plan = steady_step_plan(model, integrator, path, one_sweep);
     passes.extend(plan.into_iter().map(|d| match d.colour {
         Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
         None => d.kernel.name().to_owned(),
@@ -323,6 +314,25 @@ pub fn sweeps_of(
     }
 }
 
+/// The dispatches of `model`'s steps after the first (not Verlet's priming one) on `path`.
+fn steady_step_plan(
+    model: &Model,
+    integrator: Integrator,
+    path: ExplicitPath,
+    sweeps: Sweeps,
+) -> Vec<Dispatch> {
+    match path {
+        ExplicitPath::Fused => fused_step_plan(integrator, false, false),
+        ExplicitPath::General => step_plan(
+            integrator,
+            &model.effects,
+            ListBuild::for_masses(model.mass_count()),
+            false,
+            sweeps,
+        ),
+    }
+}
+
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
 /// evaluates a(x₀)), as the plans above record them on `path`.
 pub fn dispatches_per_step(
@@ -334,17 +344,7 @@ pub fn dispatches_per_step(
     use implicit::*;
     let count = |n: usize| n as u32;
     let sweeps = sweeps_of(model, integrator, options);
-    let steps = count(match explicit {
-        ExplicitPath::Fused => fused_step_plan(integrator, false, false).len(),
-        ExplicitPath::General => step_plan(
-            integrator,
-            &model.effects,
-            ListBuild::for_masses(model.mass_count()),
-            false,
-            sweeps,
-        )
-        .len(),
-    });
+    let steps = count(steady_step_plan(model, integrator, explicit, sweeps).len());
     match (integrator, path(model)) {
         (Integrator::Implicit, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,

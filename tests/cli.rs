@@ -295,7 +295,8 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
         assert_eq!(line("GPU step passes: "), *passes, "{scene}");
         assert_eq!(line("compiled-in effects: "), *effects, "{scene}");
     }
-    // Mass–mass contact is listed among the effects, with its rule and its pair damping.
+    // Mass–mass contact is listed among the effects, with its rule, its pair damping and its
+    // neighbour lists' reach (3 r) and rebuild distance (0.45 r).
     let s = text(&hooke(&["check", "pile", "--backend", "cpu"]).stdout);
     assert!(
         s.contains("self-collision (between bodies only): radius 0.02 m, stiffness 1000 N/m per pair, friction 0.5"),
@@ -303,7 +304,8 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     );
     let s = text(&hooke(&["check", "cloth-fold", "--backend", "cpu"]).stdout);
     assert!(
-        s.contains("self-collision (within and between bodies): radius 0.018 m"),
+        s.contains("self-collision (within and between bodies): radius 0.018 m")
+            && s.contains("neighbour lists of the masses within 0.0540 m, rebuilt once a mass has moved 0.0081 m"),
         "cloth-fold:\n{s}"
     );
     // A scene's integrator changes the force and update passes, not the effects' passes.

@@ -167,7 +167,7 @@ fn effects(s: &mut String, model: &Model) {
     if let Some(c) = &e.self_collision {
         let _ = writeln!(
             s,
-            "    self-collision ({}): radius {} m, stiffness {} N/m per pair, friction {}, damping ratio {:.3} (with the pair's reduced mass), hash grid of {} buckets",
+            "    self-collision ({}): radius {} m, stiffness {} N/m per pair, friction {}, damping ratio {:.3} (with the pair's reduced mass); neighbour lists of the masses within {:.4} m, rebuilt once a mass has moved {:.4} m, through a hash grid of {} buckets",
             if c.within_bodies {
                 "within and between bodies"
             } else {
@@ -177,6 +177,8 @@ fn effects(s: &mut String, model: &Model) {
             c.contact.stiffness_n_per_m,
             c.contact.friction,
             c.contact.damping_ratio,
+            hooke::physics::neighbour_reach_m(c.radius_m),
+            hooke::physics::neighbour_moved_limit_m(c.radius_m),
             hooke::physics::table_size(model.mass_count())
         );
         any = true;

@@ -269,6 +269,20 @@ bind_groups! {
         /// list (grid.wgsl).
         neighbours: ReadWrite "array<atomic<u32>>",
     }
+    /// `xpbd_sweeps` (xpbd_sweeps.wgsl): XPBD's projection, every sweep over every colour.
+    XpbdSweeps @ 0 {
+        params: Uniform "Params",
+        springs: Read "array<Spring>",
+        constants: Read "array<XpbdSpring>",
+        colour_order: Read "array<u32>",
+        mass: Read "array<vec2<f32>>",
+        x: Read "array<vec4<f32>>",
+        dx: ReadWrite "array<vec4<f32>>",
+        lambda: ReadWrite "array<f32>",
+        /// The sweeps, the colours, then where each colour's springs start in colour_order (one
+        /// more than colours).
+        sweep_plan: Read "array<u32>",
+    }
     /// `collide_masses`, `mass_contact_energy` (collide_masses.wgsl): with the state's x and v,
     /// the 8 storage buffers a stage may bind.
     CollideMasses @ 0 {

@@ -87,6 +87,7 @@ impl ColourGroups {
             sweeps: Sweeps {
                 colours: workgroups.len() as u32,
                 iterations,
+                one_group: false,
             },
             workgroups,
         }

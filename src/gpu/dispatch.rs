@@ -39,6 +39,9 @@ pub struct ColourPass {
 pub struct Sweeps {
     pub colours: u32,
     pub iterations: u32,
+    /// Every sweep over every colour in one dispatch of one workgroup (XPBD on a small scene:
+    /// `plan::xpbd_in_one_group`) instead of a dispatch per colour and sweep.
+    pub one_group: bool,
 }
 
 /// One dispatch: a kernel, the state it reads (for the kernels that read one) or the states it

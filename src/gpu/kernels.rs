@@ -256,6 +256,13 @@ macro_rules! kernel_table {
                 // Spring, constants, index and multiplier; both ends' mass, x and dx read, dx written.
                 bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
             }
+            /// Every sweep over every colour in one workgroup, for small scenes.
+            XpbdSweeps = xpbd_sweeps in XpbdSweeps {
+                group: XpbdSweeps, threads: OneGroup, needs: Xpbd,
+                cpu: "every sweep of xpbd_solve_spring over every colour in one workgroup; the CPU's sweeps are in xpbd.rs",
+                // As xpbd_solve_spring over all the springs, once per sweep.
+                bytes: |z| z.ns * (20 + 8 + 4 + 2 * 4 + 2 * (8 + 16 + 2 * 16)),
+            }
 
             // ---- implicit.wgsl: the same step a dispatch per pass (larger systems), on the solver's
             // grid of workgroups, two dispatches per CG iteration ----

@@ -72,9 +72,21 @@ pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Di
     }
 }
 
+/// The most springs XPBD sweeps in one workgroup: below it, the launches of a dispatch per colour
+/// and sweep cost more than the sweeps' work on one workgroup.
+pub const XPBD_ONE_GROUP_SPRINGS: usize = 16_384;
+
+/// Whether a run on `model` sweeps XPBD's colours in one dispatch (`xpbd_sweeps.wgsl`).
+pub fn xpbd_in_one_group(model: &Model) -> bool {
+    model.spring_count() <= XPBD_ONE_GROUP_SPRINGS
+}
+
 /// XPBD's substep between the kick and the new state: every sweep over every colour.
-fn xpbd_sweeps(sweeps: Sweeps) -> impl Iterator<Item = Dispatch> {
-    colour_sweeps(Kernel::XpbdSolveSpring, sweeps, 0)
+fn xpbd_sweeps(sweeps: Sweeps) -> Vec<Dispatch> {
+    if sweeps.one_group {
+        return vec![Dispatch::at(Kernel::XpbdSweeps, 0)];
+    }
+    colour_sweeps(Kernel::XpbdSolveSpring, sweeps, 0).collect()
 }
 
 /// `kernel` over every colour of `sweeps`, once per sweep, at stage slot `slot`.
@@ -260,6 +272,7 @@ pub fn step_passes(
     let one_sweep = Sweeps {
         colours: 1,
         iterations: 1,
+        one_group: xpbd_in_one_group(model),
     };
     let plan = steady_step_plan(model, integrator, path, one_sweep);
     passes.extend(plan.into_iter().map(|d| match d.colour {
@@ -305,10 +318,12 @@ pub fn sweeps_of(
             colours: crate::physics::colour_springs(&model.springs, &model.inv_mass).colours()
                 as u32,
             iterations: options.xpbd_iterations,
+            one_group: xpbd_in_one_group(model),
         },
         Integrator::Vbd => Sweeps {
             colours: crate::physics::vbd_colouring(model).colours() as u32,
             iterations: options.vbd_iterations,
+            one_group: false,
         },
         _ => Sweeps::default(),
     }
@@ -468,6 +483,7 @@ mod tests {
         let sweeps = Sweeps {
             colours: 4,
             iterations: 3,
+            one_group: false,
         };
         let plan = step_plan(
             Integrator::Xpbd,
@@ -518,6 +534,7 @@ mod tests {
                 let sweeps = Sweeps {
                     colours: 3,
                     iterations: 2,
+                    one_group: integrator == Integrator::Xpbd && tearing,
                 };
                 for build in [ListBuild::Passes, ListBuild::OneGroup] {
                     plans.push(step_plan(integrator, &effects, build, true, sweeps));

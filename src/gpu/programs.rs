@@ -8,7 +8,11 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 7] = [
+const LIBRARIES: [(&str, &str); 8] = [
+    (
+        "xpbd_project",
+        include_str!("../../shaders/xpbd_project.wgsl"),
+    ),
     ("mass_force", include_str!("../../shaders/mass_force.wgsl")),
     (
         "neighbour_walk",
@@ -67,12 +71,13 @@ pub enum Program {
     Grid,
     CollideMasses,
     Xpbd,
+    XpbdSweeps,
     Vbd,
     Fused,
 }
 
 impl Program {
-    pub const ALL: [Program; 11] = [
+    pub const ALL: [Program; 12] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -82,6 +87,7 @@ impl Program {
         Program::Grid,
         Program::CollideMasses,
         Program::Xpbd,
+        Program::XpbdSweeps,
         Program::Vbd,
         Program::Fused,
     ];
@@ -116,6 +122,7 @@ impl Program {
             Program::Grid => file!("grid.wgsl"),
             Program::CollideMasses => file!("collide_masses.wgsl"),
             Program::Xpbd => file!("xpbd.wgsl"),
+            Program::XpbdSweeps => file!("xpbd_sweeps.wgsl"),
             Program::Vbd => file!("vbd.wgsl"),
             Program::Fused => file!("fused.wgsl"),
         }

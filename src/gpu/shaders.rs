@@ -10,7 +10,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
 /// Every shader program as compiled: (file name, source).
-pub fn programs() -> [(&'static str, String); 11] {
+pub fn programs() -> [(&'static str, String); 12] {
     Program::ALL.map(|p| (p.file(), source(p)))
 }
 

@@ -1,10 +1,13 @@
 //! XPBD on the GPU: the springs' colouring and constants, uploaded once (both computed by the
-//! CPU backend's functions, so the two backends solve alike), each spring's multiplier, and one
-//! bind group per colour and kind of sweep for `xpbd_solve_spring` (shaders/xpbd.wgsl).
+//! CPU backend's functions, so the two backends solve alike), each spring's multiplier, one bind
+//! group per colour and kind of sweep for `xpbd_solve_spring` (shaders/xpbd.wgsl), and for small
+//! scenes the one group of `xpbd_sweeps` (shaders/xpbd_sweeps.wgsl), every sweep in a dispatch.
 
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup, ColourWindows};
+use super::plan::xpbd_in_one_group;
+use super::resources::GroupSet;
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
 
@@ -14,6 +17,7 @@ pub(super) fn xpbd_groups(
     b: &Bufs,
     (model, dt_secs): (&Model, f64),
     s: &ColourSetup<'_>,
+    all: &mut GroupSet<'_>,
 ) -> ColourGroups {
     let colouring = colour_springs(&model.springs, &model.inv_mass);
     let constants = a.model(
@@ -41,5 +45,25 @@ pub(super) fn xpbd_groups(
             bind_group(a.device, s.layout, &group)
         })
         .collect();
-    ColourGroups::new(groups, 2, (&colouring.starts, s.max_per_dim), s.iterations)
+    // The sweeps, the colours, then the colours' starts: what xpbd_sweeps loops over.
+    let plan: Vec<u32> = [s.iterations, colours as u32]
+        .into_iter()
+        .chain(colouring.starts.iter().copied())
+        .collect();
+    let sweep_plan = a.model("xpbd sweep plan", bytemuck::cast_slice(&plan));
+    all.set(buffers::XpbdSweeps {
+        params: &b.params,
+        springs: &b.springs,
+        constants: &constants,
+        colour_order: &order,
+        mass: &b.mass,
+        x: &b.x,
+        dx: &b.xt,
+        lambda: &lambda,
+        sweep_plan: &sweep_plan,
+    });
+    let mut colour_groups =
+        ColourGroups::new(groups, 2, (&colouring.starts, s.max_per_dim), s.iterations);
+    colour_groups.sweeps.one_group = xpbd_in_one_group(model);
+    colour_groups
 }

@@ -270,15 +270,7 @@ bind_groups! {
         neighbours: ReadWrite "array<atomic<u32>>",
     }
     /// `xpbd_sweeps` (xpbd_sweeps.wgsl): XPBD's projection, every sweep over every colour.
-    XpbdSweeps @ 0 {
-        params: Uniform "Params",
-        springs: Read "array<Spring>",
-        constants: Read "array<XpbdSpring>",
-        colour_order: Read "array<u32>",
-        mass: Read "array<vec2<f32>>",
-        x: Read "array<vec4<f32>>",
-        dx: ReadWrite "array<vec4<f32>>",
-        lambda: ReadWrite "array<f32>",
+    XpbdSweeps @ 0 = XpbdSprings + {
         /// The sweeps, the colours, then where each colour's springs start in colour_order (one
         /// more than colours).
         sweep_plan: Read "array<u32>",
@@ -300,11 +292,9 @@ bind_groups! {
         /// [3g].w.
         partials: ReadWrite "array<vec4<f32>>",
     }
-    /// XPBD's projection of one colour (xpbd.wgsl): a group per colour and kind of sweep.
-    XpbdSolve @ 0 {
+    /// What XPBD's projection reads and writes (xpbd_project.wgsl), which its two groups extend.
+    XpbdSprings @ 0 {
         params: Uniform "Params",
-        /// This group's colour and sweep, a window of one buffer holding them all.
-        colour: Window "ColourRange",
         /// The springs as they are now (plasticity and tearing change them).
         springs: Read "array<Spring>",
         constants: Read "array<XpbdSpring>",
@@ -317,6 +307,11 @@ bind_groups! {
         dx: ReadWrite "array<vec4<f32>>",
         /// Each spring's multiplier within the substep.
         lambda: ReadWrite "array<f32>",
+    }
+    /// XPBD's projection of one colour (xpbd.wgsl): a group per colour and kind of sweep.
+    XpbdSolve @ 0 = XpbdSprings + {
+        /// This group's colour and sweep, a window of one buffer holding them all.
+        colour: Window "ColourRange",
     }
     /// VBD's block solve of one colour (vbd.wgsl): `compute_forces`' group (mass_force reads
     /// it), a group per colour.

@@ -28,19 +28,21 @@ pub(super) fn xpbd_groups(
     let lambda = a.zeros("xpbd lambda", 4 * model.spring_count());
     let colours = colouring.colours();
     let windows = ColourWindows::new(a, "xpbd colours", &colouring.starts, s.uniform_align);
+    let springs = || buffers::XpbdSprings {
+        params: &b.params,
+        springs: &b.springs,
+        constants: &constants,
+        colour_order: &order,
+        mass: &b.mass,
+        x: &b.x,
+        dx: &b.xt,
+        lambda: &lambda,
+    };
     let groups = (0..2 * colours)
         .map(|k| {
-            let colour = windows.binding(k / 2, k % 2 == 1);
             let group = buffers::XpbdSolve {
-                params: &b.params,
-                colour,
-                springs: &b.springs,
-                constants: &constants,
-                colour_order: &order,
-                mass: &b.mass,
-                x: &b.x,
-                dx: &b.xt,
-                lambda: &lambda,
+                base: springs(),
+                colour: windows.binding(k / 2, k % 2 == 1),
             };
             bind_group(a.device, s.layout, &group)
         })
@@ -52,14 +54,7 @@ pub(super) fn xpbd_groups(
         .collect();
     let sweep_plan = a.model("xpbd sweep plan", bytemuck::cast_slice(&plan));
     all.set(buffers::XpbdSweeps {
-        params: &b.params,
-        springs: &b.springs,
-        constants: &constants,
-        colour_order: &order,
-        mass: &b.mass,
-        x: &b.x,
-        dx: &b.xt,
-        lambda: &lambda,
+        base: springs(),
         sweep_plan: &sweep_plan,
     });
     let mut colour_groups =

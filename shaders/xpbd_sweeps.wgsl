@@ -1,5 +1,5 @@
 // xpbd_sweeps: XPBD's projection for a small scene, every sweep over every colour in one
-// dispatch of one workgroup (src/gpu/plan.rs's xpbd_in_one_group), the colours apart by
+// dispatch of one workgroup (src/gpu/dispatch.rs's xpbd_in_one_group), the colours apart by
 // barriers; instead of xpbd.wgsl's dispatch per colour and sweep, whose launches would cost more
 // than the work. Each spring's arithmetic is the same (xpbd_project.wgsl), and a colour's springs
 // share no movable mass, so the result is the per-colour dispatches' (and the CPU's).

@@ -33,6 +33,16 @@ pub struct ColourPass {
     pub first: bool,
 }
 
+/// The most springs XPBD sweeps in one workgroup: below it, the launches of a dispatch per colour
+/// and sweep cost more than the sweeps' work on one workgroup.
+pub const XPBD_ONE_GROUP_SPRINGS: usize = 16_384;
+
+/// Whether a run with `spring_count` springs sweeps XPBD's colours in one dispatch
+/// (`xpbd_sweeps.wgsl`).
+pub fn xpbd_in_one_group(spring_count: usize) -> bool {
+    spring_count <= XPBD_ONE_GROUP_SPRINGS
+}
+
 /// XPBD's sweeps of a substep (the springs' colours) or VBD's of a step (the masses'), and the
 /// sweeps over all of them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -40,7 +50,7 @@ pub struct Sweeps {
     pub colours: u32,
     pub iterations: u32,
     /// Every sweep over every colour in one dispatch of one workgroup (XPBD on a small scene:
-    /// `plan::xpbd_in_one_group`) instead of a dispatch per colour and sweep.
+    /// [`xpbd_in_one_group`]) instead of a dispatch per colour and sweep.
     pub one_group: bool,
 }
 

@@ -1,7 +1,7 @@
 //! The step plans: which kernels a step dispatches, in order, on which state and at which stage
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
-use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps};
+use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps, xpbd_in_one_group};
 use super::implicit;
 use super::kernels::Kernel;
 use super::shaders::effect_constants;
@@ -70,15 +70,6 @@ pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Di
         // why_unfused keeps the others off the fused path.
         _ => Vec::new(),
     }
-}
-
-/// The most springs XPBD sweeps in one workgroup: below it, the launches of a dispatch per colour
-/// and sweep cost more than the sweeps' work on one workgroup.
-pub const XPBD_ONE_GROUP_SPRINGS: usize = 16_384;
-
-/// Whether a run on `model` sweeps XPBD's colours in one dispatch (`xpbd_sweeps.wgsl`).
-pub fn xpbd_in_one_group(model: &Model) -> bool {
-    model.spring_count() <= XPBD_ONE_GROUP_SPRINGS
 }
 
 /// XPBD's substep between the kick and the new state: every sweep over every colour.
@@ -272,7 +263,7 @@ pub fn step_passes(
     let one_sweep = Sweeps {
         colours: 1,
         iterations: 1,
-        one_group: xpbd_in_one_group(model),
+        one_group: xpbd_in_one_group(model.spring_count()),
     };
     let plan = steady_step_plan(model, integrator, path, one_sweep);
     passes.extend(plan.into_iter().map(|d| match d.colour {
@@ -318,7 +309,7 @@ pub fn sweeps_of(
             colours: crate::physics::colour_springs(&model.springs, &model.inv_mass).colours()
                 as u32,
             iterations: options.xpbd_iterations,
-            one_group: xpbd_in_one_group(model),
+            one_group: xpbd_in_one_group(model.spring_count()),
         },
         Integrator::Vbd => Sweeps {
             colours: crate::physics::vbd_colouring(model).colours() as u32,

@@ -103,7 +103,7 @@ pub struct Resources {
 }
 
 /// Bind group 0 of each kernel group, as they are made.
-pub(super) struct GroupSet<'a> {
+struct GroupSet<'a> {
     device: &'a wgpu::Device,
     layouts: &'a Layouts,
     groups: Vec<Option<wgpu::BindGroup>>,
@@ -111,7 +111,7 @@ pub(super) struct GroupSet<'a> {
 
 impl GroupSet<'_> {
     /// Bind `buffers` as their group.
-    pub(super) fn set<'b, G: GroupBuffers<'b>>(&mut self, buffers: G) {
+    fn set<'b, G: GroupBuffers<'b>>(&mut self, buffers: G) {
         let g = G::GROUP;
         // A group no kernel of the run uses has no layout, and is never bound.
         self.groups[g as usize] = self
@@ -298,7 +298,11 @@ impl Resources {
         let colours = match integrator {
             Integrator::Xpbd => layouts.group(Group::XpbdSolve).map(|layout| {
                 let setup = colour_setup(layout, options.xpbd_iterations);
-                xpbd_groups(&mut a, &b, (model, dt_secs), &setup, &mut groups)
+                let sweeps_layout = layouts.group(Group::XpbdSweeps);
+                let (colours, sweeps) =
+                    xpbd_groups(&mut a, &b, (model, dt_secs), &setup, sweeps_layout);
+                groups.groups[Group::XpbdSweeps as usize] = sweeps;
+                colours
             }),
             Integrator::Vbd => layouts.group(Group::VbdSolve).map(|layout| {
                 let setup = colour_setup(layout, options.vbd_iterations);

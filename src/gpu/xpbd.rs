@@ -6,19 +6,19 @@
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup, ColourWindows};
-use super::plan::xpbd_in_one_group;
-use super::resources::GroupSet;
+use super::dispatch::xpbd_in_one_group;
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
 
-/// XPBD's colour groups for substeps of `dt_secs`, with its constants and multipliers.
+/// XPBD's colour groups for substeps of `dt_secs`, with its constants and multipliers, and the
+/// bind group of `xpbd_sweeps` on `sweeps_layout` (when the run compiles it).
 pub(super) fn xpbd_groups(
     a: &mut Alloc<'_>,
     b: &Bufs,
     (model, dt_secs): (&Model, f64),
     s: &ColourSetup<'_>,
-    all: &mut GroupSet<'_>,
-) -> ColourGroups {
+    sweeps_layout: Option<&wgpu::BindGroupLayout>,
+) -> (ColourGroups, Option<wgpu::BindGroup>) {
     let colouring = colour_springs(&model.springs, &model.inv_mass);
     let constants = a.model(
         "xpbd constants",
@@ -53,12 +53,15 @@ pub(super) fn xpbd_groups(
         .chain(colouring.starts.iter().copied())
         .collect();
     let sweep_plan = a.model("xpbd sweep plan", bytemuck::cast_slice(&plan));
-    all.set(buffers::XpbdSweeps {
-        base: springs(),
-        sweep_plan: &sweep_plan,
+    let sweeps_group = sweeps_layout.map(|layout| {
+        let group = buffers::XpbdSweeps {
+            base: springs(),
+            sweep_plan: &sweep_plan,
+        };
+        bind_group(a.device, layout, &group)
     });
     let mut colour_groups =
         ColourGroups::new(groups, 2, (&colouring.starts, s.max_per_dim), s.iterations);
-    colour_groups.sweeps.one_group = xpbd_in_one_group(model);
-    colour_groups
+    colour_groups.sweeps.one_group = xpbd_in_one_group(model.spring_count());
+    (colour_groups, sweeps_group)
 }

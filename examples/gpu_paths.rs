@@ -1,6 +1,8 @@
-//! The GPU's fused explicit steps (shaders/fused.wgsl) against its general passes on one scene,
-//! measured in one process and interleaved so that a noisy machine slows both alike; the final
-//! states are compared bit for bit.
+//! The GPU's explicit paths on one scene: the general passes, the fused steps
+//! (shaders/fused.wgsl, a dispatch per step) and, where the scene is small enough, every step of
+//! a submission in one workgroup (shaders/fused_frame.wgsl); measured in one process and
+//! interleaved so that a noisy machine slows them alike; the final states are compared bit for
+//! bit.
 //!
 //! `cargo run --release --example gpu_paths -- SCENE [INTEGRATOR] [STEPS] [ROUNDS] [BATCH]`
 //!
@@ -33,13 +35,19 @@ fn main() -> anyhow::Result<()> {
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
     let batch: u32 = args.get(4).map_or(Ok(20), |s| s.parse())?;
     let mut backends = Vec::new();
-    for path in [ExplicitPath::General, ExplicitPath::Fused] {
-        let mut be = GpuBackend::with_paths(
+    for path in [ExplicitPath::General, ExplicitPath::Fused, ExplicitPath::InGroup] {
+        let be = GpuBackend::with_paths(
             model.clone(),
             Step::new(integrator, settings.dt_secs),
             None,
             (ImplicitPath::Passes, path),
         )?;
+        // A run takes the next path open to it: time each path once.
+        let path = be.explicit_path();
+        if backends.iter().any(|(p, _, _)| *p == path) {
+            continue;
+        }
+        let mut be = be;
         // Warm-up: pipelines compiled, Verlet primed.
         be.advance(batch)?;
         be.finish()?;
@@ -69,15 +77,19 @@ fn main() -> anyhow::Result<()> {
             StepOptions::default(),
             be.explicit_path(),
         );
+        let dispatches = if d.in_group {
+            format!("{} dispatch per submission", d.fixed)
+        } else {
+            format!("{} dispatches per step", d.fixed)
+        };
         println!(
-            "  {:<8} {per_sec:>10.1} steps/s  {:>10.3e} spring updates/s  ({} dispatches per step)",
+            "  {:<8} {per_sec:>10.1} steps/s  {:>10.3e} spring updates/s  ({dispatches})",
             format!("{path:?}").to_lowercase(),
             per_sec * model.spring_count() as f64,
-            d.fixed
         );
         finals.push(be.state()?);
     }
-    let same = finals[0].x == finals[1].x && finals[0].v == finals[1].v;
+    let same = finals.iter().all(|f| f.x == finals[0].x && f.v == finals[0].v);
     println!(
         "  final states {}",
         if same { "bit-identical" } else { "DIFFER" }

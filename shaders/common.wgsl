@@ -47,6 +47,8 @@ fn has_contact_terms() -> bool {
 // link's spring kind starts (the bits below are the other mass's index).
 override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
+// Threads of fused_frame's one workgroup (src/gpu/plan.rs's frame_threads).
+override FRAME_THREADS: u32 = 64u;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/physics/mass_contact.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
@@ -93,7 +95,8 @@ struct Stage {
     next_scale: f32,
     // Index of this step within its submission (the divergence check reports the first bad one).
     step: u32,
-    _pad0: u32,
+    // The submission's steps from this one on (fused_frame.wgsl runs them all in one dispatch).
+    steps: u32,
     _pad1: u32,
     _pad2: u32,
     poses: array<Pose, MAX_COLLIDERS>,

@@ -5,8 +5,7 @@
 // between two buffers and no pass but this one touches it. Euler and semi-implicit Euler take one
 // dispatch per step (fused_step), Verlet two (drift, kick), RK4 four (one per stage).
 //
-// The springs come as compact links, one per CSR entry: (other | kind << KIND_SHIFT, rest), the
-// stiffness and damping of each kind in a uniform table. They serve runs whose springs never
+// The springs come as compact links (fused_mass.wgsl). They serve runs whose springs never
 // change (no plasticity or tearing) and without mass–mass contact; src/gpu/plan.rs decides.
 //
 // Each kernel computes exactly what the general path's passes compute (compute_forces, the update
@@ -15,38 +14,10 @@
 
 // Bindings: `Fused` and `FusedMid` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force state_check contact_projection
-
-fn spring_end(e: u32) -> SpringEnd {
-    let link = links[e];
-    let kind = kinds.kind[link.x >> KIND_SHIFT];
-    return SpringEnd(link.x & ((1u << KIND_SHIFT) - 1u), bitcast<f32>(link.y), kind.x, kind.y);
-}
+// #import mass_force state_check contact_projection fused_mass
 
 fn end_pose(k: u32) -> Pose {
     return stage_end.poses[k];
-}
-
-// The end of every step: check the new state, project it out of contacts, write it and the
-// ledger.
-fn finish_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>) {
-    check_state(x, v);
-    var xn = x;
-    var vn = v;
-    var l = ledger_i;
-    if ((HAS_GROUND || HAS_COLLIDERS) && mass[i].y != 0.0) {
-        let b = project_body(mass[i].x, x, v);
-        if (b.count > 0u) {
-            xn = b.x;
-            vn = b.v;
-            l.z += b.dissipated;
-            l.w += b.work;
-            atomicAdd(&counters[0], b.count);
-        }
-    }
-    x_out[i] = vec4<f32>(xn, 0.0);
-    v_out[i] = vec4<f32>(vn, 0.0);
-    ledger[i] = l;
 }
 
 // Euler or semi-implicit Euler (SEMI_IMPLICIT), the whole step: compute_forces, euler_update or
@@ -55,20 +26,7 @@ fn finish_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>) {
 fn fused_step(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
     if (i >= params.mass_count) { return; }
-    let mf = mass_force(i);
-    let dt = stage.dt;
-    let xi = x_in[i].xyz;
-    let vi = v_in[i].xyz;
-    var xn: vec3<f32>;
-    var vn: vec3<f32>;
-    if (SEMI_IMPLICIT) {
-        vn = vi + dt * mf.acc;
-        xn = xi + dt * vn;
-    } else {
-        xn = xi + dt * vi;
-        vn = vi + dt * mf.acc;
-    }
-    finish_step(i, xn, vn, ledger[i] + dt * mf.rates);
+    euler_step_of(i, stage.step);
 }
 
 // Verlet's first half (verlet_drift): reads the step's start, writes the drifted positions and
@@ -97,7 +55,7 @@ fn fused_verlet_kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     deriv[2u * i + 1u] = mf.rates;
     let dt = stage.dt;
     let vn = sums[3u * i].xyz + (0.5 * dt) * mf.acc;
-    finish_step(i, x_in[i].xyz, vn, ledger[i] + (0.5 * dt) * (sums[3u * i + 2u] + mf.rates));
+    finish_step(i, x_in[i].xyz, vn, ledger[i] + (0.5 * dt) * (sums[3u * i + 2u] + mf.rates), stage.step);
 }
 
 // RK4's first stage: compute_forces at the step's start, rk4_begin.
@@ -144,5 +102,5 @@ fn fused_rk4_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     let h6 = stage.dt / 6.0;
     let xn = x_out[i].xyz + h6 * (sums[3u * i].xyz + v_in[i].xyz);
     let vn = v_out[i].xyz + h6 * (sums[3u * i + 1u].xyz + mf.acc);
-    finish_step(i, xn, vn, ledger[i] + h6 * (sums[3u * i + 2u] + mf.rates));
+    finish_step(i, xn, vn, ledger[i] + h6 * (sums[3u * i + 2u] + mf.rates), stage.step);
 }

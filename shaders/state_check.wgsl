@@ -7,9 +7,14 @@
 // Flag the step if the new state of mass i is not finite or runs away (as src/backend.rs's
 // find_divergence): atomicMax of the complement keeps the earliest step.
 fn check_state(xi: vec3<f32>, vi: vec3<f32>) {
+    check_state_at(xi, vi, stage.step);
+}
+
+// check_state for step `step` of the submission (a kernel that runs many steps counts them).
+fn check_state_at(xi: vec3<f32>, vi: vec3<f32>, step: u32) {
     let limit = vec3<f32>(3.4028235e38);
     let finite = all(abs(xi) <= limit) && all(abs(vi) <= limit);
     if (!finite || length(vi) > params.runaway_speed) {
-        atomicMax(&counters[1], 0xFFFFFFFFu - stage.step);
+        atomicMax(&counters[1], 0xFFFFFFFFu - step);
     }
 }

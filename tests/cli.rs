@@ -217,17 +217,18 @@ fn with_no_viewer_the_run_records_to_a_file_and_says_so() {
 
 /// Each built-in scene's GPU step, as `hooke check` prints it: exactly the passes and compiled-in
 /// effects its scene file asks for (one fused pass where the springs never change and no masses
-/// collide with each other). A new built-in scene must be added here.
+/// collide with each other; for a small scene whose colliders stand still, one dispatch a
+/// submission). A new built-in scene must be added here.
 const SCENE_PASSES: &[(&str, &str, &str)] = &[
-    ("hair", "fused_step", "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING"),
+    ("hair", "fused_frame", "HAS_GRAVITY, HAS_DRAG, HAS_DAMPING"),
     (
         "cloth",
-        "fused_step",
+        "fused_frame",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_SPHERES, HAS_COLLIDERS, HAS_DAMPING",
     ),
     (
         "jello",
-        "fused_step",
+        "fused_frame",
         "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
     ),
     (
@@ -260,15 +261,19 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
     ("cloth-1024", "fused_step", "HAS_GRAVITY, HAS_DAMPING"),
     (
         "flag",
-        "fused_step",
+        "fused_frame",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_BOXES, HAS_COLLIDERS, HAS_DAMPING",
     ),
     (
         "tablecloth",
-        "fused_step",
+        "fused_frame",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_BOXES, HAS_COLLIDERS, HAS_DAMPING",
     ),
-    ("blob", "fused_step", "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING"),
+    (
+        "blob",
+        "fused_frame",
+        "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
+    ),
 ];
 
 #[test]

@@ -1,9 +1,10 @@
 //! The GPU's fused explicit steps (shaders/fused.wgsl: each step's per-mass passes folded into
-//! its force gathers, the state ping-ponging between two buffers) against the general passes
+//! its force gathers, the state ping-ponging between two buffers), and for small scenes every
+//! step of a submission in one workgroup (shaders/fused_frame.wgsl), against the general passes
 //! (compute_forces, the update kernels, project_contacts): the same bits for Euler, semi-implicit
-//! Euler, Verlet and RK4, through the ground, moving colliders and their projections, over odd
-//! and even numbers of steps per submission; and the runs the fused steps cannot serve take the
-//! general passes, saying why.
+//! Euler, Verlet and RK4, through the ground, still and moving colliders and their projections,
+//! over odd and even numbers of steps per submission; and the runs the fused steps cannot serve
+//! take the general passes, saying why.
 
 mod common;
 
@@ -27,21 +28,32 @@ const FUSED: [Integrator; 4] = [
 /// copied back before anything else reads the state.
 const SUBMISSIONS: [u32; 6] = [1, 3, 2, 5, 4, 7];
 
-/// The state after the submissions on `path`, and the masses projected on the way.
-fn run(model: &Arc<Model>, integrator: Integrator, dt: f64, path: ExplicitPath) -> (State, u32) {
+/// The state after the submissions on `path` (or on the fused path, for a run that cannot
+/// step in one workgroup), the masses projected on the way, and the path taken.
+fn run(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    path: ExplicitPath,
+) -> (State, u32, ExplicitPath) {
     let mut gpu = ok(GpuBackend::with_paths(
         model.clone(),
         Step::new(integrator, dt),
         None,
         (ImplicitPath::Passes, path),
     ));
-    assert_eq!(gpu.explicit_path(), path, "{integrator}");
+    // Only small scenes step in one workgroup, the others fused a dispatch per step.
+    let taken = gpu.explicit_path();
+    assert!(
+        taken == path || (path, taken) == (ExplicitPath::InGroup, ExplicitPath::Fused),
+        "{integrator}: {taken:?} for {path:?}"
+    );
     let mut projections = 0;
     for (frame, steps) in SUBMISSIONS.into_iter().enumerate() {
         let stats = ok(gpu.advance(steps));
         projections += ok(gpu.snapshot(frame as u64, stats)).stats.projections;
     }
-    (ok(gpu.state()), projections)
+    (ok(gpu.state()), projections, taken)
 }
 
 fn bits(s: &State) -> Vec<u32> {
@@ -100,20 +112,37 @@ shear = { stiffness_n_per_m = 200.0, damping_n_s_per_m = 0.02 }
 bending = { stiffness_n_per_m = 50.0, damping_n_s_per_m = 0.005 }
 "#;
 
+/// `CONTACTS` with the sphere standing still where its keyframes begin: a scene whose steps run
+/// in one workgroup.
+fn still_contacts() -> String {
+    let at = CONTACTS.find("keyframes = [").expect("keyframes");
+    let end = CONTACTS[at..].find("\n]").expect("their end") + at + 2;
+    format!(
+        "{}center_m = [0.05, 0.12, 0.25]{}",
+        &CONTACTS[..at],
+        &CONTACTS[end..]
+    )
+}
+
 #[test]
 fn fused_steps_match_the_general_passes_bit_for_bit() {
     if !gpu_available() {
         return;
     }
     let mut projected = 0;
+    let mut in_group = 0;
+    let mut projected_in_group = 0;
     // hair: springs only; jello-sphere: the ground and a sphere on a path; contacts: the ground,
-    // a plane, a box and a keyframed sphere, with friction, at the scene's step and (but for
-    // Euler, unstable there) twice it.
+    // a plane, a box and a keyframed sphere (or one standing still), with friction, at the
+    // scene's step and (but for Euler, unstable there) twice it.
+    let still = still_contacts();
     let cases = [
         ("hair", scene_model("hair"), 1.0),
         ("jello-sphere", scene_model("jello-sphere"), 1.0),
         ("contacts", (model_of(CONTACTS), 1.0 / 1200.0), 1.0),
         ("contacts", (model_of(CONTACTS), 1.0 / 1200.0), 2.0),
+        ("still contacts", (model_of(&still), 1.0 / 1200.0), 1.0),
+        ("still contacts", (model_of(&still), 1.0 / 1200.0), 2.0),
     ];
     for (name, (model, scene_dt), scale) in cases {
         let dt = scale * scene_dt;
@@ -121,33 +150,51 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
             if scale > 1.0 && integrator == Integrator::Euler {
                 continue;
             }
-            let what = format!("{name} {integrator} dt {dt:.3e}");
-            let (fused, pf) = run(&model, integrator, dt, ExplicitPath::Fused);
-            let (general, pg) = run(&model, integrator, dt, ExplicitPath::General);
-            assert!(
-                bits(&fused) == bits(&general),
-                "{what}: the fused state differs from the general passes'"
-            );
-            assert_eq!(pf, pg, "{what}: masses projected");
-            let (lf, lg) = (fused.ledger, general.ledger);
-            for (f, g, term) in [
-                (lf.damping_j, lg.damping_j, "damping"),
-                (lf.drag_j, lg.drag_j, "drag"),
-                (lf.contact_j, lg.contact_j, "contact"),
-                (lf.collider_work_j, lg.collider_work_j, "collider work"),
-            ] {
-                assert_eq!(f.to_bits(), g.to_bits(), "{what}: ledger's {term}");
+            let (general, pg, _) = run(&model, integrator, dt, ExplicitPath::General);
+            for path in [ExplicitPath::Fused, ExplicitPath::InGroup] {
+                let what = format!("{name} {integrator} dt {dt:.3e} {path:?}");
+                let (fused, pf, taken) = run(&model, integrator, dt, path);
+                assert!(
+                    bits(&fused) == bits(&general),
+                    "{what}: the fused state differs from the general passes'"
+                );
+                assert_eq!(pf, pg, "{what}: masses projected");
+                let (lf, lg) = (fused.ledger, general.ledger);
+                for (f, g, term) in [
+                    (lf.damping_j, lg.damping_j, "damping"),
+                    (lf.drag_j, lg.drag_j, "drag"),
+                    (lf.contact_j, lg.contact_j, "contact"),
+                    (lf.collider_work_j, lg.collider_work_j, "collider work"),
+                ] {
+                    assert_eq!(f.to_bits(), g.to_bits(), "{what}: ledger's {term}");
+                }
+                if taken == ExplicitPath::InGroup {
+                    in_group += 1;
+                    projected_in_group += pf;
+                }
             }
-            projected += pf;
+            projected += pg;
         }
     }
-    // Otherwise the projection folded into the fused steps went untested.
+    // Otherwise the projection folded into the fused steps, or the steps in one workgroup,
+    // went untested.
     assert!(projected > 0, "no run projected a mass");
+    assert!(in_group >= 5, "{in_group} runs stepped in one workgroup");
+    assert!(
+        projected_in_group > 0,
+        "no run in one workgroup projected a mass"
+    );
 }
 
-/// Runs the fused steps cannot serve take the general passes, and `hooke check` says why.
+/// Runs the fused steps cannot serve take the general passes, and `hooke check` says why; small
+/// scenes whose colliders stand still step a submission in one workgroup, on a CPU adapter only
+/// the smallest.
 #[test]
 fn runs_the_fused_steps_cannot_serve_take_the_general_passes() {
+    use wgpu::DeviceType::{Cpu, DiscreteGpu};
+    let path_of = |model: &Model, integrator, buffers, device| {
+        hooke::gpu::explicit_path(model, integrator, (buffers, device))
+    };
     let cases = [
         ("tear", Integrator::SemiImplicit, "plasticity or tearing"),
         ("ramp", Integrator::Rk4, "plasticity or tearing"),
@@ -156,20 +203,36 @@ fn runs_the_fused_steps_cannot_serve_take_the_general_passes() {
     ];
     for (name, integrator, why) in cases {
         let (model, _) = scene_model(name);
-        let (path, reason) = hooke::gpu::explicit_path(&model, integrator, u32::MAX);
+        let (path, reason) = path_of(&model, integrator, u32::MAX, DiscreteGpu);
         assert_eq!(path, ExplicitPath::General, "{name} {integrator}");
         let reason = reason.unwrap_or_default();
         assert!(reason.contains(why), "{name} {integrator}: {reason}");
     }
+    let mut in_group = 0;
     for name in ["hair", "cloth", "jello", "jello-sphere", "cloth-256"] {
         let (model, _) = scene_model(name);
         for integrator in FUSED {
-            let (path, reason) = hooke::gpu::explicit_path(&model, integrator, u32::MAX);
-            assert_eq!(path, ExplicitPath::Fused, "{name} {integrator}: {reason:?}");
-            // An adapter short of storage buffers keeps the general passes.
-            let (path, reason) = hooke::gpu::explicit_path(&model, integrator, 8);
-            assert_eq!(path, ExplicitPath::General, "{name} {integrator}");
-            assert!(reason.is_some_and(|r| r.contains("storage buffers")));
+            for device in [DiscreteGpu, Cpu] {
+                let (path, reason) = path_of(&model, integrator, u32::MAX, device);
+                // Euler's and semi-implicit Euler's steps of a few thousand masses (a few
+                // hundred on a CPU adapter) whose colliders stand still run in one workgroup.
+                let single = matches!(integrator, Integrator::Euler | Integrator::SemiImplicit);
+                let small = model.mass_count() <= hooke::gpu::one_group_step_masses(device);
+                let still = name != "jello-sphere";
+                let expected = if single && small && still {
+                    in_group += 1;
+                    ExplicitPath::InGroup
+                } else {
+                    ExplicitPath::Fused
+                };
+                assert_eq!(path, expected, "{name} {integrator} {device:?}: {reason:?}");
+                // An adapter short of storage buffers keeps the general passes.
+                let (path, reason) = path_of(&model, integrator, 8, device);
+                assert_eq!(path, ExplicitPath::General, "{name} {integrator}");
+                assert!(reason.is_some_and(|r| r.contains("storage buffers")));
+            }
         }
     }
+    // hair, cloth and jello on a GPU, hair on a CPU adapter; Euler and semi-implicit Euler.
+    assert_eq!(in_group, 8);
 }

@@ -203,7 +203,11 @@ pub fn format_throughput(t: &Throughput) -> String {
         );
     }
     if let Some(d) = t.dispatches {
-        let _ = write!(s, "\n    dispatches per step: {}", format_dispatches(d));
+        let _ = write!(
+            s,
+            "\n    dispatches per step: {}",
+            format_dispatches(d, t.batch)
+        );
     }
     if let Some((submissions, replayed)) = t.replays {
         let _ = write!(
@@ -239,11 +243,16 @@ pub fn format_throughput(t: &Throughput) -> String {
     s
 }
 
-/// "1 (fused step)", "4", or for implicit Euler a dispatch per pass "4 + 6 per Newton iteration
-/// + 2 per CG iteration".
-fn format_dispatches(d: DispatchCount) -> String {
+/// "1 (fused step)", "4", "1 per submission of 100 steps (fused, in one workgroup)", or for
+/// implicit Euler a dispatch per pass "4 + 6 per Newton iteration + 2 per CG iteration".
+fn format_dispatches(d: DispatchCount, batch: u32) -> String {
     let mut s = d.fixed.to_string();
-    if d.fused {
+    if d.in_group {
+        let _ = write!(
+            s,
+            " per submission of {batch} steps (fused, in one workgroup)"
+        );
+    } else if d.fused {
         s.push_str(" (fused step)");
     }
     if d.per_newton_iteration > 0 {
@@ -279,6 +288,7 @@ pub fn throughput_json(t: &Throughput) -> String {
         },
         "dispatches_per_step": t.dispatches.map(|d| serde_json::json!({
             "fused": d.fused,
+            "in_group": d.in_group,
             "fixed": d.fixed,
             "per_newton_iteration": d.per_newton_iteration,
             "per_cg_iteration": d.per_cg_iteration,

@@ -330,6 +330,17 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
 fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
     let (passes, why_unfused, effects) = hooke::gpu::step_passes(model, settings.integrator);
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
+    if passes.iter().any(|p| p == "fused_frame") {
+        use hooke::gpu::one_group_step_masses;
+        use wgpu::DeviceType::{Cpu, DiscreteGpu};
+        let _ = writeln!(
+            s,
+            "  fused_frame: every step of a submission in one dispatch of one workgroup (up to {} \
+             masses on a GPU, {} on a CPU adapter; larger scenes take fused_step)",
+            one_group_step_masses(DiscreteGpu),
+            one_group_step_masses(Cpu)
+        );
+    }
     if let Some(why) = why_unfused {
         let _ = writeln!(s, "  not the fused step: {why}");
     }

@@ -7,9 +7,10 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::context::{DeviceError, GpuContext, ReadBackOf};
-use super::dispatch::{Dispatch, SLOTS_PER_STEP};
+use super::dispatch::{Dispatch, SLOTS_PER_STEP, frame_threads, why_not_in_group};
 use super::encode::{Dispatcher, in_pass};
 use super::implicit::{self, Budgets, ImplicitStep, Path, SolverHome};
+use super::kernels::Kernel;
 use super::layout::FrameSolve;
 use super::limits::check_fits;
 use super::pipelines::{Layouts, Needed, Pipelines};
@@ -63,12 +64,13 @@ impl GpuBackend {
     /// `adapter` (the best one when `None`).
     pub fn new(model: Arc<Model>, step: Step, adapter: Option<&str>) -> Result<Self, BackendError> {
         let path = implicit::path(&model);
-        Self::with_paths(model, step, adapter, (path, ExplicitPath::Fused))
+        Self::with_paths(model, step, adapter, (path, ExplicitPath::InGroup))
     }
 
     /// As `new`, with implicit Euler's steps taken by `implicit` whatever the system's
-    /// size, and explicit steps fused where the run allows it (`ExplicitPath::Fused`) or never
-    /// (`General`): the tests compare the paths on one scene.
+    /// size, and explicit steps taken on `explicit` where the run allows it, else on the next
+    /// path open to it (`InGroup`, then `Fused`, then `General`): the tests compare the paths on
+    /// one scene.
     #[doc(hidden)]
     pub fn with_paths(
         model: Arc<Model>,
@@ -90,8 +92,20 @@ impl GpuBackend {
         let device = &ctx.device;
         let storage_buffers = ctx.limits.max_storage_buffers_per_shader_stage;
         let links = match explicit {
-            ExplicitPath::Fused => plan::fused_links(&model, integrator, storage_buffers).ok(),
+            ExplicitPath::InGroup | ExplicitPath::Fused => {
+                plan::fused_links(&model, integrator, storage_buffers).ok()
+            }
             ExplicitPath::General => None,
+        };
+        let explicit = match links {
+            None => ExplicitPath::General,
+            Some(_) if explicit == ExplicitPath::InGroup => {
+                match why_not_in_group(&model, integrator, ctx.info.device_type) {
+                    None => ExplicitPath::InGroup,
+                    Some(_) => ExplicitPath::Fused,
+                }
+            }
+            Some(_) => ExplicitPath::Fused,
         };
         let needed = Needed {
             implicit: implicit.then_some(path),
@@ -99,7 +113,8 @@ impl GpuBackend {
             mass_contact: model.effects.self_collision.is_some(),
             xpbd: integrator == Integrator::Xpbd,
             vbd: integrator == Integrator::Vbd,
-            fused: links.is_some(),
+            fused: explicit == ExplicitPath::Fused,
+            fused_in_group: explicit == ExplicitPath::InGroup,
         };
         let layouts = Layouts::new(device, needed);
         // The per-pass kernels' grid; the one-workgroup step has none.
@@ -117,6 +132,11 @@ impl GpuBackend {
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
         let group_threads = implicit::group_threads(ctx.info.device_type);
+        let frame_threads = frame_threads(
+            ctx.info.device_type,
+            model.mass_count(),
+            ctx.limits.max_compute_invocations_per_workgroup,
+        );
         let home = match needed.implicit {
             Some(path) => {
                 SolverHome::of(&model, path, ctx.limits.max_compute_workgroup_storage_size)
@@ -128,6 +148,7 @@ impl GpuBackend {
             (integrator, dt_secs),
             kind_shift,
             (group_threads, home.workgroup_arrays()),
+            frame_threads,
         );
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
@@ -154,11 +175,7 @@ impl GpuBackend {
             budgets: Budgets::default(),
             recent_frames: VecDeque::new(),
             replays: 0,
-            explicit_path: if needed.fused {
-                ExplicitPath::Fused
-            } else {
-                ExplicitPath::General
-            },
+            explicit_path: explicit,
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -206,8 +223,10 @@ impl GpuBackend {
     /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:
     /// a fused Euler or semi-implicit step that reads B).
     pub(super) fn step_plan(&self, prime: bool, odd: bool) -> Vec<Dispatch> {
-        if self.explicit_path == ExplicitPath::Fused {
-            return fused_step_plan(self.integrator, prime, odd);
+        match self.explicit_path {
+            ExplicitPath::InGroup => return vec![Dispatch::at(Kernel::FusedFrame, 0)],
+            ExplicitPath::Fused => return fused_step_plan(self.integrator, prime, odd),
+            ExplicitPath::General => {}
         }
         step_plan(
             self.integrator,
@@ -244,8 +263,11 @@ impl GpuBackend {
     }
 
     /// The dispatches of the next `steps` steps, each slot counted from slot 0; Verlet's first
-    /// step also evaluates a(x_0).
+    /// step also evaluates a(x_0). In one workgroup, one dispatch runs them all.
     pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
+        if self.explicit_path == ExplicitPath::InGroup {
+            return self.step_plan(false, false);
+        }
         let warm = [self.step_plan(false, false), self.step_plan(false, true)];
         let mut all = Vec::with_capacity(warm[0].len() * steps as usize);
         for k in 0..steps {

@@ -350,6 +350,15 @@ bind_groups! {
         x_base: Read "array<vec4<f32>>",
         v_base: Read "array<vec4<f32>>",
     }
+    /// A submission's Euler or semi-implicit steps in one workgroup (fused_frame.wgsl): the fused
+    /// steps' group, and the state, which lives in A (`x_in`, `v_in`, the run's x and v)
+    /// between steps and passes through B (`x_out`, `v_out`, its xt and vt) within one.
+    FusedFrame @ 0 = Fused + {
+        x_in: ReadWrite "array<vec4<f32>>",
+        v_in: ReadWrite "array<vec4<f32>>",
+        x_out: ReadWrite "array<vec4<f32>>",
+        v_out: ReadWrite "array<vec4<f32>>",
+    }
     /// The state a force evaluation reads.
     State @ 1 {
         x_in: Read "array<vec4<f32>>",

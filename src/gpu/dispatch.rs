@@ -3,6 +3,7 @@
 //! `implicit/plan.rs`) are lists of these; `encode.rs` records them.
 
 use super::kernels::Kernel;
+use crate::integrator::Integrator;
 
 /// Stage slots per substep: t, t + h/2 (twice, for RK4's two midpoint stages), t + h.
 pub const SLOTS_PER_STEP: u32 = 4;
@@ -41,6 +42,56 @@ pub const XPBD_ONE_GROUP_SPRINGS: usize = 16_384;
 /// (`xpbd_sweeps.wgsl`).
 pub fn xpbd_in_one_group(spring_count: usize) -> bool {
     spring_count <= XPBD_ONE_GROUP_SPRINGS
+}
+
+/// The most masses whose Euler or semi-implicit steps run a submission in one dispatch of one
+/// workgroup (`fused_frame.wgsl`, `plan::ExplicitPath::InGroup`) on a `device`: below it, a
+/// dispatch per step costs more in launches than one workgroup loses in parallelism. A CPU
+/// adapter (lavapipe) runs a workgroup on one core, so it gives up its other cores: on two, the
+/// hair (100 masses) steps 3.5× as fast in one workgroup, the jello (1,000) about as fast, the
+/// cloth (1,024) 0.6–1.1× (BENCHMARKS.md). A GPU runs it on one SM of many.
+pub fn one_group_step_masses(device: wgpu::DeviceType) -> usize {
+    match device {
+        wgpu::DeviceType::Cpu => 512,
+        _ => 2048,
+    }
+}
+
+/// Why a fused run on a `device` cannot step a whole submission in one workgroup, or `None`
+/// when it can.
+pub fn why_not_in_group(
+    model: &crate::model::Model,
+    integrator: Integrator,
+    device: wgpu::DeviceType,
+) -> Option<String> {
+    let most = one_group_step_masses(device);
+    let why = if !matches!(integrator, Integrator::Euler | Integrator::SemiImplicit) {
+        format!("{} takes more than one pass a step", integrator.name())
+    } else if model.mass_count() > most {
+        format!(
+            "{} masses, more than one workgroup steps on this adapter ({most})",
+            model.mass_count()
+        )
+    } else if !model.effects.colliders.iter().all(|c| c.path.is_fixed()) {
+        "a collider moves, and each step needs its poses".to_owned()
+    } else {
+        return None;
+    };
+    Some(why)
+}
+
+/// Threads of `fused_frame`'s workgroup for `mass_count` masses on a `device` allowing `most`
+/// invocations per workgroup. A CPU adapter (lavapipe) runs a workgroup on one core, a SIMD
+/// vector of invocations at a time, and switches between vectors at every barrier: a vector's
+/// worth is its fastest. A GPU keeps an SM's warps busy with up to a thread per mass.
+pub fn frame_threads(device: wgpu::DeviceType, mass_count: usize, most: u32) -> u32 {
+    match device {
+        wgpu::DeviceType::Cpu => 8,
+        _ => {
+            let warps = (mass_count as u32).div_ceil(32).max(1);
+            (32 * warps).min(1024).min(most).max(1)
+        }
+    }
 }
 
 /// XPBD's sweeps of a substep (the springs' colours) or VBD's of a step (the masses'), and the

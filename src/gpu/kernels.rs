@@ -49,8 +49,10 @@ pub enum Needs {
     Xpbd,
     /// The VBD integrator.
     Vbd,
-    /// The fused explicit steps (`plan::ExplicitPath::Fused`).
+    /// The fused explicit steps (`plan::ExplicitPath::Fused` or `InGroup`).
     Fused,
+    /// A submission's fused steps in one workgroup (`plan::ExplicitPath::InGroup`).
+    FusedInGroup,
 }
 
 /// A kernel's CPU namesake, or why it has none.
@@ -311,6 +313,14 @@ macro_rules! kernel_table {
                 group: Fused + flow, threads: Masses, needs: Fused, cpu: (fused::FusedStep),
                 // x, v in and out; offsets; mass; ledger read and written; links (8 B an end).
                 bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+            }
+            /// Every Euler or semi-implicit step of a submission in one workgroup, for small
+            /// scenes; its bytes are per step.
+            FusedFrame = fused_frame in FusedFrame {
+                group: FusedFrame, threads: OneGroup, needs: FusedInGroup,
+                cpu: "fused_step over and over, in one workgroup; the CPU steps a submission in turn",
+                // As fused_step, and B copied back to A.
+                bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16 + 4 * 16) + z.ns * 2 * 8 + z.colliders,
             }
             FusedVerletDrift = fused_verlet_drift in Fused {
                 group: Fused + flow, threads: Masses, needs: Fused,

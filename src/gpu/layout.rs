@@ -36,7 +36,9 @@ pub struct Stage {
     pub weight: f32,
     pub next_scale: f32,
     pub step: u32,
-    pub _pad: [u32; 3],
+    /// The submission's steps from this one on (`fused_frame.wgsl` runs them in one dispatch).
+    pub steps: u32,
+    pub _pad: [u32; 2],
     pub poses: [Pose; MAX_COLLIDERS],
 }
 

@@ -82,8 +82,10 @@ pub struct Needed {
     pub mass_contact: bool,
     pub xpbd: bool,
     pub vbd: bool,
-    /// The fused explicit steps.
+    /// The fused explicit steps, a dispatch per step.
     pub fused: bool,
+    /// The fused Euler or semi-implicit steps, a submission's in one workgroup.
+    pub fused_in_group: bool,
 }
 
 impl Needed {
@@ -97,6 +99,7 @@ impl Needed {
             Needs::Xpbd => self.xpbd,
             Needs::Vbd => self.vbd,
             Needs::Fused => self.fused,
+            Needs::FusedInGroup => self.fused_in_group,
         }
     }
 }

@@ -1,7 +1,9 @@
 //! The step plans: which kernels a step dispatches, in order, on which state and at which stage
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
-use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps, xpbd_in_one_group};
+use super::dispatch::{
+    ColourPass, Dispatch, Flow, StateIn, Sweeps, why_not_in_group, xpbd_in_one_group,
+};
 use super::implicit;
 use super::kernels::Kernel;
 use super::shaders::effect_constants;
@@ -9,9 +11,12 @@ use crate::integrator::Integrator;
 use crate::model::{Effects, Model};
 
 /// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
-/// folded into its force gathers, the state ping-ponging between A and B) or a pass per stage.
+/// folded into its force gathers, the state ping-ponging between A and B), fused with every step
+/// of a submission in one dispatch of one workgroup (`fused_frame.wgsl`: small scenes), or a
+/// pass per stage. Each path is open to the runs of the one after it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ExplicitPath {
+    InGroup,
     Fused,
     General,
 }
@@ -220,14 +225,17 @@ fn with_mass_contact(d: Dispatch, build: ListBuild) -> Vec<Dispatch> {
     }
 }
 
-/// The path a run's explicit steps take on an adapter allowing `storage_buffers` storage buffers
-/// per stage, and why when it is not the fused one.
+/// The path a run's explicit steps take on a `device` allowing `storage_buffers` storage
+/// buffers per stage, and why when it is not the fused one (in one workgroup or not).
 pub fn explicit_path(
     model: &Model,
     integrator: Integrator,
-    storage_buffers: u32,
+    (storage_buffers, device): (u32, wgpu::DeviceType),
 ) -> (ExplicitPath, Option<String>) {
     match fused_links(model, integrator, storage_buffers) {
+        Ok(_) if why_not_in_group(model, integrator, device).is_none() => {
+            (ExplicitPath::InGroup, None)
+        }
         Ok(_) => (ExplicitPath::Fused, None),
         Err(why) => (ExplicitPath::General, Some(why)),
     }
@@ -258,7 +266,7 @@ pub fn step_passes(
     } else {
         Vec::new()
     };
-    let (path, why) = explicit_path(model, integrator, u32::MAX);
+    let (path, why) = explicit_path(model, integrator, (u32::MAX, wgpu::DeviceType::DiscreteGpu));
     // XPBD's sweeps are listed once, in brackets: their count is the run's.
     let one_sweep = Sweeps {
         colours: 1,
@@ -292,6 +300,9 @@ pub fn step_passes(
 pub struct DispatchCount {
     /// Whether the steps are the fused ones (`fused.wgsl`).
     pub fused: bool,
+    /// Whether every step of a submission is one dispatch (`fused_frame.wgsl`): `fixed` is then
+    /// per submission.
+    pub in_group: bool,
     pub fixed: u32,
     pub per_newton_iteration: u32,
     pub per_cg_iteration: u32,
@@ -328,6 +339,7 @@ fn steady_step_plan(
     sweeps: Sweeps,
 ) -> Vec<Dispatch> {
     match path {
+        ExplicitPath::InGroup => vec![Dispatch::at(Kernel::FusedFrame, 0)],
         ExplicitPath::Fused => fused_step_plan(integrator, false, false),
         ExplicitPath::General => step_plan(
             integrator,
@@ -363,7 +375,8 @@ pub fn dispatches_per_step(
             ..DispatchCount::default()
         },
         _ => DispatchCount {
-            fused: explicit == ExplicitPath::Fused,
+            fused: explicit != ExplicitPath::General,
+            in_group: explicit == ExplicitPath::InGroup,
             fixed: steps,
             ..DispatchCount::default()
         },

@@ -8,7 +8,7 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 8] = [
+const LIBRARIES: [(&str, &str); 9] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
@@ -38,6 +38,7 @@ const LIBRARIES: [(&str, &str); 8] = [
         "contact_projection",
         include_str!("../../shaders/contact_projection.wgsl"),
     ),
+    ("fused_mass", include_str!("../../shaders/fused_mass.wgsl")),
 ];
 
 /// The library named `name`, if there is one.
@@ -74,10 +75,11 @@ pub enum Program {
     XpbdSweeps,
     Vbd,
     Fused,
+    FusedFrame,
 }
 
 impl Program {
-    pub const ALL: [Program; 12] = [
+    pub const ALL: [Program; 13] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -90,6 +92,7 @@ impl Program {
         Program::XpbdSweeps,
         Program::Vbd,
         Program::Fused,
+        Program::FusedFrame,
     ];
 
     pub fn file(self) -> &'static str {
@@ -125,6 +128,7 @@ impl Program {
             Program::XpbdSweeps => file!("xpbd_sweeps.wgsl"),
             Program::Vbd => file!("vbd.wgsl"),
             Program::Fused => file!("fused.wgsl"),
+            Program::FusedFrame => file!("fused_frame.wgsl"),
         }
     }
 }

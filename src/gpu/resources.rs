@@ -181,6 +181,13 @@ impl GroupSet<'_> {
             counters: &b.counters,
         };
         self.set(fused());
+        self.set(buffers::FusedFrame {
+            base: fused(),
+            x_in: &b.x,
+            v_in: &b.v,
+            x_out: &b.xt,
+            v_out: &b.vt,
+        });
         let rk4 = integrator == Integrator::Rk4;
         let c = rk4.then(|| {
             let n = model.mass_count();

@@ -10,7 +10,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
 /// Every shader program as compiled: (file name, source).
-pub fn programs() -> [(&'static str, String); 12] {
+pub fn programs() -> [(&'static str, String); 13] {
     Program::ALL.map(|p| (p.file(), source(p)))
 }
 
@@ -115,12 +115,14 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), and where the fused steps'
 /// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
-/// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s.
+/// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
+/// the one-workgroup fused steps (`dispatch::frame_threads`).
 pub fn constants(
     model: &Model,
     (integrator, dt_secs): (Integrator, f64),
     kind_shift: u32,
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
+    frame_threads: u32,
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -152,6 +154,7 @@ pub fn constants(
         ("NEWTON_STALL", NEWTON_STALL),
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
+        ("FRAME_THREADS", f64::from(frame_threads)),
     ]);
     // A workgroup array has at least one element, used or not.
     let [vectors, terms] = in_workgroup.unwrap_or([1, 1]);

@@ -52,6 +52,7 @@ impl Clock {
                 weight,
                 next_scale,
                 step: self.frame_steps + k,
+                steps: steps - k,
                 ..self.stage_at(model, time)
             };
             stages.extend([
@@ -81,7 +82,8 @@ impl Clock {
             weight: 1.0,
             next_scale: 1.0,
             step: 0,
-            _pad: [0; 3],
+            steps: 1,
+            _pad: [0; 2],
             poses,
         }
     }

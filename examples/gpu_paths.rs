@@ -35,7 +35,11 @@ fn main() -> anyhow::Result<()> {
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
     let batch: u32 = args.get(4).map_or(Ok(20), |s| s.parse())?;
     let mut backends = Vec::new();
-    for path in [ExplicitPath::General, ExplicitPath::Fused, ExplicitPath::InGroup] {
+    for path in [
+        ExplicitPath::General,
+        ExplicitPath::Fused,
+        ExplicitPath::InGroup,
+    ] {
         let be = GpuBackend::with_paths(
             model.clone(),
             Step::new(integrator, settings.dt_secs),
@@ -89,7 +93,9 @@ fn main() -> anyhow::Result<()> {
         );
         finals.push(be.state()?);
     }
-    let same = finals.iter().all(|f| f.x == finals[0].x && f.v == finals[0].v);
+    let same = finals
+        .iter()
+        .all(|f| f.x == finals[0].x && f.v == finals[0].v);
     println!(
         "  final states {}",
         if same { "bit-identical" } else { "DIFFER" }

@@ -48,8 +48,9 @@ pub fn xpbd_in_one_group(spring_count: usize) -> bool {
 /// workgroup (`fused_frame.wgsl`, `plan::ExplicitPath::InGroup`) on a `device`: below it, a
 /// dispatch per step costs more in launches than one workgroup loses in parallelism. A CPU
 /// adapter (lavapipe) runs a workgroup on one core, so it gives up its other cores: on two, the
-/// hair (100 masses) steps 3.5× as fast in one workgroup, the jello (1,000) about as fast, the
-/// cloth (1,024) 0.6–1.1× (BENCHMARKS.md). A GPU runs it on one SM of many.
+/// hair (100 masses) steps 2.5–4× as fast in one workgroup, a 22 × 22 cloth (484) about as fast,
+/// the jello (1,000) and the cloth (1,024) 0.6–1.0× (BENCHMARKS.md). A GPU runs it on one SM of
+/// many, and pays several microseconds a launch: its threshold is to be measured on an H100.
 pub fn one_group_step_masses(device: wgpu::DeviceType) -> usize {
     match device {
         wgpu::DeviceType::Cpu => 512,

@@ -47,8 +47,10 @@ fn has_contact_terms() -> bool {
 // link's spring kind starts (the bits below are the other mass's index).
 override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
-// Threads of fused_frame's one workgroup (src/gpu/plan.rs's frame_threads).
+// Threads of fused_frame's one workgroup (src/gpu/dispatch.rs's frame_threads).
 override FRAME_THREADS: u32 = 64u;
+// Grid bodies whose fused steps take their springs from a stencil (src/gpu/stencils.rs).
+override HAS_STENCILS: bool = false;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/physics/mass_contact.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
@@ -157,15 +159,45 @@ struct SpringKinds {
     kind: array<vec4<f32>, MAX_SPRING_KINDS>,
 }
 
-// What mass_force reads of the spring at one CSR entry: the mass at its other end and its
-// constants, from whichever layout the program binds (spring_end in spring_records.wgsl or
-// fused.wgsl).
+// The fused steps' grid stencils (StencilTable in src/gpu/layout.rs, built by
+// src/gpu/stencils.rs): a grid body's masses take their springs from its slots, in the order of
+// their CSR entries, instead of reading links.
+const MAX_STENCIL_BODIES: u32 = 8u;
+const MAX_STENCIL_SLOTS: u32 = 256u;
+struct StencilBody {
+    first_mass: u32,
+    mass_end: u32,
+    slot_start: u32,
+    slot_end: u32,
+    dims: vec4<u32>,
+}
+struct StencilSlot {
+    // Cells to the other end (x, y, z) and the difference of the two masses' indices (w).
+    step: vec4<i32>,
+    rest: f32,
+    stiffness: f32,
+    damping: f32,
+    _pad: f32,
+}
+struct StencilTable {
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+    bodies: array<StencilBody, MAX_STENCIL_BODIES>,
+    slots: array<StencilSlot, MAX_STENCIL_SLOTS>,
+}
+
+// What mass_force reads of mass i's spring e (spring_range(i) gives its e): the mass at its
+// other end and its constants, from whichever layout the program binds (spring_records.wgsl or
+// fused_mass.wgsl); NO_SPRING where a stencil's slot falls off the grid.
 struct SpringEnd {
     other: u32,
     rest: f32,
     stiffness: f32,
     damping: f32,
 }
+const NO_SPRING: u32 = 0xFFFFFFFFu;
 
 const SPHERE: u32 = 0u;
 const BOX: u32 = 1u;

@@ -1,12 +1,12 @@
 // mass_force: the full force on one mass (springs, gravity, drag, contact) at the state x_in,
 // v_in, as its acceleration and the ledger's rates; forces_on writes it to deriv as
 // compute_forces' output. Mirrors src/cpu/forces.rs. Shared by compute_forces (forces.wgsl),
-// implicit_step (implicit.wgsl) and the fused steps (fused.wgsl), which define spring_end(e), the
-// spring of CSR entry e in their own layout of the springs.
+// implicit_step (implicit.wgsl) and the fused steps (fused_mass.wgsl), which define
+// spring_range(i) and spring_end(i, e), mass i's springs in their own layout of the springs.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
-// #uses params offsets colliders mass deriv x_in v_in stage
-// #calls spring_end
+// #uses params colliders mass deriv x_in v_in stage
+// #calls spring_range spring_end
 
 struct MassForce {
     acc: vec3<f32>,
@@ -25,9 +25,14 @@ fn mass_force(i: u32) -> MassForce {
     var f = vec3<f32>(0.0);
     var damping_w = 0.0;
     // XPBD without dashpots needs nothing of the springs here.
-    let end = select(offsets[i + 1u], offsets[i], XPBD && !HAS_DAMPING);
-    for (var e = offsets[i]; e < end; e++) {
-        let s = spring_end(e);
+    let range = spring_range(i);
+    let end = select(range.y, range.x, XPBD && !HAS_DAMPING);
+    for (var e = range.x; e < end; e++) {
+        let s = spring_end(i, e);
+        // A stencil's slot off the grid has no spring.
+        if (HAS_STENCILS && s.other == NO_SPRING) {
+            continue;
+        }
         // A broken spring exerts nothing; skipping it saves reading the other end.
         if (HAS_TEARING && s.stiffness == 0.0 && s.damping == 0.0) {
             continue;

@@ -186,6 +186,47 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
     );
 }
 
+/// A grid body beside a mesh body (the flag): the grid's masses find their springs from its
+/// stencil, the mesh's read links, in the same dispatches; bit for bit the general passes, which
+/// read every spring's record.
+#[test]
+fn grid_stencils_beside_links_match_the_general_passes_bit_for_bit() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+    let flag = std::fs::read_to_string(dir.join("flag.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let text = format!(
+        "{flag}\n[[bodies]]\nname = \"cube\"\ngrid = [3, 4, 5]\nspacing_m = 0.05\nmass_kg = 0.5\n\
+         origin_m = [0.3, 1.0, 0.2]\naxes = [[0.97, 0.26, 0.0], [-0.26, 0.97, 0.0], [0.0, 0.0, 1.0]]\n\
+         springs.structural = {{ stiffness_n_per_m = 400.0, damping_n_s_per_m = 0.02 }}\n\
+         springs.shear = {{ stiffness_n_per_m = 300.0, damping_n_s_per_m = 0.01 }}\n\
+         springs.bending = {{ stiffness_n_per_m = 50.0, damping_n_s_per_m = 0.005 }}\n"
+    );
+    let origin = hooke::scene::SceneOrigin::File(dir.join("mixed.toml"));
+    let scene = ok(hooke::scene::from_toml(&text, origin));
+    let model = Arc::new(hooke::model::build(&scene));
+    let cube = model
+        .bodies
+        .iter()
+        .find(|b| b.name == "cube")
+        .expect("the cube");
+    assert_eq!(
+        hooke::gpu::stencil_cover(&model),
+        (1, cube.masses.len()),
+        "the cube, and only the cube, takes a stencil"
+    );
+    if !gpu_available() {
+        return;
+    }
+    let dt = 1.0 / 2400.0;
+    for integrator in FUSED {
+        let (general, _, _) = run(&model, integrator, dt, ExplicitPath::General);
+        let (fused, _, _) = run(&model, integrator, dt, ExplicitPath::Fused);
+        assert!(
+            bits(&fused) == bits(&general),
+            "{integrator}: the stencil and links differ from the general passes"
+        );
+    }
+}
+
 /// Runs the fused steps cannot serve take the general passes, and `hooke check` says why; small
 /// scenes whose colliders stand still step a submission in one workgroup, on a CPU adapter only
 /// the smallest.

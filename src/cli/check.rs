@@ -341,8 +341,21 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
             one_group_step_masses(Cpu)
         );
     }
-    if let Some(why) = why_unfused {
-        let _ = writeln!(s, "  not the fused step: {why}");
+    match why_unfused {
+        Some(why) => {
+            let _ = writeln!(s, "  not the fused step: {why}");
+        }
+        None if passes.iter().any(|p| p.starts_with("fused_")) => {
+            let (bodies, masses) = hooke::gpu::stencil_cover(model);
+            let _ = writeln!(
+                s,
+                "  grid stencils: {masses} of {} masses ({bodies} grid {}) find their springs \
+                 from their grid cell, the others read a link per spring",
+                model.mass_count(),
+                if bodies == 1 { "body" } else { "bodies" }
+            );
+        }
+        None => {}
     }
     if settings.integrator == hooke::integrator::Integrator::Xpbd {
         let colours = hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours();

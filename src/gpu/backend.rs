@@ -131,6 +131,7 @@ impl GpuBackend {
             needed.implicit.map(|path| (path, grid(path))),
         );
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
+        let stencils = links.as_ref().is_some_and(|l| l.stencils.table.count > 0);
         let group_threads = implicit::group_threads(ctx.info.device_type);
         let frame_threads = frame_threads(
             ctx.info.device_type,
@@ -146,7 +147,7 @@ impl GpuBackend {
         let constants = constants(
             &model,
             (integrator, dt_secs),
-            kind_shift,
+            (kind_shift, stencils),
             (group_threads, home.workgroup_arrays()),
             frame_threads,
         );

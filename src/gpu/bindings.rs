@@ -331,6 +331,8 @@ bind_groups! {
     Fused @ 0 {
         params: Uniform "Params",
         kinds: Uniform "SpringKinds",
+        /// The grid bodies' stencils (`stencils.rs`): their masses read no links.
+        stencils: Uniform "StencilTable",
         offsets: Read "array<u32>",
         links: Read "array<vec2<u32>>",
         colliders: Read "array<Collider>",

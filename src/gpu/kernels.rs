@@ -89,11 +89,16 @@ pub struct Sizes {
     pub blocks: u64,
     /// Bytes of the colliders.
     pub colliders: u64,
+    /// The masses whose fused steps read their springs as links (the others take a grid
+    /// stencil, `stencils.rs`), and their CSR entries.
+    pub linked_masses: u64,
+    pub linked_entries: u64,
 }
 
 impl Sizes {
     /// The sizes of `model`'s run; `(table, blocks)`: its hash grid's, (0, 0) without one.
     pub fn of(model: &crate::model::Model, (table, blocks): (u64, u64)) -> Self {
+        let stencils = super::stencils::GridStencils::build(model);
         Self {
             n: model.mass_count() as u64,
             ns: model.spring_count() as u64,
@@ -101,6 +106,8 @@ impl Sizes {
             blocks,
             colliders: model.effects.colliders.len() as u64
                 * std::mem::size_of::<super::layout::Collider>() as u64,
+            linked_masses: (model.mass_count() - stencils.masses) as u64,
+            linked_entries: (model.adjacency.entries.len() - stencils.entries) as u64,
         }
     }
 }
@@ -311,8 +318,9 @@ macro_rules! kernel_table {
             /// Euler or semi-implicit Euler, the whole step.
             FusedStep = fused_step in Fused {
                 group: Fused + flow, threads: Masses, needs: Fused, cpu: (fused::FusedStep),
-                // x, v in and out; offsets; mass; ledger read and written; links (8 B an end).
-                bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+                // x, v in and out; mass; ledger read and written; offsets and links (8 B an end)
+                // where no stencil stands for them.
+                bytes: |z| z.n * (4 * 16 + 8 + 2 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
             /// Every Euler or semi-implicit step of a submission in one workgroup, for small
             /// scenes; its bytes are per step.
@@ -320,7 +328,7 @@ macro_rules! kernel_table {
                 group: FusedFrame, threads: OneGroup, needs: FusedInGroup,
                 cpu: "fused_step over and over, in one workgroup; the CPU steps a submission in turn",
                 // As fused_step, and B copied back to A.
-                bytes: |z| z.n * (4 * 16 + 4 + 8 + 2 * 16 + 4 * 16) + z.ns * 2 * 8 + z.colliders,
+                bytes: |z| z.n * (4 * 16 + 8 + 2 * 16 + 4 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
             FusedVerletDrift = fused_verlet_drift in Fused {
                 group: Fused + flow, threads: Masses, needs: Fused,
@@ -332,26 +340,26 @@ macro_rules! kernel_table {
                 group: Fused + flow, threads: Masses, needs: Fused,
                 cpu: "compute_forces, verlet_kick and project_contacts in one pass; the CPU runs them in turn",
                 // x, v in and out; offsets; mass; a and rates out; half kick and rates in; ledger; links.
-                bytes: |z| z.n * (4 * 16 + 4 + 8 + 32 + 2 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+                bytes: |z| z.n * (4 * 16 + 8 + 32 + 2 * 16 + 2 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
             FusedRk4Begin = fused_rk4_begin in Fused {
                 group: Fused + flow, threads: Masses, needs: Fused,
                 cpu: "compute_forces and rk4_begin in one pass; the CPU runs them in turn",
                 // x, v in; stage point out; offsets; mass; three sums out; links.
-                bytes: |z| z.n * (4 * 16 + 4 + 8 + 3 * 16) + z.ns * 2 * 8 + z.colliders,
+                bytes: |z| z.n * (4 * 16 + 8 + 3 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
             FusedRk4Mid = fused_rk4_mid in Fused {
                 group: FusedMid + flow, threads: Masses, needs: Fused,
                 cpu: "compute_forces and rk4_mid in one pass; the CPU runs them in turn",
                 // Stage state in; the step's start in; next stage point out; offsets; mass; three sums
                 // read and written; links.
-                bytes: |z| z.n * (6 * 16 + 4 + 8 + 2 * 3 * 16) + z.ns * 2 * 8 + z.colliders,
+                bytes: |z| z.n * (6 * 16 + 8 + 2 * 3 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
             FusedRk4Final = fused_rk4_final in Fused {
                 group: Fused + flow, threads: Masses, needs: Fused,
                 cpu: "compute_forces, rk4_final and project_contacts in one pass; the CPU runs them in turn",
                 // Stage state in; x, v read and written; offsets; mass; three sums in; ledger; links.
-                bytes: |z| z.n * (6 * 16 + 4 + 8 + 3 * 16 + 2 * 16) + z.ns * 2 * 8 + z.colliders,
+                bytes: |z| z.n * (6 * 16 + 8 + 3 * 16 + 2 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,
             }
 
             // ---- collide.wgsl ----

@@ -193,9 +193,57 @@ impl Default for SpringKinds {
     }
 }
 
+/// Grid bodies whose springs the fused steps take from a stencil, and the stencils' slots in all
+/// (`StencilTable` in WGSL).
+pub const MAX_STENCIL_BODIES: usize = 8;
+pub const MAX_STENCIL_SLOTS: usize = 256;
+
+/// A grid body stepped by its stencil (`StencilBody` in WGSL): masses `first_mass..mass_end`,
+/// numbered i fastest over `dims`, whose springs are slots `slot_start..slot_end`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct StencilBody {
+    pub first_mass: u32,
+    pub mass_end: u32,
+    pub slot_start: u32,
+    pub slot_end: u32,
+    pub dims: [u32; 4],
+}
+
+/// One spring of a stencil as its mass sees it (`StencilSlot` in WGSL): the other end `step`
+/// cells away (x, y, z, and w the difference of their indices) and the spring's constants.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct StencilSlot {
+    pub step: [i32; 4],
+    pub rest: f32,
+    pub stiffness: f32,
+    pub damping: f32,
+    pub _pad: f32,
+}
+
+/// The fused steps' grid stencils (`StencilTable` in WGSL), a uniform.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct StencilTable {
+    pub count: u32,
+    pub _pad: [u32; 3],
+    pub bodies: [StencilBody; MAX_STENCIL_BODIES],
+    pub slots: [StencilSlot; MAX_STENCIL_SLOTS],
+}
+
+impl Default for StencilTable {
+    fn default() -> Self {
+        Self::zeroed()
+    }
+}
+
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 13] = [
+pub const SHARED_STRUCTS: [(&str, usize); 16] = [
     ("SpringKinds", std::mem::size_of::<SpringKinds>()),
+    ("StencilBody", std::mem::size_of::<StencilBody>()),
+    ("StencilSlot", std::mem::size_of::<StencilSlot>()),
+    ("StencilTable", std::mem::size_of::<StencilTable>()),
     ("XpbdSpring", std::mem::size_of::<XpbdSpring>()),
     ("ColourRange", std::mem::size_of::<ColourRange>()),
     ("SpringLimits", std::mem::size_of::<SpringLimits>()),

@@ -5,6 +5,7 @@
 //! the springs never change: plasticity and tearing keep the general layout.
 
 use super::layout::{MAX_SPRING_KINDS, SpringKinds};
+use super::stencils::GridStencils;
 use crate::model::Model;
 
 /// Why a model's springs have no compact links.
@@ -31,12 +32,14 @@ impl std::fmt::Display for NoLinks {
     }
 }
 
-/// The links, in CSR order, and their kinds.
+/// The links, in CSR order, and their kinds; the grid bodies' stencils, whose masses read no
+/// links (when they are every mass, `entries` is one unused link).
 pub struct Links {
     pub entries: Vec<[u32; 2]>,
     pub kinds: Box<SpringKinds>,
     /// Where a link's kind starts: `KIND_SHIFT` in WGSL.
     pub kind_shift: u32,
+    pub stencils: GridStencils,
 }
 
 impl Links {
@@ -67,16 +70,21 @@ impl Links {
                 max,
             });
         }
-        let entries = model
-            .adjacency
-            .entries
-            .iter()
-            .map(|nb| {
-                let s = &model.springs[nb.spring as usize];
-                let kind = kind_of_spring[nb.spring as usize];
-                [nb.other | (kind << kind_shift), s.rest_m.to_bits()]
-            })
-            .collect();
+        let stencils = GridStencils::build(model);
+        let entries = if stencils.cover(model) {
+            vec![[0, 0]]
+        } else {
+            model
+                .adjacency
+                .entries
+                .iter()
+                .map(|nb| {
+                    let s = &model.springs[nb.spring as usize];
+                    let kind = kind_of_spring[nb.spring as usize];
+                    [nb.other | (kind << kind_shift), s.rest_m.to_bits()]
+                })
+                .collect()
+        };
         let mut table = Box::new(SpringKinds::default());
         for (slot, (k, d)) in table.kind.iter_mut().zip(&kinds) {
             *slot = [f32::from_bits(*k), f32::from_bits(*d), 0.0, 0.0];
@@ -85,6 +93,7 @@ impl Links {
             entries,
             kinds: table,
             kind_shift,
+            stencils,
         })
     }
 }
@@ -94,9 +103,48 @@ mod tests {
     use super::*;
 
     /// Every link decodes to its CSR entry's other mass and spring constants, as spring_end in
-    /// shaders/fused.wgsl decodes it.
+    /// shaders/fused_mass.wgsl decodes it (masses of no grid: a net of springs of three kinds).
     #[test]
     fn links_decode_to_the_springs_they_stand_for() {
+        let mut mb = crate::model::ModelBuilder::new();
+        for i in 0..7 {
+            let a = i as f32;
+            mb.mass(
+                glam::Vec3::new(a.cos(), a.sin(), 0.1 * a),
+                glam::Vec3::ZERO,
+                1.0,
+                false,
+            );
+        }
+        for (a, b, k, c) in [
+            (0, 1, 10.0, 0.1),
+            (1, 2, 20.0, 0.0),
+            (0, 3, 10.0, 0.1),
+            (2, 6, 30.0, 0.2),
+            (4, 5, 20.0, 0.0),
+            (3, 5, 10.0, 0.1),
+        ] {
+            mb.spring(a, b, k, c);
+        }
+        let model = mb.build();
+        let links = Links::build(&model).expect("few kinds");
+        assert_eq!(links.stencils.masses, 0);
+        let mask = (1u32 << links.kind_shift) - 1;
+        assert_eq!(links.entries.len(), model.adjacency.entries.len());
+        for (link, nb) in links.entries.iter().zip(&model.adjacency.entries) {
+            let s = &model.springs[nb.spring as usize];
+            let kind = links.kinds.kind[(link[0] >> links.kind_shift) as usize];
+            assert_eq!(link[0] & mask, nb.other);
+            assert_eq!(f32::from_bits(link[1]).to_bits(), s.rest_m.to_bits());
+            assert_eq!(kind[0].to_bits(), s.stiffness_n_per_m.to_bits());
+            assert_eq!(kind[1].to_bits(), s.damping_n_s_per_m.to_bits());
+        }
+    }
+
+    /// A scene of grids alone reads no link: its stencils stand for every mass, and one unused
+    /// link is all that is uploaded.
+    #[test]
+    fn grids_alone_upload_no_links() {
         for name in ["hair", "cloth", "jello"] {
             let toml = crate::scene::BUILT_IN
                 .iter()
@@ -107,16 +155,8 @@ mod tests {
                 .expect("valid scene");
             let model = crate::model::build(&scene);
             let links = Links::build(&model).expect("few kinds");
-            let mask = (1u32 << links.kind_shift) - 1;
-            assert_eq!(links.entries.len(), model.adjacency.entries.len());
-            for (link, nb) in links.entries.iter().zip(&model.adjacency.entries) {
-                let s = &model.springs[nb.spring as usize];
-                let kind = links.kinds.kind[(link[0] >> links.kind_shift) as usize];
-                assert_eq!(link[0] & mask, nb.other, "{name}");
-                assert_eq!(f32::from_bits(link[1]).to_bits(), s.rest_m.to_bits());
-                assert_eq!(kind[0].to_bits(), s.stiffness_n_per_m.to_bits());
-                assert_eq!(kind[1].to_bits(), s.damping_n_s_per_m.to_bits());
-            }
+            assert!(links.stencils.cover(&model), "{name}");
+            assert_eq!(links.entries.len(), 1, "{name}");
         }
     }
 

@@ -37,6 +37,7 @@ mod readback;
 mod resources;
 mod shaders;
 mod stages;
+mod stencils;
 mod vbd;
 mod xpbd;
 
@@ -54,3 +55,4 @@ pub use limits::adapter_report;
 pub use plan::ONE_GROUP_BUILD_MASSES;
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::{missing, program_groups, programs, unmet};
+pub use stencils::stencil_cover;

@@ -424,10 +424,12 @@ mod tests {
         }
     }
 
-    /// The compact links bring a fused semi-implicit step at cloth-256 under 36 B of compulsory
-    /// traffic per spring update (issue 13); the general passes move about twice that.
+    /// The grid stencil brings a fused semi-implicit step at cloth-256 under 18 B of compulsory
+    /// traffic per spring update (x and v read and written, each mass's mass and ledger; nothing
+    /// per spring; with links it was 34 B, issues 13 and 29); the general passes move four times
+    /// that.
     #[test]
-    fn a_fused_cloth_256_step_moves_at_most_36_bytes_per_spring() {
+    fn a_fused_cloth_256_step_moves_at_most_18_bytes_per_spring() {
         let scene = crate::scene::BUILT_IN
             .iter()
             .find(|b| b.name == "cloth-256")
@@ -449,9 +451,9 @@ mod tests {
             false,
             Sweeps::default(),
         ));
-        assert!(fused <= 36.0, "{fused:.1} B per spring update");
+        assert!(fused <= 18.0, "{fused:.1} B per spring update");
         assert!(
-            general > 1.9 * fused,
+            general > 3.5 * fused,
             "general {general:.1} B, fused {fused:.1} B"
         );
     }

@@ -167,10 +167,15 @@ impl GroupSet<'_> {
         links: &Links,
     ) -> Vec<Option<wgpu::BindGroup>> {
         let kinds = a.uniform("spring kinds", bytemuck::bytes_of(links.kinds.as_ref()));
+        let stencils = a.uniform(
+            "grid stencils",
+            bytemuck::bytes_of(links.stencils.table.as_ref()),
+        );
         let entries = a.model("links", bytemuck::cast_slice(&links.entries));
         let fused = || buffers::Fused {
             params: &b.params,
             kinds: &kinds,
+            stencils: &stencils,
             offsets: &b.offsets,
             links: &entries,
             colliders: &b.colliders,

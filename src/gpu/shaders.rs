@@ -112,15 +112,16 @@ pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
 const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 
 /// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
-/// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), and where the fused steps'
-/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused); the
+/// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), where the fused steps'
+/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused) and
+/// whether grid bodies take their springs from stencils (`stencils.rs`); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
 /// the one-workgroup fused steps (`dispatch::frame_threads`).
 pub fn constants(
     model: &Model,
     (integrator, dt_secs): (Integrator, f64),
-    kind_shift: u32,
+    (kind_shift, stencils): (u32, bool),
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
     frame_threads: u32,
 ) -> Vec<(&'static str, f64)> {
@@ -142,6 +143,7 @@ pub fn constants(
             flag(integrator == Integrator::SemiImplicit),
         ),
         ("KIND_SHIFT", f64::from(kind_shift)),
+        ("HAS_STENCILS", flag(stencils)),
         (
             "PAIR_STICK_SHARE",
             f64::from(crate::physics::PAIR_STICK_SHARE),

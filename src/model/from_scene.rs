@@ -155,6 +155,14 @@ fn add_springs(mb: &mut ModelBuilder, body: &scene::Body, grid: &Grid, base: u32
             {
                 continue;
             }
+            // Every spring of one offset has the grid's own rest length, computed once: the
+            // distance between two rounded positions would differ from spring to spring in the
+            // last bits, and the GPU's stencil step (gpu/stencils.rs) reads one rest length per
+            // offset, not one per spring.
+            let step = off[0] as f32 * grid.axis(0)
+                + off[1] as f32 * grid.axis(1)
+                + off[2] as f32 * grid.axis(2);
+            let rest = body.spacing_m.unwrap_or_default() * step.length();
             for k in 0..n[2] {
                 for j in 0..n[1] {
                     for i in 0..n[0] {
@@ -174,7 +182,6 @@ fn add_springs(mb: &mut ModelBuilder, body: &scene::Body, grid: &Grid, base: u32
                         }
                         let a = base + grid.index(i, j, k);
                         let b = base + grid.index(ti as u32, tj as u32, tk as u32);
-                        let rest = mb.position(a).distance(mb.position(b));
                         mb.spring_with_rest(
                             a,
                             b,

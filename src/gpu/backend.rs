@@ -156,6 +156,7 @@ impl GpuBackend {
             device,
             &layouts.stage,
             ctx.limits.min_uniform_buffer_offset_alignment,
+            model.effects.colliders.len(),
         );
         let backend = Self {
             memory_bytes: resources.memory_bytes,
@@ -209,11 +210,16 @@ impl GpuBackend {
             .reserve(&self.ctx.device, &self.layouts.stage, slots);
     }
 
-    /// Write the stage slots of the next `steps` steps, and room for the snapshot's after them.
+    /// Write the stage slots of the next `steps` steps (in one workgroup, the first step's: the
+    /// kernel reads no other), and room for the snapshot's after them.
     pub(super) fn prepare_stages(&mut self, steps: u32) {
         self.reserve_stage_slots(SLOTS_PER_STEP * steps + 1);
-        let stages = self.clock.stages(&self.model, steps);
-        self.stages.write(&self.ctx.queue, 0, &stages);
+        let laid = match self.explicit_path {
+            ExplicitPath::InGroup => 1,
+            _ => steps,
+        };
+        let stages = self.clock.stages(&self.model, steps, laid);
+        self.stages.write(&self.ctx.queue, 0, stages);
     }
 
     /// How this run's explicit steps are dispatched.
@@ -340,7 +346,7 @@ impl GpuBackend {
         // The reductions' stage slot: the current time, after the stepping slots.
         let slot = self.stages.last();
         let stage = self.clock.stage_at(&self.model, self.clock.time_secs);
-        self.stages.write(&self.ctx.queue, slot, &[stage]);
+        self.stages.write(&self.ctx.queue, slot, [stage]);
         let e = &self.model.effects;
         let which = (
             self.model.spring_count() > 0,

@@ -3,7 +3,6 @@
 //! k steps uses slots 4k..4k+3 for step k, and the last slot for the snapshot's reductions.
 
 use super::bindings::{bind_group, buffers};
-use super::dispatch::SLOTS_PER_STEP;
 use super::layout::{MAX_COLLIDERS, Pose, Stage};
 use crate::model::Model;
 
@@ -41,13 +40,18 @@ impl Clock {
         self.frame_steps += steps;
     }
 
-    /// Stage slots for `steps` steps from now: t, t + h/2 (RK4 stage 2), t + h/2 (stage 3),
-    /// t + h.
-    pub fn stages(&self, model: &Model, steps: u32) -> Vec<Stage> {
+    /// Stage slots for the first `laid` of `steps` steps from now: t, t + h/2 (RK4 stage 2),
+    /// t + h/2 (stage 3), t + h. (A submission stepped in one workgroup reads its first step's
+    /// slots alone.)
+    pub fn stages<'a>(
+        &'a self,
+        model: &'a Model,
+        steps: u32,
+        laid: u32,
+    ) -> impl Iterator<Item = Stage> + 'a {
         let h = f64::from(self.dt);
-        let mut stages = Vec::with_capacity((SLOTS_PER_STEP * steps) as usize);
         let mut t = self.time_secs;
-        for k in 0..steps {
+        (0..laid.min(steps)).flat_map(move |k| {
             let at = |time: f64, weight: f32, next_scale: f32| Stage {
                 weight,
                 next_scale,
@@ -55,15 +59,15 @@ impl Clock {
                 steps: steps - k,
                 ..self.stage_at(model, time)
             };
-            stages.extend([
+            let slots = [
                 at(t, 1.0, 0.5),
                 at(t + 0.5 * h, 2.0, 0.5),
                 at(t + 0.5 * h, 2.0, 1.0),
                 at(t + h, 1.0, 1.0),
-            ]);
+            ];
             t += h;
-        }
-        stages
+            slots
+        })
     }
 
     /// A stage slot at `time`: its dt and every collider's pose then.
@@ -90,24 +94,43 @@ impl Clock {
 }
 
 /// The stage uniform buffer and its bind group (group 2 of every kernel).
+///
+/// A slot's window is a whole `Stage` (the WGSL struct holds every collider's pose there could
+/// be), but slots lie only as far apart as the run's colliders need (the header and their poses,
+/// rounded up to the adapter's alignment): the windows overlap, each kernel reads the poses of
+/// `collider_count` colliders alone, and writing a step's four slots costs a few hundred bytes
+/// instead of two kilobytes, which was most of the host's time per step on small scenes.
 pub struct StageSlots {
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    /// Each slot holds one Stage, at an offset the adapter accepts for a dynamic uniform.
+    /// Slots lie this far apart, at offsets the adapter accepts for a dynamic uniform.
     stride: u64,
+    /// The bytes of a slot that kernels read: the header and the run's colliders' poses.
+    used: usize,
     slots: u32,
+    /// The bytes of the last write, kept so that a write allocates nothing new.
+    bytes: Vec<u8>,
 }
 
 impl StageSlots {
-    pub fn new(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, align: u32) -> Self {
+    pub fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        align: u32,
+        colliders: usize,
+    ) -> Self {
         let align = u64::from(align).max(1);
-        let stride = (std::mem::size_of::<Stage>() as u64).div_ceil(align) * align;
+        let used = std::mem::size_of::<Stage>()
+            - std::mem::size_of::<Pose>() * (MAX_COLLIDERS - colliders.min(MAX_COLLIDERS));
+        let stride = (used as u64).div_ceil(align) * align;
         let (buffer, bind_group) = Self::make(device, layout, stride, 1);
         Self {
             buffer,
             bind_group,
             stride,
+            used,
             slots: 1,
+            bytes: Vec::new(),
         }
     }
 
@@ -117,9 +140,11 @@ impl StageSlots {
         stride: u64,
         slots: u32,
     ) -> (wgpu::Buffer, wgpu::BindGroup) {
+        // The last slot's window runs a whole Stage past its offset.
+        let window = std::mem::size_of::<Stage>() as u64;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stage"),
-            size: stride * u64::from(slots),
+            size: stride * u64::from(slots - 1) + window.max(stride),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -151,14 +176,21 @@ impl StageSlots {
         self.slots - 1
     }
 
-    pub fn write(&self, queue: &wgpu::Queue, first: u32, stages: &[Stage]) {
-        let stride = self.stride as usize;
-        let mut bytes = vec![0u8; stride * stages.len()];
-        for (k, s) in stages.iter().enumerate() {
-            let b = bytemuck::bytes_of(s);
-            bytes[k * stride..k * stride + b.len()].copy_from_slice(b);
+    /// Write `stages` from slot `first` on: the bytes kernels read of each.
+    pub fn write(
+        &mut self,
+        queue: &wgpu::Queue,
+        first: u32,
+        stages: impl IntoIterator<Item = Stage>,
+    ) {
+        let (stride, used) = (self.stride as usize, self.used);
+        self.bytes.clear();
+        for s in stages {
+            self.bytes
+                .extend_from_slice(&bytemuck::bytes_of(&s)[..used]);
+            self.bytes.resize(self.bytes.len() + stride - used, 0);
         }
-        queue.write_buffer(&self.buffer, u64::from(first) * self.stride, &bytes);
+        queue.write_buffer(&self.buffer, u64::from(first) * self.stride, &self.bytes);
     }
 
     /// Bind slot `slot` as group `index`: 2, a dispatch's stage; 3, a fused step's end.

@@ -136,7 +136,9 @@ impl GpuBackend {
         let frame_threads = frame_threads(
             ctx.info.device_type,
             model.mass_count(),
-            ctx.limits.max_compute_invocations_per_workgroup,
+            ctx.limits
+                .max_compute_invocations_per_workgroup
+                .min(ctx.limits.max_compute_workgroup_size_x),
         );
         let home = match needed.implicit {
             Some(path) => {

@@ -82,7 +82,7 @@ pub fn why_not_in_group(
 }
 
 /// Threads of `fused_frame`'s workgroup for `mass_count` masses on a `device` allowing `most`
-/// invocations per workgroup. A CPU adapter (lavapipe) runs a workgroup on one core, a SIMD
+/// invocations in a workgroup's x. A CPU adapter (lavapipe) runs a workgroup on one core, a SIMD
 /// vector of invocations at a time, and switches between vectors at every barrier: a vector's
 /// worth is its fastest. A GPU keeps an SM's warps busy with up to a thread per mass.
 pub fn frame_threads(device: wgpu::DeviceType, mass_count: usize, most: u32) -> u32 {

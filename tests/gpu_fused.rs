@@ -25,8 +25,9 @@ const FUSED: [Integrator; 4] = [
 ];
 
 /// Steps per submission, odd and even: a fused Euler step that ends in the second buffer is
-/// copied back before anything else reads the state.
-const SUBMISSIONS: [u32; 6] = [1, 3, 2, 5, 4, 7];
+/// copied back before anything else reads the state; and none (one workgroup must not run the
+/// count its stage slot held from the submission before).
+const SUBMISSIONS: [u32; 7] = [1, 3, 0, 2, 5, 4, 7];
 
 /// The state after the submissions on `path` (or on the fused path, for a run that cannot
 /// step in one workgroup), the masses projected on the way, and the path taken.

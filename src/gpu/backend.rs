@@ -275,7 +275,11 @@ impl GpuBackend {
     /// step also evaluates a(x_0). In one workgroup, one dispatch runs them all.
     pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
         if self.explicit_path == ExplicitPath::InGroup {
-            return self.step_plan(false, false);
+            // No steps, no dispatch: the kernel would run the count a stale slot holds.
+            return match steps {
+                0 => Vec::new(),
+                _ => self.step_plan(false, false),
+            };
         }
         let warm = [self.step_plan(false, false), self.step_plan(false, true)];
         let mut all = Vec::with_capacity(warm[0].len() * steps as usize);

@@ -154,3 +154,22 @@ impl Dispatch {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::DeviceType::{Cpu, DiscreteGpu};
+
+    /// A GPU's workgroup has a warp per 32 masses, within 1 024 and the adapter's width; a CPU
+    /// adapter's is one SIMD vector; a CPU adapter takes fewer masses in one workgroup.
+    #[test]
+    fn one_workgroup_is_sized_to_the_adapter() {
+        assert_eq!(frame_threads(DiscreteGpu, 100, 1024), 128);
+        assert_eq!(frame_threads(DiscreteGpu, 1000, 1024), 1024);
+        assert_eq!(frame_threads(DiscreteGpu, 2048, 1024), 1024);
+        assert_eq!(frame_threads(DiscreteGpu, 2048, 256), 256);
+        assert_eq!(frame_threads(DiscreteGpu, 0, 1024), 32);
+        assert_eq!(frame_threads(Cpu, 2048, 1024), 8);
+        assert!(one_group_step_masses(Cpu) < one_group_step_masses(DiscreteGpu));
+    }
+}

@@ -313,6 +313,19 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
             && s.contains("neighbour lists of the masses within 0.0540 m, rebuilt once a mass has moved 0.0081 m"),
         "cloth-fold:\n{s}"
     );
+    // A fused scene says why it does not step a submission in one workgroup, and how many of
+    // its masses take a grid stencil.
+    let s = text(&hooke(&["check", "jello-sphere", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("a dispatch per step, not one a submission: a collider moves")
+            && s.contains("grid stencils: 1000 of 1000 masses (1 grid body)"),
+        "jello-sphere:\n{s}"
+    );
+    let s = text(&hooke(&["check", "cloth-64", "--backend", "cpu"]).stdout);
+    assert!(
+        s.contains("4096 masses, more than one workgroup steps on a GPU (2048)"),
+        "cloth-64:\n{s}"
+    );
     // A scene's integrator changes the force and update passes, not the effects' passes.
     let out = hooke(&["check", "tear", "--integrator", "rk2", "--backend", "cpu"]);
     let s = text(&out.stdout);

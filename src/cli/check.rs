@@ -346,6 +346,18 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
             let _ = writeln!(s, "  not the fused step: {why}");
         }
         None if passes.iter().any(|p| p.starts_with("fused_")) => {
+            let one_group = passes.iter().any(|p| p == "fused_frame");
+            let single = matches!(
+                settings.integrator,
+                hooke::integrator::Integrator::Euler | hooke::integrator::Integrator::SemiImplicit
+            );
+            if single && !one_group {
+                let device = wgpu::DeviceType::DiscreteGpu;
+                if let Some(why) = hooke::gpu::why_not_in_group(model, settings.integrator, device)
+                {
+                    let _ = writeln!(s, "  a dispatch per step, not one a submission: {why}");
+                }
+            }
             let (bodies, masses) = hooke::gpu::stencil_cover(model);
             let _ = writeln!(
                 s,

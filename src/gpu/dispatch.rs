@@ -69,8 +69,12 @@ pub fn why_not_in_group(
     let why = if !matches!(integrator, Integrator::Euler | Integrator::SemiImplicit) {
         format!("{} takes more than one pass a step", integrator.name())
     } else if model.mass_count() > most {
+        let adapter = match device {
+            wgpu::DeviceType::Cpu => "a CPU adapter",
+            _ => "a GPU",
+        };
         format!(
-            "{} masses, more than one workgroup steps on this adapter ({most})",
+            "{} masses, more than one workgroup steps on {adapter} ({most})",
             model.mass_count()
         )
     } else if !model.effects.colliders.iter().all(|c| c.path.is_fixed()) {

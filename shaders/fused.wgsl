@@ -5,8 +5,9 @@
 // between two buffers and no pass but this one touches it. Euler and semi-implicit Euler take one
 // dispatch per step (fused_step), Verlet two (drift, kick), RK4 four (one per stage).
 //
-// The springs come as compact links (fused_mass.wgsl). They serve runs whose springs never
-// change (no plasticity or tearing) and without mass–mass contact; src/gpu/plan.rs decides.
+// A grid body's springs come from its stencil, the others' as compact links (fused_mass.wgsl).
+// They serve runs whose springs never change (no plasticity or tearing) and without mass–mass
+// contact; src/gpu/plan.rs decides.
 //
 // Each kernel computes exactly what the general path's passes compute (compute_forces, the update
 // kernels of integrate.wgsl, project_contacts), operation for operation and in the same order, so

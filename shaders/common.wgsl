@@ -49,6 +49,11 @@ override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
 // Threads of fused_frame's one workgroup (src/gpu/dispatch.rs's frame_threads).
 override FRAME_THREADS: u32 = 64u;
+// How far apart the stage slots lie, in words (src/gpu/stages.rs's StageSlots::stride_for):
+// fused_frame reads every step's slot from them.
+override STAGE_STRIDE_WORDS: u32 = 8u;
+// Stage slots per step: t, t + h/2 (twice), t + h (src/gpu/dispatch.rs).
+const SLOTS_PER_STEP: u32 = 4u;
 // Grid bodies whose fused steps take their springs from a stencil (src/gpu/stencils.rs).
 override HAS_STENCILS: bool = false;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from

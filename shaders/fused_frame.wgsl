@@ -7,21 +7,41 @@
 // every thread has read A for its gathers, copies its masses back to A. Storage barriers keep the
 // phases apart; WGSL has no barrier across workgroups, hence one workgroup.
 //
-// Only runs whose colliders stand still take this path: every stage of the submission has the
-// poses of its first, which the projection reads here (end_pose).
+// Each step reads its own stage slots' collider poses (every slot of the submission is bound as
+// words, `StageWords`), as the step's dispatch would have.
 
-// Bindings: `FusedFrame` (group 0) and the stage group of src/gpu/bindings.rs, which
+// Bindings: `FusedFrame` (group 0) and the stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
 // #import mass_force state_check contact_projection fused_mass
 
+// The step under way.
+var<private> frame_step: u32;
+
+// Collider k's pose in stage slot `slot` (Stage's header is 8 words, a Pose 8).
+fn slot_pose(slot: u32, k: u32) -> Pose {
+    let w = slot * STAGE_STRIDE_WORDS + 8u + 8u * k;
+    var f: array<f32, 8>;
+    for (var j = 0u; j < 8u; j++) {
+        f[j] = bitcast<f32>(stage_words[w + j]);
+    }
+    return Pose(vec4<f32>(f[0], f[1], f[2], f[3]), vec4<f32>(f[4], f[5], f[6], f[7]));
+}
+
+// At the step's start, for the forces.
+fn collider_pose(k: u32) -> Pose {
+    return slot_pose(SLOTS_PER_STEP * frame_step, k);
+}
+
+// At the step's end, for the projection.
 fn end_pose(k: u32) -> Pose {
-    return stage.poses[k];
+    return slot_pose(SLOTS_PER_STEP * frame_step + SLOTS_PER_STEP - 1u, k);
 }
 
 @compute @workgroup_size(FRAME_THREADS)
 fn fused_frame(@builtin(local_invocation_index) lid: u32) {
     let n = params.mass_count;
     for (var k = 0u; k < stage.steps; k++) {
+        frame_step = k;
         for (var i = lid; i < n; i += FRAME_THREADS) {
             euler_step_of(i, stage.step + k);
         }

@@ -18,7 +18,7 @@
 
 // Bindings: `Solve` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force spring_records state_check system_blocks implicit_terms
+// #import mass_force spring_records state_check system_blocks implicit_terms stage_pose
 
 // Keep in sync with src/gpu/layout.rs's SolverStatus.
 struct Solver {

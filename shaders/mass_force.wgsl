@@ -6,7 +6,7 @@
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params colliders mass deriv x_in v_in stage
-// #calls spring_range spring_end
+// #calls spring_range spring_end collider_pose
 
 struct MassForce {
     acc: vec3<f32>,
@@ -83,7 +83,7 @@ fn mass_force(i: u32) -> MassForce {
     if (HAS_COLLIDERS) {
         for (var k = 0u; k < params.collider_count; k++) {
             let col = colliders[k];
-            let pose = stage.poses[k];
+            let pose = collider_pose(k);
             let p = penetration(col, pose.position.xyz, xi);
             if (p.w > 0.0) {
                 let n = p.xyz;

@@ -5,7 +5,7 @@
 
 // Bindings: `VbdSolve` (group 0) and the stage group of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force spring_records system_blocks
+// #import mass_force spring_records system_blocks stage_pose
 
 @compute @workgroup_size(64)
 fn vbd_solve_mass(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -133,6 +133,10 @@ impl GpuBackend {
         let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
         let stencils = links.as_ref().is_some_and(|l| l.stencils.table.count > 0);
         let group_threads = implicit::group_threads(ctx.info.device_type);
+        let (stage_stride, _) = StageSlots::stride_for(
+            ctx.limits.min_uniform_buffer_offset_alignment,
+            model.effects.colliders.len(),
+        );
         let frame_threads = frame_threads(
             ctx.info.device_type,
             model.mass_count(),
@@ -151,12 +155,12 @@ impl GpuBackend {
             (integrator, dt_secs),
             (kind_shift, stencils),
             (group_threads, home.workgroup_arrays()),
-            frame_threads,
+            (frame_threads, (stage_stride / 4) as u32),
         );
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,
-            &layouts.stage,
+            layouts.stages(),
             ctx.limits.min_uniform_buffer_offset_alignment,
             model.effects.colliders.len(),
         );
@@ -209,15 +213,16 @@ impl GpuBackend {
     /// Make room for `slots` stage slots.
     pub(super) fn reserve_stage_slots(&mut self, slots: u32) {
         self.stages
-            .reserve(&self.ctx.device, &self.layouts.stage, slots);
+            .reserve(&self.ctx.device, self.layouts.stages(), slots);
     }
 
-    /// Write the stage slots of the next `steps` steps (in one workgroup, the first step's: the
-    /// kernel reads no other), and room for the snapshot's after them.
+    /// Write the stage slots of the next `steps` steps (in one workgroup without colliders, the
+    /// first step's: the kernel reads no other pose), and room for the snapshot's after them.
     pub(super) fn prepare_stages(&mut self, steps: u32) {
         self.reserve_stage_slots(SLOTS_PER_STEP * steps + 1);
+        let still = self.model.effects.colliders.is_empty();
         let laid = match self.explicit_path {
-            ExplicitPath::InGroup => 1,
+            ExplicitPath::InGroup if still => 1,
             _ => steps,
         };
         let stages = self.clock.stages(&self.model, steps, laid);

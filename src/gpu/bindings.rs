@@ -381,6 +381,11 @@ bind_groups! {
     StageEnd @ 3 {
         stage_end: Dynamic "Stage",
     }
+    /// Every stage slot of the submission, as words (`STAGE_STRIDE_WORDS` apart), for a kernel
+    /// that runs many steps: fused_frame reads each step's collider poses there.
+    StageWords @ 3 {
+        stage_words: Read "array<u32>",
+    }
 }
 
 impl Group {

@@ -77,8 +77,6 @@ pub fn why_not_in_group(
             "{} masses, more than one workgroup steps on {adapter} ({most})",
             model.mass_count()
         )
-    } else if !model.effects.colliders.iter().all(|c| c.path.is_fixed()) {
-        "a collider moves, and each step needs its poses".to_owned()
     } else {
         return None;
     };

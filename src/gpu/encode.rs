@@ -58,7 +58,11 @@ impl Dispatcher<'_> {
                 let end = slot / SLOTS_PER_STEP * SLOTS_PER_STEP + SLOTS_PER_STEP - 1;
                 self.stages.bind_as(pass, 3, end);
             }
-            (false, false, None, None) => {}
+            (false, false, None, None) => {
+                if spec.all_slots {
+                    self.stages.bind_words(pass, 3);
+                }
+            }
             _ => return Err(internal(Misplanned::WrongState)),
         }
         self.stages.bind_as(pass, 2, slot);

@@ -74,6 +74,9 @@ pub struct Spec {
     /// Whether the state flows through it: bind group 1 holds the state it reads and the one
     /// it writes, and group 3 the step's end slot (a fused step's projection).
     pub flows: bool,
+    /// Whether it runs many steps and reads every step's stage slot: group 3 holds the slots
+    /// as words (`StageWords`), beside its first slot in group 2.
+    pub all_slots: bool,
     pub threads: Threads,
     pub needs: Needs,
     pub twin: Twin,
@@ -135,6 +138,7 @@ macro_rules! kernels {
             group: Group::$group,
             reads_state: kernels!(@state $($state)?),
             flows: kernels!(@flow $($state)?),
+            all_slots: kernels!(@slots $($state)?),
             threads: Threads::$threads,
             needs: Needs::$needs,
             twin: kernels!(@twin $entry $twin),
@@ -159,6 +163,12 @@ macro_rules! kernels {
     (@flow) => { false };
     (@flow state) => { false };
     (@flow flow) => { true };
+    (@flow slots) => { false };
+    (@state slots) => { false };
+    (@slots) => { false };
+    (@slots state) => { false };
+    (@slots flow) => { false };
+    (@slots slots) => { true };
     (@bytes $sizes:ident) => { None };
     (@bytes $sizes:ident |$z:ident| $bytes:expr) => {{
         let $z: &Sizes = $sizes;
@@ -325,7 +335,7 @@ macro_rules! kernel_table {
             /// Every Euler or semi-implicit step of a submission in one workgroup, for small
             /// scenes; its bytes are per step.
             FusedFrame = fused_frame in FusedFrame {
-                group: FusedFrame, threads: OneGroup, needs: FusedInGroup,
+                group: FusedFrame + slots, threads: OneGroup, needs: FusedInGroup,
                 cpu: "fused_step over and over, in one workgroup; the CPU steps a submission in turn",
                 // As fused_step, and B copied back to A.
                 bytes: |z| z.n * (4 * 16 + 8 + 2 * 16 + 4 * 16) + z.linked_masses * 4 + z.linked_entries * 8 + z.colliders,

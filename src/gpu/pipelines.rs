@@ -15,6 +15,8 @@ pub struct Layouts {
     pub state: wgpu::BindGroupLayout,
     pub flow: wgpu::BindGroupLayout,
     pub stage: wgpu::BindGroupLayout,
+    /// Every stage slot as words (group 3 of a kernel of many steps).
+    pub stage_words: wgpu::BindGroupLayout,
 }
 
 /// The layout of `g`, as the table (`bindings.rs`) declares it.
@@ -64,6 +66,15 @@ impl Layouts {
             flow: layout(device, Group::Flow),
             // A fused step's end slot (group 3) has the stage slot's layout.
             stage: layout(device, Group::StageSlot),
+            stage_words: layout(device, Group::StageWords),
+        }
+    }
+
+    /// The stage groups' layouts.
+    pub fn stages(&self) -> super::stages::StageLayouts<'_> {
+        super::stages::StageLayouts {
+            slot: &self.stage,
+            words: &self.stage_words,
         }
     }
 
@@ -161,9 +172,14 @@ fn pipeline(
     let stage = Some(&layouts.stage);
     let flow: [Option<&wgpu::BindGroupLayout>; 4] = [group0, Some(&layouts.flow), stage, stage];
     let other = [group0, spec.reads_state.then_some(&layouts.state), stage];
+    let slots = [group0, None, stage, Some(&layouts.stage_words)];
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(spec.entry),
-        bind_group_layouts: if spec.flows { &flow } else { &other },
+        bind_group_layouts: match (spec.flows, spec.all_slots) {
+            (true, _) => &flow[..],
+            (false, true) => &slots[..],
+            (false, false) => &other[..],
+        },
         immediate_size: 0,
     });
     Some(

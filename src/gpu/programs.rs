@@ -8,7 +8,7 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 9] = [
+const LIBRARIES: [(&str, &str); 10] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
@@ -39,6 +39,7 @@ const LIBRARIES: [(&str, &str); 9] = [
         include_str!("../../shaders/contact_projection.wgsl"),
     ),
     ("fused_mass", include_str!("../../shaders/fused_mass.wgsl")),
+    ("stage_pose", include_str!("../../shaders/stage_pose.wgsl")),
 ];
 
 /// The library named `name`, if there is one.

@@ -16,7 +16,8 @@ pub fn programs() -> [(&'static str, String); 13] {
 
 /// The bind groups `p`'s kernels bind, in group order: the widest group 0 among them (a group
 /// that extends another declares both), the state they read or flow between (group 1), the stage
-/// slot and, when the state flows, the step's end slot.
+/// slot and, when the state flows, the step's end slot, or for a kernel of many steps every
+/// slot as words.
 pub fn program_groups(p: Program) -> Vec<Group> {
     let specs: Vec<_> = Kernel::ALL
         .iter()
@@ -30,6 +31,8 @@ pub fn program_groups(p: Program) -> Vec<Group> {
     let mut groups: Vec<Group> = widest.into_iter().collect();
     if specs.iter().any(|s| s.flows) {
         groups.extend([Group::Flow, Group::StageSlot, Group::StageEnd]);
+    } else if specs.iter().any(|s| s.all_slots) {
+        groups.extend([Group::StageSlot, Group::StageWords]);
     } else {
         if specs.iter().any(|s| s.reads_state) {
             groups.push(Group::State);
@@ -117,13 +120,14 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// whether grid bodies take their springs from stencils (`stencils.rs`); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
-/// the one-workgroup fused steps (`dispatch::frame_threads`).
+/// the one-workgroup fused steps (`dispatch::frame_threads`) and how far apart the stage slots
+/// lie, in words (`StageSlots::stride_for`).
 pub fn constants(
     model: &Model,
     (integrator, dt_secs): (Integrator, f64),
     (kind_shift, stencils): (u32, bool),
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
-    frame_threads: u32,
+    (frame_threads, stage_stride_words): (u32, u32),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -157,6 +161,7 @@ pub fn constants(
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
         ("FRAME_THREADS", f64::from(frame_threads)),
+        ("STAGE_STRIDE_WORDS", f64::from(stage_stride_words)),
     ]);
     // A workgroup array has at least one element, used or not.
     let [vectors, terms] = in_workgroup.unwrap_or([1, 1]);

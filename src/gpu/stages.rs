@@ -103,6 +103,8 @@ impl Clock {
 pub struct StageSlots {
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// Every slot as words (`StageWords`), for a kernel that runs many steps.
+    words: wgpu::BindGroup,
     /// Slots lie this far apart, at offsets the adapter accepts for a dynamic uniform.
     stride: u64,
     /// The bytes of a slot that kernels read: the header and the run's colliders' poses.
@@ -112,21 +114,35 @@ pub struct StageSlots {
     bytes: Vec<u8>,
 }
 
+/// The stage groups' layouts: one slot (a dynamic window), and every slot as words.
+#[derive(Clone, Copy)]
+pub struct StageLayouts<'a> {
+    pub slot: &'a wgpu::BindGroupLayout,
+    pub words: &'a wgpu::BindGroupLayout,
+}
+
 impl StageSlots {
-    pub fn new(
-        device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
-        align: u32,
-        colliders: usize,
-    ) -> Self {
+    /// How far apart the slots lie for `colliders` colliders on an adapter aligning dynamic
+    /// uniform offsets to `align` bytes, and how many bytes of each kernels read.
+    pub fn stride_for(align: u32, colliders: usize) -> (u64, usize) {
         let align = u64::from(align).max(1);
         let used = std::mem::size_of::<Stage>()
             - std::mem::size_of::<Pose>() * (MAX_COLLIDERS - colliders.min(MAX_COLLIDERS));
-        let stride = (used as u64).div_ceil(align) * align;
-        let (buffer, bind_group) = Self::make(device, layout, stride, 1);
+        ((used as u64).div_ceil(align) * align, used)
+    }
+
+    pub fn new(
+        device: &wgpu::Device,
+        layouts: StageLayouts<'_>,
+        align: u32,
+        colliders: usize,
+    ) -> Self {
+        let (stride, used) = Self::stride_for(align, colliders);
+        let (buffer, bind_group, words) = Self::make(device, layouts, stride, 1);
         Self {
             buffer,
             bind_group,
+            words,
             stride,
             used,
             slots: 1,
@@ -136,16 +152,18 @@ impl StageSlots {
 
     fn make(
         device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
+        layouts: StageLayouts<'_>,
         stride: u64,
         slots: u32,
-    ) -> (wgpu::Buffer, wgpu::BindGroup) {
+    ) -> (wgpu::Buffer, wgpu::BindGroup, wgpu::BindGroup) {
         // The last slot's window runs a whole Stage past its offset.
         let window = std::mem::size_of::<Stage>() as u64;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stage"),
             size: stride * u64::from(slots - 1) + window.max(stride),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::UNIFORM
+                | wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         // One slot's window; the dispatch gives its offset. The same group serves as a fused
@@ -154,20 +172,28 @@ impl StageSlots {
             stage: wgpu::BufferBinding {
                 buffer: &buffer,
                 offset: 0,
-                size: wgpu::BufferSize::new(std::mem::size_of::<Stage>() as u64),
+                size: wgpu::BufferSize::new(window),
             },
         };
-        let bind_group = bind_group(device, layout, &slot);
-        (buffer, bind_group)
+        let one = bind_group(device, layouts.slot, &slot);
+        let words = bind_group(
+            device,
+            layouts.words,
+            &buffers::StageWords {
+                stage_words: &buffer,
+            },
+        );
+        (buffer, one, words)
     }
 
     /// Make room for `slots` slots (grows, never shrinks).
-    pub fn reserve(&mut self, device: &wgpu::Device, layout: &wgpu::BindGroupLayout, slots: u32) {
+    pub fn reserve(&mut self, device: &wgpu::Device, layouts: StageLayouts<'_>, slots: u32) {
         if slots <= self.slots {
             return;
         }
         let slots = slots.next_power_of_two();
-        (self.buffer, self.bind_group) = Self::make(device, layout, self.stride, slots);
+        (self.buffer, self.bind_group, self.words) =
+            Self::make(device, layouts, self.stride, slots);
         self.slots = slots;
     }
 
@@ -191,6 +217,11 @@ impl StageSlots {
             self.bytes.resize(self.bytes.len() + stride - used, 0);
         }
         queue.write_buffer(&self.buffer, u64::from(first) * self.stride, &self.bytes);
+    }
+
+    /// Bind every slot, as words, as group `index`.
+    pub fn bind_words(&self, pass: &mut wgpu::ComputePass<'_>, index: u32) {
+        pass.set_bind_group(index, &self.words, &[]);
     }
 
     /// Bind slot `slot` as group `index`: 2, a dispatch's stage; 3, a fused step's end.

@@ -97,15 +97,11 @@ impl GpuBackend {
             }
             ExplicitPath::General => None,
         };
-        let explicit = match links {
-            None => ExplicitPath::General,
-            Some(_) if explicit == ExplicitPath::InGroup => {
-                match why_not_in_group(&model, integrator, ctx.info.device_type) {
-                    None => ExplicitPath::InGroup,
-                    Some(_) => ExplicitPath::Fused,
-                }
-            }
-            Some(_) => ExplicitPath::Fused,
+        let small = || why_not_in_group(&model, integrator, ctx.info.device_type).is_none();
+        let explicit = match (&links, explicit) {
+            (None, _) => ExplicitPath::General,
+            (Some(_), ExplicitPath::InGroup) if small() => ExplicitPath::InGroup,
+            (Some(_), _) => ExplicitPath::Fused,
         };
         let needed = Needed {
             implicit: implicit.then_some(path),

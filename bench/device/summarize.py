@@ -1,20 +1,47 @@
-"""Table of bench/device/issue29.sh's JSON lines: per configuration, each binary's median
-steps/s and spring updates/s over the rounds it ran (min-max), and new/old."""
+"""Tables of bench/device/session.sh's (and issue29.sh's) JSON lines, any number of files:
+every row's median steps/s, spring updates/s, traffic and where it ended; then, for issue 29,
+each configuration's baseline ("old") against this binary ("new") over the rounds run."""
 import json
 import sys
 from collections import defaultdict
 
-runs = defaultdict(lambda: defaultdict(list))
-for line in open(sys.argv[1]):
-    r = json.loads(line)
+rows = []
+for path in sys.argv[1:]:
+    for line in open(path):
+        if line.strip():
+            rows.append(json.loads(line))
+
+
+def label(r):
+    return r.get("label") or f"29-{r['binary']}"
+
+
+print(f"{'label':14} {'scene':22} {'integrator':14} {'steps/s':>12} {'spring upd/s':>12} "
+      f"{'GB/s':>7} {'t_end s':>8} {'mean y m':>10}  backend")
+for r in rows:
     res = r["result"]
-    key = (r["args"], res["integrator"], res["masses"], res["springs"])
-    runs[key][r["binary"]].append(res["steps_per_sec"]["median"])
-print(f"{'configuration':58} {'old steps/s':>22} {'new steps/s':>22} {'new/old':>9} {'new spring upd/s':>17}")
-for (args, integrator, masses, springs), by in runs.items():
-    def span(v):
-        return f"{min(v):,.0f}-{max(v):,.0f}" if v else "-"
-    old, new = by.get("old", []), by.get("new", [])
-    ratio = f"{min(new) / max(old):.2f}-{max(new) / min(old):.2f}" if old and new else "-"
-    upd = f"{max(new) * springs:.3e}" if new else "-"
-    print(f"{args[:58]:58} {span(old):>22} {span(new):>22} {ratio:>9} {upd:>17}")
+    sps = res["steps_per_sec"]["median"]
+    bps = res.get("bytes_per_step")
+    gbs = f"{bps * sps / 1e9:7.0f}" if bps else "      -"
+    end = res.get("end_mean_position_m")
+    t_end = res.get("end_time_secs")
+    print(f"{label(r):14} {res['scene'][:22]:22} {res['integrator']:14} {sps:12,.1f} "
+          f"{res['spring_updates_per_sec']['median']:12.3e} {gbs} "
+          f"{t_end if t_end is not None else float('nan'):8.3f} "
+          f"{end[1] if end else float('nan'):10.5f}  {res['backend'][:40]}")
+
+runs = defaultdict(lambda: defaultdict(list))
+for r in rows:
+    tag = label(r)
+    if tag in ("29-old", "29-new"):
+        res = r["result"]
+        key = (r["args"], res["integrator"], res["springs"])
+        runs[key][tag[3:]].append(res["steps_per_sec"]["median"])
+if runs:
+    print(f"\n{'issue 29 configuration':58} {'old steps/s':>22} {'new steps/s':>22} {'new/old':>9}")
+    for (args, integrator, springs), by in runs.items():
+        def span(v):
+            return f"{min(v):,.0f}-{max(v):,.0f}" if v else "-"
+        old, new = by.get("old", []), by.get("new", [])
+        ratio = f"{min(new) / max(old):.2f}-{max(new) / min(old):.2f}" if old and new else "-"
+        print(f"{args[:58]:58} {span(old):>22} {span(new):>22} {ratio:>9}")

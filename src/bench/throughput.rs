@@ -50,6 +50,11 @@ pub struct Throughput {
     /// Where the backend may run a submission again (implicit Euler on the GPU's per-pass path):
     /// the timed runs' submissions, and how many of them were replayed.
     pub replays: Option<(u64, u64)>,
+    /// Where the run ended: simulated time (s) and the masses' mean position (m), so that a
+    /// fast figure can be checked against a reference run of the same span (the peers print
+    /// their cloth's mean height for the same reason).
+    pub end_time_secs: f64,
+    pub end_mean_position_m: [f64; 3],
 }
 
 impl Throughput {
@@ -110,7 +115,15 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         .zip(be.replays())
         .map(|(before, after)| (submissions, after - before));
     // The final state must still be sound, or the figure means nothing.
-    be.snapshot(0, Default::default())?;
+    let end = be.snapshot(0, Default::default())?;
+    let mut sum = [0.0f64; 3];
+    for p in &end.positions {
+        for (s, c) in sum.iter_mut().zip(p.to_array()) {
+            *s += f64::from(c);
+        }
+    }
+    let count = end.positions.len().max(1) as f64;
+    let end_mean_position_m = sum.map(|s| s / count);
     let (kernels_ms, bytes_per_step, dispatches) = match opts.device.kind {
         BackendKind::Gpu => profile(&model, &settings, opts)?,
         _ => (None, None, None),
@@ -130,6 +143,8 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         kernels_ms,
         bytes_per_step,
         replays,
+        end_time_secs: end.time_secs,
+        end_mean_position_m,
     })
 }
 
@@ -299,6 +314,8 @@ pub fn throughput_json(t: &Throughput) -> String {
             "submissions": submissions,
             "replayed": replayed,
         })),
+        "end_time_secs": t.end_time_secs,
+        "end_mean_position_m": t.end_mean_position_m,
         "kernels_ms": t.kernels_ms.as_ref().map(|k| {
             k.iter()
                 .map(|(name, ms)| (name.clone(), serde_json::json!(ms)))

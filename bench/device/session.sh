@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# Every open issue's GPU rows in three calls on one warm GPU machine (its 30 s idle window
+# between them), from the project root, after ../shared/gpu/kit.sh --peers and the baseline
+# binary of bench/device/issue29.sh's header, both recompressed
+# (xz -9e: .gpu/bin/hooke.xz, .gpu/old/hooke.xz):
+#   1. carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/w1"]:  bash bench/device/session.sh a
+#   2. carrying [".gpu/w2"]:                                       bash bench/device/session.sh b
+#   3. carrying [".gpu/w3"]:                                       bash bench/device/session.sh c
+# a: issue 29's rows, this binary against the baseline (round 1), issue 31's rows at 1/60 s;
+# b: issue 29's round 2, issue 27's recordings, issue 31's thread scaling;
+# c: the peers (Warp with CUDA graphs, Taichi CUDA) and this binary on the peer cloth, 2 rounds.
+# Each phase appends JSON lines to $OUT/<phase>.jsonl and prints its tables.
+set -u
+phase=${1:?phase a, b or c}
+out=${OUT:-/tmp}
+mkdir -p /tmp/parts
+case $phase in a) cp .gpu/w1/* /tmp/parts/ ;; b) cp .gpu/w2/* /tmp/parts/ ;; esac
+# The binaries travel xz-compressed (14 MB each, against 22 gzipped) so that both fit in one
+# call beside Warp's first part.
+[ -x /tmp/hooke ] || { [ -f .gpu/bin/hooke.xz ] && xz -dc .gpu/bin/hooke.xz >/tmp/hooke && chmod +x /tmp/hooke; }
+. .gpu/bin/env.sh
+J="--json --repeat 3"
+rows=$out/$phase.jsonl
+: >"$rows"
+# One JSON line of `bench throughput`, labelled.
+row() {
+  local label=$1 bin=$2 line
+  shift 2
+  line=$(timeout 120 "$bin" bench throughput "$@" $J 2>/dev/null | head -1)
+  [ -n "$line" ] && echo "{\"label\":\"$label\",\"args\":\"$*\",\"result\":$line}" >>"$rows"
+}
+# Issue 29: the baseline ("old") against this binary ("new"), one round.
+issue29() {
+  local old=/tmp/hooke-old
+  [ -x $old ] || { xz -dc .gpu/old/hooke.xz >$old && chmod +x $old; }
+  for tag in old new; do
+    local b=$old
+    [ $tag = new ] && b=$H
+    row "29-$tag" $b hair --steps 40000 --batch 2000
+    row "29-$tag" $b jello --steps 40000 --batch 2000
+    row "29-$tag" $b cloth --steps 20000 --batch 2000
+    row "29-$tag" $b cloth-64 --steps 20000 --batch 1000
+    row "29-$tag" $b cloth-256 --steps 5000 --batch 1000
+    row "29-$tag" $b cloth-1024 --steps 1000 --batch 500
+    row "29-$tag" $b bench/scenes/warp-cloth-64.toml --steps 960 --batch 16
+    row "29-$tag" $b examples/scenes/cloth-fold.toml --steps 6000 --batch 1000
+    row "29-$tag" $b jello --integrator xpbd --steps 20000 --batch 2000
+  done
+}
+# The peer cloth at 1/60 s (a step per frame), and its fine-step reference (dt = 1e-4).
+peer60() {
+  local n=$1 p=.gpu/bin/peers
+  sed 's/^frame_rate_hz = .*/frame_rate_hz = 60/; s/^substeps = .*/substeps = 1/' \
+    $p/peer-cloth-$n.toml >/tmp/peer-cloth-$n-60hz.toml
+  # 2 s = 120 steps: one warm-up step and 119 timed.
+  J="--json --repeat 1" row "31-peer60" $H /tmp/peer-cloth-$n-60hz.toml --integrator implicit \
+    --steps 119 --batch 1
+  J="--json --repeat 1" row "31-peer60" $H /tmp/peer-cloth-$n-60hz.toml --integrator vbd \
+    --steps 119 --batch 1
+  # 2 s at dt = 1e-4: 1 000 warm-up steps and 19 000 timed.
+  timeout 120 "$H" bench throughput $p/peer-cloth-$n.toml --steps 19000 --batch 1000 --repeat 1 \
+    --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
+}
+case $phase in
+a)
+  nvidia-smi -L
+  "$H" check cloth-1024 | grep -iE "adapter|fits"
+  issue29
+  for s in jello cloth-256 hair cloth; do
+    row "31-60hz" $H bench/scenes/$s-60hz.toml --integrator implicit --steps 120 --batch 1
+    row "31-60hz" $H bench/scenes/$s-60hz.toml --integrator vbd --steps 600 --batch 60
+  done
+  row "31-60hz" $H bench/scenes/jello-60hz.toml --integrator implicit --backend cpu --steps 60 --batch 1
+  peer60 64
+  peer60 256
+  ;;
+b)
+  issue29
+  for s in 256 1024; do
+    d=10
+    [ $s = 1024 ] && d=0.5
+    /usr/bin/time -f "run cloth-$s --duration $d --save: %e s wall, %M KB peak" \
+      timeout 150 "$H" run cloth-$s --duration $d --save /tmp/c$s.rrd 2>&1 | tail -3
+    ls -la /tmp/c$s.rrd
+    rm -f /tmp/c$s.rrd
+  done
+  for t in 1 4 16; do
+    export RAYON_NUM_THREADS=$t; row "31-threads-$t" $H bench/scenes/cloth-256-60hz.toml \
+      --integrator implicit --backend cpu --steps 3 --batch 1
+  done
+  ;;
+c)
+  mkdir -p /tmp/site
+  [ -d /tmp/site/warp ] || cat /tmp/parts/warp.part.* | xz -d | tar xf - -C /tmp/site
+  [ -d /tmp/site/taichi ] || python3 -m pip install -q --no-index --no-deps --no-compile \
+    --target /tmp/site .gpu/w3/*.whl
+  export PYTHONPATH=/tmp/site PYTHONUNBUFFERED=1
+  P=$PWD/.gpu/bin/peers
+  for r in 1 2; do for n in 64 256 1024; do
+    s=$([ $n -ge 1024 ] && echo 2000 || echo 5000)
+    f=/tmp/peer-cloth-$n.toml
+    [ -f $f ] || sed "s/256/$n/g; s/255/$((n - 1))/; s/65.536/$(python3 -c "print($n*$n/1000)")/" \
+      $P/peer-cloth-256.toml >$f
+    for m in scatter gather; do
+      (cd $P && timeout 100 python3 bench_warp.py --device cuda --n $n --mode $m --steps $s 2>&1 |
+        grep -m2 '^\[warp' | tail -1)
+      (cd $P && timeout 100 python3 bench_taichi.py --device cuda --n $n --mode $m --steps $s 2>&1 |
+        grep -m2 '^\[taichi' | tail -1)
+    done
+    row "peers-$r" $H $f --steps $s --batch 500
+    tail -1 "$rows" | python3 -c 'import json,sys; r=json.load(sys.stdin)["result"]; print("[hooke]", r["scene"], "%.3e spring updates/s" % r["spring_updates_per_sec"]["median"])'
+  done; done
+  ;;
+esac
+python3 bench/device/summarize.py "$rows"

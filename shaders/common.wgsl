@@ -33,6 +33,12 @@ override GROUP_THREADS: u32 = 64u;
 override SOLVER_IN_WORKGROUP: bool = false;
 override WORKGROUP_VECTORS: u32 = 1u;
 override WORKGROUP_TERMS: u32 = 1u;
+// Whether fused_frame keeps the state of its submission's steps in workgroup memory (mass_force's
+// x_at, v_at; src/gpu/dispatch.rs's FrameState::masses_in_workgroup), its masses and the array's length
+// in words (1 when unused).
+override STATE_IN_WORKGROUP: bool = false;
+override WORKGROUP_MASSES: u32 = 1u;
+override WORKGROUP_STATE_WORDS: u32 = 1u;
 // XPBD: compute_forces leaves the springs out (they are projected as constraints, xpbd.wgsl) but
 // for their dashpots' power, which the ledger books.
 override XPBD: bool = false;

@@ -27,7 +27,7 @@ fn end_pose(k: u32) -> Pose {
 fn fused_step(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
     if (i >= params.mass_count) { return; }
-    euler_step_of(i, stage.step);
+    put_step(i, euler_step_of(i, stage.step));
 }
 
 // Verlet's first half (verlet_drift): reads the step's start, writes the drifted positions and

@@ -51,9 +51,27 @@ fn spring_end(i: u32, e: u32) -> SpringEnd {
     return SpringEnd(link.x & ((1u << KIND_SHIFT) - 1u), bitcast<f32>(link.y), kind.x, kind.y);
 }
 
-// The end of every step (`step`: its index in the submission): check the new state, project it
-// out of contacts, write it and the ledger.
+// A mass's state and ledger at a step's end.
+struct MassStep {
+    x: vec3<f32>,
+    v: vec3<f32>,
+    ledger: vec4<f32>,
+}
+
+// Write a step's end to x_out, v_out and the ledger.
+fn put_step(i: u32, s: MassStep) {
+    x_out[i] = vec4<f32>(s.x, 0.0);
+    v_out[i] = vec4<f32>(s.v, 0.0);
+    ledger[i] = s.ledger;
+}
+
+// The end of every step (`step`: its index in the submission), written.
 fn finish_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>, step: u32) {
+    put_step(i, end_step(i, x, v, ledger_i, step));
+}
+
+// The end of every step: check the new state, project it out of contacts.
+fn end_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>, step: u32) -> MassStep {
     check_state_at(x, v, step);
     var xn = x;
     var vn = v;
@@ -68,18 +86,16 @@ fn finish_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>, step: u3
             atomicAdd(&counters[0], b.count);
         }
     }
-    x_out[i] = vec4<f32>(xn, 0.0);
-    v_out[i] = vec4<f32>(vn, 0.0);
-    ledger[i] = l;
+    return MassStep(xn, vn, l);
 }
 
 // Euler or semi-implicit Euler (SEMI_IMPLICIT), mass i's whole step: compute_forces,
 // euler_update or semi_implicit_update, project_contacts.
-fn euler_step_of(i: u32, step: u32) {
+fn euler_step_of(i: u32, step: u32) -> MassStep {
     let mf = mass_force(i);
     let dt = stage.dt;
-    let xi = x_in[i].xyz;
-    let vi = v_in[i].xyz;
+    let xi = x_at(i);
+    let vi = v_at(i);
     var xn: vec3<f32>;
     var vn: vec3<f32>;
     if (SEMI_IMPLICIT) {
@@ -89,5 +105,5 @@ fn euler_step_of(i: u32, step: u32) {
         xn = xi + dt * vi;
         vn = vi + dt * mf.acc;
     }
-    finish_step(i, xn, vn, ledger[i] + dt * mf.rates, step);
+    return end_step(i, xn, vn, ledger[i] + dt * mf.rates, step);
 }

@@ -1,5 +1,5 @@
 // mass_force: the full force on one mass (springs, gravity, drag, contact) at the state x_in,
-// v_in, as its acceleration and the ledger's rates; forces_on writes it to deriv as
+// v_in (or, in fused_frame, its copy in workgroup memory: x_at, v_at), as its acceleration and the ledger's rates; forces_on writes it to deriv as
 // compute_forces' output. Mirrors src/cpu/forces.rs. Shared by compute_forces (forces.wgsl),
 // implicit_step (implicit.wgsl) and the fused steps (fused_mass.wgsl), which define
 // spring_range(i) and spring_end(i, e), mass i's springs in their own layout of the springs.
@@ -7,6 +7,34 @@
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params colliders mass deriv x_in v_in stage
 // #calls spring_range spring_end collider_pose
+
+// fused_frame's state in workgroup memory (STATE_IN_WORKGROUP): two halves, the step's and the
+// next's, each WORKGROUP_MASSES masses of six words (x, then v). A load from workgroup memory
+// costs an SM tens of cycles, one from a storage buffer written by the step before hundreds:
+// a small scene's step is a chain of such loads. Elsewhere the array is one unused word.
+var<workgroup> state_sh: array<f32, WORKGROUP_STATE_WORDS>;
+// The half the step under way reads.
+var<private> state_half: u32;
+
+fn state_word(half: u32, i: u32) -> u32 {
+    return (half * WORKGROUP_MASSES + i) * 6u;
+}
+
+fn x_at(i: u32) -> vec3<f32> {
+    if (STATE_IN_WORKGROUP) {
+        let w = state_word(state_half, i);
+        return vec3<f32>(state_sh[w], state_sh[w + 1u], state_sh[w + 2u]);
+    }
+    return x_in[i].xyz;
+}
+
+fn v_at(i: u32) -> vec3<f32> {
+    if (STATE_IN_WORKGROUP) {
+        let w = state_word(state_half, i) + 3u;
+        return vec3<f32>(state_sh[w], state_sh[w + 1u], state_sh[w + 2u]);
+    }
+    return v_in[i].xyz;
+}
 
 struct MassForce {
     acc: vec3<f32>,
@@ -19,8 +47,8 @@ struct MassForce {
 }
 
 fn mass_force(i: u32) -> MassForce {
-    let xi = x_in[i].xyz;
-    let vi = v_in[i].xyz;
+    let xi = x_at(i);
+    let vi = v_at(i);
     let m = mass[i].x;
     var f = vec3<f32>(0.0);
     var damping_w = 0.0;
@@ -37,7 +65,7 @@ fn mass_force(i: u32) -> MassForce {
         if (HAS_TEARING && s.stiffness == 0.0 && s.damping == 0.0) {
             continue;
         }
-        let d = xi - x_in[s.other].xyz;
+        let d = xi - x_at(s.other);
         let len = length(d);
         if (len <= MIN_SPRING_LENGTH) {
             continue;
@@ -45,7 +73,7 @@ fn mass_force(i: u32) -> MassForce {
         let n = d * (1.0 / len);
         let elastic = -s.stiffness * (len - s.rest);
         if (HAS_DAMPING) {
-            let damping = -s.damping * dot(vi - v_in[s.other].xyz, n);
+            let damping = -s.damping * dot(vi - v_at(s.other), n);
             if (!XPBD) {
                 f += n * (elastic + damping);
             }

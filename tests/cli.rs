@@ -266,14 +266,10 @@ const SCENE_PASSES: &[(&str, &str, &str)] = &[
     ),
     (
         "tablecloth",
-        "fused_frame",
+        "fused_step",
         "HAS_GRAVITY, HAS_DRAG, HAS_GROUND, HAS_BOXES, HAS_COLLIDERS, HAS_DAMPING",
     ),
-    (
-        "blob",
-        "fused_frame",
-        "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING",
-    ),
+    ("blob", "fused_step", "HAS_GRAVITY, HAS_GROUND, HAS_DAMPING"),
 ];
 
 #[test]
@@ -317,7 +313,7 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     // its masses take a grid stencil.
     let s = text(&hooke(&["check", "cloth-64", "--backend", "cpu"]).stdout);
     assert!(
-        s.contains("a dispatch per step, not one a submission: 4096 masses, more than one workgroup steps on a GPU (2048)")
+        s.contains("a dispatch per step, not one a submission: 4096 masses, more than one workgroup steps on a GPU (1024)")
             && s.contains("grid stencils: 4096 of 4096 masses (1 grid body)"),
         "cloth-64:\n{s}"
     );

@@ -1,6 +1,7 @@
 //! The GPU's fused explicit steps (shaders/fused.wgsl: each step's per-mass passes folded into
 //! its force gathers, the state ping-ponging between two buffers), and for small scenes every
-//! step of a submission in one workgroup (shaders/fused_frame.wgsl), against the general passes
+//! step of a submission in one workgroup (shaders/fused_frame.wgsl, its state in workgroup memory
+//! or in the state buffers between steps), against the general passes
 //! (compute_forces, the update kernels, project_contacts): the same bits for Euler, semi-implicit
 //! Euler, Verlet and RK4, through the ground, moving colliders and their projections,
 //! over odd and even numbers of steps per submission; and the runs the fused steps cannot serve
@@ -12,7 +13,7 @@ use std::sync::Arc;
 
 use common::{gpu_available, model_of, ok, scene_model};
 use hooke::backend::Backend as _;
-use hooke::gpu::{ExplicitPath, GpuBackend, ImplicitPath};
+use hooke::gpu::{ExplicitPath, FrameState, GpuBackend, ImplicitPath};
 use hooke::integrator::{Integrator, Step};
 use hooke::model::Model;
 use hooke::state::State;
@@ -37,11 +38,23 @@ fn run(
     dt: f64,
     path: ExplicitPath,
 ) -> (State, u32, ExplicitPath) {
-    let mut gpu = ok(GpuBackend::with_paths(
+    run_with(model, integrator, dt, (path, FrameState::Workgroup)).0
+}
+
+/// As `run`, one workgroup keeping its state where `home` says where it fits; and whether it
+/// kept it in workgroup memory.
+fn run_with(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    (path, home): (ExplicitPath, FrameState),
+) -> ((State, u32, ExplicitPath), bool) {
+    let mut gpu = ok(GpuBackend::with_frame_state(
         model.clone(),
         Step::new(integrator, dt),
         None,
         (ImplicitPath::Passes, path),
+        home,
     ));
     // Only small scenes step in one workgroup, the others fused a dispatch per step.
     let taken = gpu.explicit_path();
@@ -54,7 +67,8 @@ fn run(
         let stats = ok(gpu.advance(steps));
         projections += ok(gpu.snapshot(frame as u64, stats)).stats.projections;
     }
-    (ok(gpu.state()), projections, taken)
+    let in_workgroup = gpu.frame_state_in_workgroup();
+    ((ok(gpu.state()), projections, taken), in_workgroup)
 }
 
 fn bits(s: &State) -> Vec<u32> {
@@ -121,6 +135,8 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
     let mut projected = 0;
     let mut in_group = 0;
     let mut projected_in_group = 0;
+    // Runs in one workgroup by where they kept the state: buffers, workgroup memory.
+    let mut homes = [0; 2];
     // hair: springs only; jello-sphere: the ground and a sphere on a path; contacts: the ground,
     // a plane, a box and a keyframed sphere, with friction, at the scene's step and (but for
     // Euler, unstable there) twice it. On a CPU adapter hair and contacts step in one workgroup,
@@ -138,9 +154,15 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
                 continue;
             }
             let (general, pg, _) = run(&model, integrator, dt, ExplicitPath::General);
-            for path in [ExplicitPath::Fused, ExplicitPath::InGroup] {
-                let what = format!("{name} {integrator} dt {dt:.3e} {path:?}");
-                let (fused, pf, taken) = run(&model, integrator, dt, path);
+            let ways = [
+                (ExplicitPath::Fused, FrameState::Workgroup),
+                (ExplicitPath::InGroup, FrameState::Workgroup),
+                (ExplicitPath::InGroup, FrameState::Buffers),
+            ];
+            for (path, home) in ways {
+                let what = format!("{name} {integrator} dt {dt:.3e} {path:?} {home:?}");
+                let ((fused, pf, taken), in_workgroup) =
+                    run_with(&model, integrator, dt, (path, home));
                 assert!(
                     bits(&fused) == bits(&general),
                     "{what}: the fused state differs from the general passes'"
@@ -158,6 +180,11 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
                 if taken == ExplicitPath::InGroup {
                     in_group += 1;
                     projected_in_group += pf;
+                    homes[usize::from(in_workgroup)] += 1;
+                    assert!(
+                        !in_workgroup || home == FrameState::Workgroup,
+                        "{what}: kept in workgroup memory"
+                    );
                 }
             }
             projected += pg;
@@ -166,7 +193,11 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
     // Otherwise the projection folded into the fused steps, or the steps in one workgroup,
     // went untested.
     assert!(projected > 0, "no run projected a mass");
-    assert!(in_group >= 5, "{in_group} runs stepped in one workgroup");
+    assert!(in_group >= 10, "{in_group} runs stepped in one workgroup");
+    assert!(
+        homes[0] >= 5 && homes[1] >= 5,
+        "runs in one workgroup with the state in buffers, in workgroup memory: {homes:?}"
+    );
     assert!(
         projected_in_group > 0,
         "no run in one workgroup projected a mass"

@@ -8,17 +8,26 @@
 #   3. carrying [".gpu/w3"]:                                       bash bench/device/session.sh c
 # a: issue 29's rows, this binary against the baseline (round 1), issue 31's rows at 1/60 s;
 # b: issue 29's round 2, issue 27's recordings, issue 31's thread scaling;
-# c: the peers (Warp with CUDA graphs, Taichi CUDA) and this binary on the peer cloth, 2 rounds.
+# c: the peers (Warp with CUDA graphs, Taichi CUDA) and this binary on the peer cloth, 2 rounds;
+# s (alone, carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/p"]): the small scenes, this
+#   binary against the baseline, three rounds interleaved (the one-workgroup steps' sizes).
 # Each phase appends JSON lines to $OUT/<phase>.jsonl and prints its tables.
 set -u
 phase=${1:?phase a, b or c}
 out=${OUT:-/tmp}
 mkdir -p /tmp/parts
-case $phase in a) cp .gpu/w1/* /tmp/parts/ ;; b) cp .gpu/w2/* /tmp/parts/ ;; esac
+# A call's ignored folders that it does not carry are gone there, /tmp stays: Warp's parts
+# gather in /tmp/parts, the binaries in /tmp, and .gpu/p (env.sh and the peers' scripts, small)
+# travels with every call after the first.
+for w in .gpu/w1 .gpu/w2; do [ -d $w ] && cp $w/* /tmp/parts/; done
+[ "$phase" = w ] && { ls -la /tmp/parts; exit 0; }
+G=.gpu/bin
+[ -f $G/env.sh ] || G=.gpu/p
 # The binaries travel xz-compressed (14 MB each, against 22 gzipped) so that both fit in one
 # call beside Warp's first part.
-[ -x /tmp/hooke ] || { [ -f .gpu/bin/hooke.xz ] && xz -dc .gpu/bin/hooke.xz >/tmp/hooke && chmod +x /tmp/hooke; }
-. .gpu/bin/env.sh
+# A binary that travels replaces the one a warm machine kept.
+[ -f .gpu/bin/hooke.xz ] && xz -dc .gpu/bin/hooke.xz >/tmp/hooke && chmod +x /tmp/hooke
+. $G/env.sh
 J="--json --repeat 3"
 rows=$out/$phase.jsonl
 : >"$rows"
@@ -49,7 +58,7 @@ issue29() {
 }
 # The peer cloth at 1/60 s (a step per frame), and its fine-step reference (dt = 1e-4).
 peer60() {
-  local n=$1 p=.gpu/bin/peers
+  local n=$1 p=$G/peers
   sed 's/^frame_rate_hz = .*/frame_rate_hz = 60/; s/^substeps = .*/substeps = 1/' \
     $p/peer-cloth-$n.toml >/tmp/peer-cloth-$n-60hz.toml
   # 2 s = 120 steps: one warm-up step and 119 timed.
@@ -62,6 +71,33 @@ peer60() {
     --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
 }
 case $phase in
+bisect)
+  # Self-collision scenes for each binary in .gpu/bis/<commit>.xz, three interleaved rounds.
+  for f in .gpu/bis/*.xz; do c=$(basename $f .xz); xz -dc $f >/tmp/hb-$c && chmod +x /tmp/hb-$c; done
+  for r in 1 2 3; do for f in .gpu/bis/*.xz; do
+    c=$(basename $f .xz)
+    row "bis-$c" /tmp/hb-$c examples/scenes/cloth-fold.toml --steps 6000 --batch 1000
+    row "bis-$c" /tmp/hb-$c examples/scenes/pile.toml --steps 9600 --batch 1000
+  done; done
+  ;;
+s)
+  "$H" check cloth | grep -E "adapter|fused_frame|GPU step"
+  old=/tmp/hooke-old
+  [ -x $old ] || { xz -dc .gpu/old/hooke.xz >$old && chmod +x $old; }
+  # A third binary, .gpu/v1/hooke.xz, where one travels (an earlier state of this work).
+  tags="old new"
+  [ -f .gpu/v1/hooke.xz ] && xz -dc .gpu/v1/hooke.xz >/tmp/hooke-v1 && chmod +x /tmp/hooke-v1 &&
+    tags="old v1 new"
+  for r in 1 2 3; do for tag in $tags; do
+    b=$old
+    [ $tag = new ] && b=$H
+    [ $tag = v1 ] && b=/tmp/hooke-v1
+    row "29-$tag" $b hair --steps 40000 --batch 2000
+    row "29-$tag" $b jello --steps 40000 --batch 2000
+    row "29-$tag" $b cloth --steps 20000 --batch 2000
+    row "29-$tag" $b bench/scenes/warp-cloth-32.toml --steps 960 --batch 16
+  done; done
+  ;;
 a)
   nvidia-smi -L
   "$H" check cloth-1024 | grep -iE "adapter|fits"
@@ -95,7 +131,7 @@ c)
   [ -d /tmp/site/taichi ] || python3 -m pip install -q --no-index --no-deps --no-compile \
     --target /tmp/site .gpu/w3/*.whl
   export PYTHONPATH=/tmp/site PYTHONUNBUFFERED=1
-  P=$PWD/.gpu/bin/peers
+  P=$PWD/$G/peers
   for r in 1 2; do for n in 64 256 1024; do
     s=$([ $n -ge 1024 ] && echo 2000 || echo 5000)
     f=/tmp/peer-cloth-$n.toml

@@ -336,9 +336,12 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
         let _ = writeln!(
             s,
             "  fused_frame: every step of a submission in one dispatch of one workgroup (up to {} \
-             masses on a GPU, {} on a CPU adapter; larger scenes take fused_step)",
+             masses on a GPU, {} on a CPU adapter; larger scenes take fused_step), the state in \
+             workgroup memory between steps where {} B a mass fits the adapter's (its line below), else \
+             in the state buffers",
             one_group_step_masses(DiscreteGpu),
-            one_group_step_masses(Cpu)
+            one_group_step_masses(Cpu),
+            hooke::gpu::FRAME_STATE_BYTES_PER_MASS
         );
     }
     match why_unfused {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::context::{DeviceError, GpuContext, ReadBackOf};
-use super::dispatch::{Dispatch, SLOTS_PER_STEP, frame_threads, why_not_in_group};
+use super::dispatch::{Dispatch, FrameState, SLOTS_PER_STEP, frame_threads, why_not_in_group};
 use super::encode::{Dispatcher, in_pass};
 use super::implicit::{self, Budgets, ImplicitStep, Path, SolverHome};
 use super::kernels::Kernel;
@@ -57,6 +57,8 @@ pub struct GpuBackend {
     replays: u64,
     /// Explicit integrators: fused steps or a pass per stage (`plan::fused_links`).
     explicit_path: ExplicitPath,
+    /// `fused_frame` keeps the state in workgroup memory between a submission's steps.
+    frame_state_in_workgroup: bool,
 }
 
 impl GpuBackend {
@@ -77,6 +79,25 @@ impl GpuBackend {
         step: Step,
         adapter: Option<&str>,
         (path, explicit): (Path, ExplicitPath),
+    ) -> Result<Self, BackendError> {
+        Self::with_frame_state(
+            model,
+            step,
+            adapter,
+            (path, explicit),
+            FrameState::Workgroup,
+        )
+    }
+
+    /// As `with_paths`, with the one-workgroup steps' state kept where `frame_state` says
+    /// where it fits (the tests run both homes on one scene).
+    #[doc(hidden)]
+    pub fn with_frame_state(
+        model: Arc<Model>,
+        step: Step,
+        adapter: Option<&str>,
+        (path, explicit): (Path, ExplicitPath),
+        frame_state: FrameState,
     ) -> Result<Self, BackendError> {
         let Step {
             integrator,
@@ -140,6 +161,13 @@ impl GpuBackend {
                 .max_compute_invocations_per_workgroup
                 .min(ctx.limits.max_compute_workgroup_size_x),
         );
+        // The one-workgroup steps' state in workgroup memory where it fits.
+        let frame_state_masses = frame_state
+            .masses_in_workgroup(
+                model.mass_count(),
+                ctx.limits.max_compute_workgroup_storage_size,
+            )
+            .filter(|_| explicit == ExplicitPath::InGroup);
         let home = match needed.implicit {
             Some(path) => {
                 SolverHome::of(&model, path, ctx.limits.max_compute_workgroup_storage_size)
@@ -151,7 +179,7 @@ impl GpuBackend {
             (integrator, dt_secs),
             (kind_shift, stencils),
             (group_threads, home.workgroup_arrays()),
-            (frame_threads, (stage_stride / 4) as u32),
+            (frame_threads, (stage_stride / 4) as u32, frame_state_masses),
         );
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
@@ -180,6 +208,7 @@ impl GpuBackend {
             recent_frames: VecDeque::new(),
             replays: 0,
             explicit_path: explicit,
+            frame_state_in_workgroup: frame_state_masses.is_some(),
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -228,6 +257,11 @@ impl GpuBackend {
     /// How this run's explicit steps are dispatched.
     pub fn explicit_path(&self) -> ExplicitPath {
         self.explicit_path
+    }
+
+    /// Whether the steps in one workgroup keep the state in workgroup memory.
+    pub fn frame_state_in_workgroup(&self) -> bool {
+        self.frame_state_in_workgroup
     }
 
     /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:

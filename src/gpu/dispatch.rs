@@ -50,13 +50,43 @@ pub fn xpbd_in_one_group(spring_count: usize) -> bool {
 /// adapter (lavapipe) runs a workgroup on one core, so it gives up its other cores: on two, the
 /// hair (100 masses) steps 2.5–4× as fast in one workgroup, a 22 × 22 cloth (484) about as fast,
 /// the jello (1,000) and the cloth (1,024) 0.6–1.0× (BENCHMARKS.md). A GPU runs it on one SM of
-/// many, and pays several microseconds a launch: its threshold is to be measured on an H100.
+/// many, and pays about 9 µs a launch. On an H200 (BENCHMARKS.md), against a dispatch per step:
+/// with the state in the state buffers the hair's steps ran 1.5–2× as fast in one workgroup, the
+/// jello's 1.26×, the cloth's (1,024 masses) 0.78×; with the state in workgroup memory, 1.9–2.5×,
+/// 1.35× and 0.87–0.91×, a 32 × 32 cloth at 16 steps a submission 1.1×. So a GPU takes it up to
+/// 1,024 masses, whose state fits in 48 KiB of workgroup memory, as NVIDIA GPUs allow
+/// (`FrameState::masses_in_workgroup`).
 pub fn one_group_step_masses(device: wgpu::DeviceType) -> usize {
     match device {
         wgpu::DeviceType::Cpu => 512,
-        _ => 2048,
+        _ => 1024,
     }
 }
+
+/// Where `fused_frame` keeps a submission's state between its steps: in workgroup memory where
+/// it fits (the default), or always in the state buffers (the tests compare the two).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameState {
+    Workgroup,
+    Buffers,
+}
+
+impl FrameState {
+    /// The masses whose state `fused_frame` keeps in workgroup memory of `workgroup_bytes` (the
+    /// adapter's limit), if it does: all `mass_count` where they fit and `self` allows it, else
+    /// none (the state buffers). Each step's gathers are a chain of dependent loads of other
+    /// masses' state: from a buffer that the step before wrote they cost an SM hundreds of cycles
+    /// each (L2), from workgroup memory tens. The arithmetic is the same either way.
+    pub fn masses_in_workgroup(self, mass_count: usize, workgroup_bytes: u32) -> Option<u32> {
+        let bytes = (mass_count as u64) * u64::from(FRAME_STATE_BYTES_PER_MASS);
+        let fits = mass_count > 0 && bytes <= u64::from(workgroup_bytes);
+        (self == FrameState::Workgroup && fits).then_some(mass_count as u32)
+    }
+}
+
+/// Workgroup memory `fused_frame` keeps a mass's state in: x and v, three f32 each, in two halves
+/// (the step's and the next's).
+pub const FRAME_STATE_BYTES_PER_MASS: u32 = 2 * 6 * 4;
 
 /// Why a fused run on a `device` cannot step a whole submission in one workgroup, or `None`
 /// when it can.

@@ -126,11 +126,12 @@ pub fn adapter_report(
         Err(e) => e.to_string(),
     };
     Ok(format!(
-        "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, timestamps {}); {fits}",
+        "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, {} KiB of workgroup memory, timestamps {}); {fits}",
         ctx.describe(),
         l.max_storage_buffer_binding_size.min(l.max_buffer_size) >> 20,
         l.max_storage_buffers_per_shader_stage,
         l.max_compute_workgroups_per_dimension,
+        l.max_compute_workgroup_storage_size >> 10,
         if ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY) {
             "yes"
         } else {

@@ -46,7 +46,9 @@ pub use context::{
     AdapterError, DeviceError, Fault, GpuContext, REQUIRE_ADAPTER_ENV, ReadBackCause, ReadBackOf,
     adapters, describe_error,
 };
-pub use dispatch::{one_group_step_masses, why_not_in_group};
+pub use dispatch::{
+    FRAME_STATE_BYTES_PER_MASS, FrameState, one_group_step_masses, why_not_in_group,
+};
 pub use implicit::Budgets as ImplicitBudgets;
 pub use implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
 pub use inspect::GridReadBack;

@@ -4,6 +4,7 @@
 //! scene lacks are specialised away through `override` constants.
 
 use super::bindings::Group;
+use super::dispatch::FRAME_STATE_BYTES_PER_MASS;
 use super::kernels::Kernel;
 use super::programs::{COMMON, Program, directive, library};
 use crate::integrator::Integrator;
@@ -120,14 +121,15 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// whether grid bodies take their springs from stencils (`stencils.rs`); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
-/// the one-workgroup fused steps (`dispatch::frame_threads`) and how far apart the stage slots
-/// lie, in words (`StageSlots::stride_for`).
+/// the one-workgroup fused steps (`dispatch::frame_threads`), how far apart the stage slots
+/// lie, in words (`StageSlots::stride_for`), and the masses whose state those steps keep in
+/// workgroup memory, if they do (`FrameState::masses_in_workgroup`).
 pub fn constants(
     model: &Model,
     (integrator, dt_secs): (Integrator, f64),
     (kind_shift, stencils): (u32, bool),
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
-    (frame_threads, stage_stride_words): (u32, u32),
+    (frame_threads, stage_stride_words, frame_state): (u32, u32, Option<u32>),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -169,6 +171,15 @@ pub fn constants(
         ("SOLVER_IN_WORKGROUP", flag(in_workgroup.is_some())),
         ("WORKGROUP_VECTORS", f64::from(vectors)),
         ("WORKGROUP_TERMS", f64::from(terms)),
+    ]);
+    let frame_masses = frame_state.unwrap_or(1);
+    c.extend([
+        ("STATE_IN_WORKGROUP", flag(frame_state.is_some())),
+        ("WORKGROUP_MASSES", f64::from(frame_masses)),
+        (
+            "WORKGROUP_STATE_WORDS",
+            f64::from(frame_state.map_or(1, |m| m * (FRAME_STATE_BYTES_PER_MASS / 4))),
+        ),
     ]);
     c
 }

@@ -26,8 +26,8 @@ pub fn group_threads(device: wgpu::DeviceType) -> u32 {
 }
 
 /// Workgroup memory the one-workgroup step's sums take (`sum_sh`, `part_sh`, `total_sh`,
-/// `flag_sh` in shaders/implicit.wgsl), rounded up.
-const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16;
+/// `flag_sh` in shaders/implicit.wgsl) and mass_force's unused word of `state_sh`, rounded up.
+const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16 + 16;
 
 /// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
 /// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the

@@ -71,6 +71,25 @@ peer60() {
     --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
 }
 case $phase in
+one)
+  # Every issue's rows that need no peer, this binary alone, in one short call (carrying
+  # [".gpu/bin", ".gpu/gl", ".gpu/p"]): for a card lent only for a few minutes.
+  nvidia-smi -L
+  "$H" check cloth-1024 | grep -E "adapter"
+  row one $H hair --steps 40000 --batch 2000
+  row one $H jello --steps 40000 --batch 2000
+  row one $H cloth --steps 20000 --batch 2000
+  row one $H cloth-64 --steps 20000 --batch 1000
+  row one $H cloth-256 --steps 5000 --batch 1000
+  row one $H cloth-1024 --steps 1000 --batch 500
+  row one $H examples/scenes/cloth-fold.toml --steps 6000 --batch 1000
+  row one $H bench/scenes/jello-60hz.toml --integrator implicit --steps 120 --batch 1
+  row one $H bench/scenes/jello-60hz.toml --integrator vbd --steps 600 --batch 60
+  row one $H bench/scenes/cloth-256-60hz.toml --integrator implicit --steps 60 --batch 1
+  peer60 64
+  /usr/bin/time -f "run cloth-256 --duration 10 --save: %e s wall, %M KB peak" \
+    timeout 60 "$H" run cloth-256 --duration 10 --save /tmp/c256.rrd 2>&1 | tail -2
+  ;;
 bisect)
   # Self-collision scenes for each binary in .gpu/bis/<commit>.xz, three interleaved rounds.
   for f in .gpu/bis/*.xz; do c=$(basename $f .xz); xz -dc $f >/tmp/hb-$c && chmod +x /tmp/hb-$c; done

@@ -1,8 +1,9 @@
 // mass_force: the full force on one mass (springs, gravity, drag, contact) at the state x_in,
-// v_in (or, in fused_frame, its copy in workgroup memory: x_at, v_at), as its acceleration and the ledger's rates; forces_on writes it to deriv as
-// compute_forces' output. Mirrors src/cpu/forces.rs. Shared by compute_forces (forces.wgsl),
-// implicit_step (implicit.wgsl) and the fused steps (fused_mass.wgsl), which define
-// spring_range(i) and spring_end(i, e), mass i's springs in their own layout of the springs.
+// v_in (or, in fused_frame, its copy in workgroup memory: x_at, v_at), as its acceleration and
+// the ledger's rates; forces_on writes it to deriv as compute_forces' output. Mirrors
+// src/cpu/forces.rs. Shared by compute_forces (forces.wgsl), implicit_step (implicit.wgsl) and the
+// fused steps (fused_mass.wgsl), which define spring_range(i) and spring_end(i, e), mass i's
+// springs in their own layout of the springs.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params colliders mass deriv x_in v_in stage

@@ -204,4 +204,22 @@ mod tests {
         assert_eq!(frame_threads(Cpu, 2048, 1024), 8);
         assert!(one_group_step_masses(Cpu) < one_group_step_masses(DiscreteGpu));
     }
+
+    /// The state stays in workgroup memory exactly where 48 B a mass fits: a GPU's whole
+    /// one-workgroup range in NVIDIA's 48 KiB, 682 masses in lavapipe's 32 KiB; never when the
+    /// caller keeps it in the buffers, nor for no masses.
+    #[test]
+    fn the_state_stays_in_workgroup_memory_where_it_fits() {
+        use FrameState::{Buffers, Workgroup};
+        let gpu = one_group_step_masses(DiscreteGpu);
+        assert_eq!(
+            Workgroup.masses_in_workgroup(gpu, 48 * 1024),
+            Some(gpu as u32)
+        );
+        assert_eq!(Workgroup.masses_in_workgroup(gpu + 1, 48 * 1024), None);
+        assert_eq!(Workgroup.masses_in_workgroup(682, 32 * 1024), Some(682));
+        assert_eq!(Workgroup.masses_in_workgroup(683, 32 * 1024), None);
+        assert_eq!(Buffers.masses_in_workgroup(100, 48 * 1024), None);
+        assert_eq!(Workgroup.masses_in_workgroup(0, 48 * 1024), None);
+    }
 }

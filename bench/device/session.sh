@@ -89,6 +89,13 @@ one)
   peer60 64
   /usr/bin/time -f "run cloth-256 --duration 10 --save: %e s wall, %M KB peak" \
     timeout 60 "$H" run cloth-256 --duration 10 --save /tmp/c256.rrd 2>&1 | tail -2
+  # What a dispatch costs apart from its work (examples/dispatch_floor.rs), where it travels:
+  #   strip -o /tmp/df target/release/examples/dispatch_floor && mkdir -p .gpu/ex &&
+  #   xz -6 -c /tmp/df >.gpu/ex/dispatch_floor.xz       (and carry ".gpu/ex")
+  if [ -f .gpu/ex/dispatch_floor.xz ]; then
+    xz -dc .gpu/ex/dispatch_floor.xz >/tmp/dispatch_floor && chmod +x /tmp/dispatch_floor
+    for w in 64 4096 65536; do timeout 60 /tmp/dispatch_floor 2000 $w; done
+  fi
   ;;
 bisect)
   # Self-collision scenes for each binary in .gpu/bis/<commit>.xz, three interleaved rounds.

@@ -95,6 +95,12 @@ pub trait Backend: Send {
     fn replays(&self) -> Option<u64> {
         None
     }
+    /// How many times the mass–mass contact's neighbour lists have been built since the run
+    /// began (each a full build; between them a step only checks how far the masses moved);
+    /// `None` without mass–mass contact.
+    fn neighbour_builds(&mut self) -> Result<Option<u64>, BackendError> {
+        Ok(None)
+    }
 }
 
 /// A backend whose snapshots pass through `then` as they are collected, on the thread that
@@ -142,6 +148,9 @@ impl<F: FnMut(&mut Snapshot) + Send> Backend for Then<F> {
     }
     fn replays(&self) -> Option<u64> {
         self.inner.replays()
+    }
+    fn neighbour_builds(&mut self) -> Result<Option<u64>, BackendError> {
+        self.inner.neighbour_builds()
     }
 }
 

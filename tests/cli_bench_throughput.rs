@@ -170,3 +170,58 @@ fn json_is_refused_with_effects_and_repeat_must_be_positive() {
         assert!(err.contains(args[0]), "{args:?}: {err}");
     }
 }
+
+/// Where the run ended, and with mass–mass contact how many times the neighbour lists were built
+/// in the timed steps: both backends build them at the same steps (bit for bit on lavapipe), a
+/// folding cloth every few steps; a scene without contact reports none.
+#[test]
+fn json_says_where_the_run_ended_and_how_often_the_neighbour_lists_were_built() {
+    let fold = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/cloth-fold.toml"
+    );
+    let run = |scene: &str, backend: &str| {
+        let args = [
+            "bench",
+            "throughput",
+            scene,
+            "--backend",
+            backend,
+            "--steps",
+            "300",
+            "--batch",
+            "100",
+            "--repeat",
+            "1",
+            "--json",
+        ];
+        json_lines(&args).remove(0)
+    };
+    let cpu = run(fold, "cpu");
+    let builds = cpu["neighbour_builds"]
+        .as_u64()
+        .unwrap_or_else(|| panic!("no neighbour_builds in {cpu}"));
+    assert!(
+        builds > 0 && builds < 300,
+        "{builds} builds in 300 steps: {cpu}"
+    );
+    // 100 warm-up steps and 300 timed at the scene's step.
+    let dt = num(&cpu, &["end_time_secs"]) / 400.0;
+    assert!((dt - 1.0 / 2400.0).abs() < 1e-9, "dt {dt}: {cpu}");
+    let hair = run("hair", "cpu");
+    assert!(hair["neighbour_builds"].is_null(), "{hair}");
+    assert_eq!(
+        hair["end_mean_position_m"].as_array().map(Vec::len),
+        Some(3),
+        "{hair}"
+    );
+    if !gpu_available() {
+        return;
+    }
+    let gpu = run(fold, "gpu");
+    assert_eq!(gpu["neighbour_builds"], cpu["neighbour_builds"], "{gpu}");
+    assert_eq!(
+        gpu["end_mean_position_m"], cpu["end_mean_position_m"],
+        "{gpu}"
+    );
+}

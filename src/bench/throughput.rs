@@ -55,6 +55,10 @@ pub struct Throughput {
     /// their cloth's mean height for the same reason).
     pub end_time_secs: f64,
     pub end_mean_position_m: [f64; 3],
+    /// Mass–mass contact: how many times the neighbour lists were built during the timed runs
+    /// (each a full build: how often depends on how the masses move, so one scene's steps/s
+    /// moves with its trajectory).
+    pub neighbour_builds: Option<u64>,
 }
 
 impl Throughput {
@@ -102,6 +106,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
     be.advance(batch.min(opts.steps).max(1))?;
     be.finish()?;
     let replays_before = be.replays();
+    let builds_before = be.neighbour_builds()?;
     let mut runs_secs = Vec::with_capacity(opts.repeat.max(1) as usize);
     for _ in 0..opts.repeat.max(1) {
         let start = Instant::now();
@@ -114,6 +119,9 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
     let replays = replays_before
         .zip(be.replays())
         .map(|(before, after)| (submissions, after - before));
+    let neighbour_builds = builds_before
+        .zip(be.neighbour_builds()?)
+        .map(|(before, after)| after - before);
     // The final state must still be sound, or the figure means nothing.
     let end = be.snapshot(0, Default::default())?;
     let mut sum = [0.0f64; 3];
@@ -145,6 +153,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         replays,
         end_time_secs: end.time_secs,
         end_mean_position_m,
+        neighbour_builds,
     })
 }
 
@@ -228,6 +237,13 @@ pub fn format_throughput(t: &Throughput) -> String {
         let _ = write!(
             s,
             "\n    submissions replayed (a step or solve outran its budget): {replayed} of {submissions}"
+        );
+    }
+    if let Some(b) = t.neighbour_builds {
+        let steps = u64::from(t.steps) * t.runs_secs.len() as u64;
+        let _ = write!(
+            s,
+            "\n    neighbour lists built {b} times in the {steps} timed steps"
         );
     }
     if let Some(m) = t.memory_bytes {
@@ -314,6 +330,7 @@ pub fn throughput_json(t: &Throughput) -> String {
             "submissions": submissions,
             "replayed": replayed,
         })),
+        "neighbour_builds": t.neighbour_builds,
         "end_time_secs": t.end_time_secs,
         "end_mean_position_m": t.end_mean_position_m,
         "kernels_ms": t.kernels_ms.as_ref().map(|k| {

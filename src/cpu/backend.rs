@@ -191,4 +191,8 @@ impl Backend for CpuBackend {
     fn state(&mut self) -> Result<State, BackendError> {
         Ok(self.state.clone())
     }
+
+    fn neighbour_builds(&mut self) -> Result<Option<u64>, BackendError> {
+        Ok(self.scratch.neighbour_builds())
+    }
 }

@@ -141,6 +141,11 @@ impl Gather {
         &self.springs
     }
 
+    /// How many times the neighbour lists have been built; `None` without mass–mass contact.
+    pub fn neighbour_builds(&self) -> Option<u64> {
+        self.neighbours.as_ref().map(Neighbours::builds)
+    }
+
     /// Mass `i`'s springs as they are now, each with the mass at its other end.
     pub(super) fn springs_of(&self, i: usize) -> impl Iterator<Item = (usize, &Spring)> {
         self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize]

@@ -64,6 +64,11 @@ impl Scratch {
         self.gather.springs()
     }
 
+    /// How many times the neighbour lists have been built; `None` without mass–mass contact.
+    pub fn neighbour_builds(&self) -> Option<u64> {
+        self.gather.neighbour_builds()
+    }
+
     /// Plastic flow and tearing after a step (see [`update_springs`]).
     pub fn update_springs(&mut self, state: &mut State) {
         state.ledger.plastic_j += update_springs(&self.limits, &mut self.gather, &state.x);

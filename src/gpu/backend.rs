@@ -78,15 +78,9 @@ impl GpuBackend {
         model: Arc<Model>,
         step: Step,
         adapter: Option<&str>,
-        (path, explicit): (Path, ExplicitPath),
+        paths: (Path, ExplicitPath),
     ) -> Result<Self, BackendError> {
-        Self::with_frame_state(
-            model,
-            step,
-            adapter,
-            (path, explicit),
-            FrameState::Workgroup,
-        )
+        Self::with_frame_state(model, step, adapter, paths, FrameState::Workgroup)
     }
 
     /// As `with_paths`, with the one-workgroup steps' state kept where `frame_state` says
@@ -594,5 +588,9 @@ impl Backend for GpuBackend {
 
     fn replays(&self) -> Option<u64> {
         (self.implicit_path == Some(Path::Passes)).then_some(self.replays)
+    }
+
+    fn neighbour_builds(&mut self) -> Result<Option<u64>, BackendError> {
+        Ok(GpuBackend::neighbour_builds(self)?.map(u64::from))
     }
 }

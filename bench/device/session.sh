@@ -1,8 +1,14 @@
 #!/usr/bin/env bash
 # Every open issue's GPU rows in three calls on one warm GPU machine (its 30 s idle window
-# between them), from the project root, after ../shared/gpu/kit.sh --peers and the baseline
-# binary of bench/device/issue29.sh's header, both recompressed
-# (xz -9e: .gpu/bin/hooke.xz, .gpu/old/hooke.xz):
+# between them), from the project root, after ../shared/gpu/kit.sh --peers and a baseline
+# binary, both recompressed (xz: .gpu/bin/hooke.xz, .gpu/old/hooke.xz). Build the baseline in
+# its own target folder seeded from ours (a target shared between two checkouts can keep a stale
+# binary: cargo compares file times, and the older checkout's files look up to date):
+#   git worktree add /tmp/old 0fbce83 && cp -a target /tmp/bt && (cd /tmp/old &&
+#     CARGO_TARGET_DIR=/tmp/bt cargo build --release --locked -q) && mkdir -p .gpu/old &&
+#     strip -o /tmp/hooke-old /tmp/bt/release/hooke && xz -6 -c /tmp/hooke-old >.gpu/old/hooke.xz
+#   ../shared/gpu/kit.sh --peers && gunzip -c .gpu/bin/hooke.gz | xz -6 >.gpu/bin/hooke.xz &&
+#     rm .gpu/bin/hooke.gz
 #   1. carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/w1"]:  bash bench/device/session.sh a
 #   2. carrying [".gpu/w2"]:                                       bash bench/device/session.sh b
 #   3. carrying [".gpu/w3"]:                                       bash bench/device/session.sh c

@@ -50,8 +50,8 @@ impl GpuBackend {
         }))
     }
 
-    /// For tests: how many times the GPU has built its neighbour lists. `None` without mass–mass
-    /// contact.
+    /// How many times the GPU has built its neighbour lists (tests, and `Backend::
+    /// neighbour_builds` for the benchmarks). `None` without mass–mass contact.
     #[doc(hidden)]
     pub fn neighbour_builds(&mut self) -> Result<Option<u32>, BackendError> {
         let Some(g) = self.resources.grid.as_ref() else {

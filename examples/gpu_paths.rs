@@ -79,7 +79,7 @@ fn main() -> anyhow::Result<()> {
             &model,
             integrator,
             StepOptions::default(),
-            be.explicit_path(),
+            (be.explicit_path(), be.sweeps_in_group()),
         );
         let dispatches = if d.in_group {
             format!("{} dispatch per submission", d.fixed)

@@ -26,8 +26,12 @@ override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
 override CG_FORCING: f32 = 0.1;
-// Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads; at most 64).
+// Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads), the
+// threads of its sums' first level (sum_level there) and the slots of implicit.wgsl's sum_sh
+// (the most threads any of its kernels has).
 override GROUP_THREADS: u32 = 64u;
+override SUM_LEVEL: u32 = 8u;
+override SUM_SLOTS: u32 = 64u;
 // Where the one-workgroup step keeps the solver's vectors and spring terms (implicit_terms.wgsl,
 // src/gpu/implicit/plan.rs's SolverHome), and the workgroup arrays' lengths in vec4s (1 when unused).
 override SOLVER_IN_WORKGROUP: bool = false;
@@ -53,8 +57,10 @@ fn has_contact_terms() -> bool {
 // link's spring kind starts (the bits below are the other mass's index).
 override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
-// Threads of fused_frame's one workgroup (src/gpu/dispatch.rs's frame_threads).
+// Threads of fused_frame's one workgroup (src/gpu/dispatch.rs's frame_threads), and of
+// vbd_sweeps' (vbd_threads there).
 override FRAME_THREADS: u32 = 64u;
+override VBD_THREADS: u32 = 64u;
 // How far apart the stage slots lie, in words (src/gpu/stages.rs's StageSlots::stride_for):
 // fused_frame reads every step's slot from them.
 override STAGE_STRIDE_WORDS: u32 = 8u;

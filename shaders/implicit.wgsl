@@ -74,9 +74,9 @@ struct Scratch {
     partials: array<vec4<f32>>,
 }
 
-var<workgroup> sum_sh: array<vec4<f32>, 64>;
+var<workgroup> sum_sh: array<vec4<f32>, SUM_SLOTS>;
 var<workgroup> flag_sh: u32;
-var<workgroup> part_sh: array<vec4<f32>, 8>;
+var<workgroup> part_sh: array<vec4<f32>, 32>;
 var<workgroup> total_sh: vec4<f32>;
 // The one-workgroup step's solver vectors and spring terms, when they fit (SOLVER_IN_WORKGROUP).
 var<workgroup> vectors_sh: array<vec4<f32>, WORKGROUP_VECTORS>;
@@ -85,15 +85,15 @@ var<workgroup> terms_sh: array<vec4<f32>, WORKGROUP_TERMS>;
 // ---- workgroup sums ----
 
 // The sum (or max, per component) of `value` over a workgroup of `threads` threads, the same for
-// every thread (a uniform value, so loops and branches on it may hold barriers). Two levels: 8
-// threads add strided eighths, then one adds those, always in the same order. Call from uniform
-// control flow.
-fn reduce_over(lid: u32, value: vec4<f32>, take_max: bool, threads: u32) -> vec4<f32> {
+// every thread (a uniform value, so loops and branches on it may hold barriers). Two levels:
+// `level` threads (at most 32) add strided shares, then one adds those, always in the same
+// order. Call from uniform control flow.
+fn reduce_over(lid: u32, value: vec4<f32>, take_max: bool, threads: u32, level: u32) -> vec4<f32> {
     sum_sh[lid] = value;
     workgroupBarrier();
-    if (lid < 8u) {
+    if (lid < level) {
         var acc = vec4<f32>(0.0);
-        for (var k = lid; k < threads; k += 8u) {
+        for (var k = lid; k < threads; k += level) {
             acc = combine(acc, sum_sh[k], take_max);
         }
         part_sh[lid] = acc;
@@ -101,7 +101,7 @@ fn reduce_over(lid: u32, value: vec4<f32>, take_max: bool, threads: u32) -> vec4
     workgroupBarrier();
     if (lid == 0u) {
         var total = vec4<f32>(0.0);
-        for (var k = 0u; k < min(threads, 8u); k++) {
+        for (var k = 0u; k < min(threads, level); k++) {
             total = combine(total, part_sh[k], take_max);
         }
         total_sh = total;
@@ -115,7 +115,7 @@ fn combine(acc: vec4<f32>, value: vec4<f32>, take_max: bool) -> vec4<f32> {
 }
 
 fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
-    return reduce_over(lid, value, take_max, WORKGROUP);
+    return reduce_over(lid, value, take_max, WORKGROUP, 8u);
 }
 
 // `flag` as read by the workgroup's first thread, the same for every thread (a uniform value for
@@ -139,7 +139,7 @@ fn vectors_barrier() {
 
 // The one-workgroup step's sums.
 fn group_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
-    return reduce_over(lid, value, take_max, GROUP_THREADS);
+    return reduce_over(lid, value, take_max, GROUP_THREADS, SUM_LEVEL);
 }
 
 // ---- one workgroup, the whole step ----

@@ -49,12 +49,17 @@ fn run_with(
     dt: f64,
     (path, home): (ExplicitPath, FrameState),
 ) -> ((State, u32, ExplicitPath), bool) {
-    let mut gpu = ok(GpuBackend::with_frame_state(
+    let tuning = hooke::gpu::Tuning {
+        implicit: ImplicitPath::Passes,
+        explicit: path,
+        frame_state: home,
+        ..hooke::gpu::Tuning::for_model(model)
+    };
+    let mut gpu = ok(GpuBackend::with_tuning(
         model.clone(),
         Step::new(integrator, dt),
         None,
-        (ImplicitPath::Passes, path),
-        home,
+        tuning,
     ));
     // Only small scenes step in one workgroup, the others fused a dispatch per step.
     let taken = gpu.explicit_path();

@@ -37,6 +37,25 @@ fn gpu_implicit_euler_matches_the_cpu() {
     }
 }
 
+/// The one-workgroup step with a GPU's threads (a thread per mass, sums in two levels of up to
+/// 32), run here on lavapipe, which takes 8: the same tolerance. hair: 128 threads for 100
+/// masses, its vectors in workgroup memory; jello-sphere: 1 024 threads for 1 000 masses and
+/// contacts, its vectors in the buffers.
+#[test]
+fn gpu_implicit_euler_in_one_workgroup_of_a_gpus_threads_matches_the_cpu() {
+    if !have_adapter() {
+        return;
+    }
+    for (name, frames, threads) in [("hair", 10, 128), ("jello-sphere", 20, 1024)] {
+        implicit_parity_with(
+            name,
+            frames,
+            hooke::gpu::ImplicitPath::InGroup,
+            Some(threads),
+        );
+    }
+}
+
 /// The path a larger system takes, a dispatch per pass (forced here on small ones): the same
 /// tolerance.
 #[test]
@@ -127,36 +146,58 @@ fn implicit_steps_take_one_workgroup_when_small() {
 }
 
 /// Where the one-workgroup step keeps its solver vectors and spring terms: workgroup memory when
-/// they fit the adapter's limit (hair: 800 + 740 vec4s, 25 KB with the sums' scratch and
-/// mass_force's unused word of fused_frame's state), the
-/// buffers otherwise and on the per-pass path. The in-group parity test above runs hair one way
-/// and jello-sphere the other on lavapipe (32 KB).
+/// they fit the adapter's limit (hair: 800 + 740 vec4s, 24 640 bytes, beside the sums' scratch:
+/// a slot per thread, at least 64, 32 partials and three words, and mass_force's unused word of
+/// fused_frame's state), the buffers otherwise and on the per-pass path. The in-group parity test
+/// above runs hair one way and jello-sphere the other on lavapipe (32 KB).
 #[test]
 fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() {
     use hooke::gpu::ImplicitPath::{InGroup, Passes};
     use hooke::gpu::SolverHome::{Buffers, Workgroup};
-    let home =
-        |name: &str, path, bytes| hooke::gpu::SolverHome::of(&scene_model(name).0, path, bytes);
+    let home = |name: &str, path, threads, bytes| {
+        hooke::gpu::SolverHome::of(&scene_model(name).0, path, (threads, bytes))
+    };
     let hair = Workgroup {
         vectors: 800,
         terms: 740,
     };
-    assert_eq!(home("hair", InGroup, 32 * 1024), hair);
-    assert_eq!(home("hair", InGroup, 25_840), hair);
-    assert_eq!(home("hair", InGroup, 25_839), Buffers);
-    assert_eq!(home("hair", Passes, 1 << 20), Buffers);
-    assert_eq!(home("jello", InGroup, 32 * 1024), Buffers);
+    assert_eq!(home("hair", InGroup, 8, 32 * 1024), hair);
+    // 8 threads (lavapipe) take the 64 slots of the per-pass kernels' sums.
+    assert_eq!(home("hair", InGroup, 8, 26_224), hair);
+    assert_eq!(home("hair", InGroup, 8, 26_223), Buffers);
+    // 128 threads (hair on a GPU) take 128.
+    assert_eq!(home("hair", InGroup, 128, 27_248), hair);
+    assert_eq!(home("hair", InGroup, 128, 27_247), Buffers);
+    assert_eq!(home("hair", Passes, 8, 1 << 20), Buffers);
+    assert_eq!(home("jello", InGroup, 8, 32 * 1024), Buffers);
 }
 
 fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
+    implicit_parity_with(name, frames, path, None);
+}
+
+/// As `implicit_parity`, the one-workgroup step with `threads` threads (by default the
+/// adapter's choice).
+fn implicit_parity_with(
+    name: &str,
+    frames: u64,
+    path: hooke::gpu::ImplicitPath,
+    threads: Option<u32>,
+) {
     let (model, _) = scene_model(name);
     let dt = 1.0 / 60.0;
     let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::Implicit, dt));
-    let mut gpu = ok(GpuBackend::with_paths(
+    let tuning = hooke::gpu::Tuning {
+        implicit: path,
+        explicit: hooke::gpu::ExplicitPath::Fused,
+        solver_threads: threads,
+        ..hooke::gpu::Tuning::for_model(&model)
+    };
+    let mut gpu = ok(GpuBackend::with_tuning(
         model.clone(),
         Step::new(Integrator::Implicit, dt),
         None,
-        (path, hooke::gpu::ExplicitPath::Fused),
+        tuning,
     ));
     let (mut worst_x, mut worst_v) = (0.0f64, 0.0f64);
     for frame in 1..=frames {

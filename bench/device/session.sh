@@ -103,6 +103,41 @@ one)
     for w in 64 4096 65536; do timeout 60 /tmp/dispatch_floor 2000 $w; done
   fi
   ;;
+l)
+  # Large steps (issue 31): implicit Euler's one-workgroup step at several thread counts and
+  # VBD's sweeps in one workgroup against a dispatch per colour (examples/large_steps.rs), then
+  # the one-step-per-frame rows, this binary against the baseline. Carrying [".gpu/bin",
+  # ".gpu/gl", ".gpu/old", ".gpu/ex", ".gpu/p"], .gpu/ex holding large_steps.xz:
+  #   strip -o /tmp/ls target/release/examples/large_steps && xz -6 -c /tmp/ls >.gpu/ex/large_steps.xz
+  nvidia-smi -L
+  old=/tmp/hooke-old
+  [ -x $old ] || { xz -dc .gpu/old/hooke.xz >$old && chmod +x $old; }
+  xz -dc .gpu/ex/large_steps.xz >/tmp/large_steps && chmod +x /tmp/large_steps
+  L=/tmp/large_steps
+  f=0.016666666666666666
+  timeout 120 $L bench/scenes/jello-60hz.toml $f 60 3 64,128,256,512,1024
+  timeout 60 $L bench/scenes/cloth-60hz.toml $f 60 3 64,256,1024
+  timeout 60 $L bench/scenes/hair-60hz.toml $f 240 3 64,128
+  sed 's/^frame_rate_hz = .*/frame_rate_hz = 60/; s/^substeps = .*/substeps = 1/' \
+    $G/peers/peer-cloth-64.toml >/tmp/peer-cloth-64-60hz.toml
+  timeout 60 $L /tmp/peer-cloth-64-60hz.toml $f 60 3
+  for tag in old new; do
+    b=$old
+    [ $tag = new ] && b=$H
+    row "31-$tag" $b bench/scenes/jello-60hz.toml --integrator implicit --steps 120 --batch 1
+    row "31-$tag" $b bench/scenes/jello-60hz.toml --integrator vbd --steps 600 --batch 60
+    row "31-$tag" $b bench/scenes/cloth-60hz.toml --integrator implicit --steps 120 --batch 1
+    row "31-$tag" $b bench/scenes/cloth-60hz.toml --integrator vbd --steps 600 --batch 60
+    row "31-$tag" $b bench/scenes/cloth-256-60hz.toml --integrator implicit --steps 60 --batch 1
+    row "31-$tag" $b bench/scenes/hair-60hz.toml --integrator implicit --steps 600 --batch 1
+    row "31-$tag" $b bench/scenes/hair-60hz.toml --integrator vbd --steps 600 --batch 60
+  done
+  peer60 64
+  if [ -f .gpu/ex/dispatch_floor.xz ]; then
+    xz -dc .gpu/ex/dispatch_floor.xz >/tmp/dispatch_floor && chmod +x /tmp/dispatch_floor
+    for w in 64 4096 65536; do timeout 60 /tmp/dispatch_floor 2000 $w; done
+  fi
+  ;;
 bisect)
   # Self-collision scenes for each binary in .gpu/bis/<commit>.xz, three interleaved rounds.
   for f in .gpu/bis/*.xz; do c=$(basename $f .xz); xz -dc $f >/tmp/hb-$c && chmod +x /tmp/hb-$c; done

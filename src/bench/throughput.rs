@@ -187,7 +187,7 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         model,
         settings.integrator,
         settings.options,
-        gpu.explicit_path(),
+        (gpu.explicit_path(), gpu.sweeps_in_group()),
     );
     // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
     if settings.integrator == Integrator::Implicit {

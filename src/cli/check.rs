@@ -372,24 +372,7 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
         }
         None => {}
     }
-    if settings.integrator == hooke::integrator::Integrator::Xpbd {
-        let colours = hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours();
-        let _ = writeln!(
-            s,
-            "  XPBD: {colours} spring colours × {} iteration(s): {} xpbd_solve_spring dispatches per substep",
-            settings.options.xpbd_iterations,
-            colours as u32 * settings.options.xpbd_iterations
-        );
-    }
-    if settings.integrator == hooke::integrator::Integrator::Vbd {
-        let colours = hooke::physics::vbd_colouring(model).colours();
-        let _ = writeln!(
-            s,
-            "  VBD: {colours} mass colours × {} sweep(s): {} vbd_solve_mass dispatches per step",
-            settings.options.vbd_iterations,
-            colours as u32 * settings.options.vbd_iterations
-        );
-    }
+    colour_sweeps(s, model, settings);
     let _ = writeln!(
         s,
         "  compiled-in effects: {}",
@@ -399,4 +382,42 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
             effects.join(", ")
         }
     );
+}
+
+/// XPBD's or VBD's sweeps: their colours, and whether a step (a substep, XPBD's) sweeps them in
+/// one dispatch of one workgroup or a dispatch per colour and sweep.
+fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
+    use hooke::integrator::Integrator;
+    use wgpu::DeviceType::{Cpu, DiscreteGpu};
+    let (what, colours, sweeps, kernel, per) = match settings.integrator {
+        Integrator::Xpbd => (
+            "XPBD: {} spring colours × {} iteration(s)",
+            hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours(),
+            settings.options.xpbd_iterations,
+            "xpbd_solve_spring",
+            "substep",
+        ),
+        Integrator::Vbd => (
+            "VBD: {} mass colours × {} sweep(s)",
+            hooke::physics::vbd_colouring(model).colours(),
+            settings.options.vbd_iterations,
+            "vbd_solve_mass",
+            "step",
+        ),
+        _ => return,
+    };
+    let head = what
+        .replacen("{}", &colours.to_string(), 1)
+        .replacen("{}", &sweeps.to_string(), 1);
+    let in_group = |device| hooke::gpu::sweeps_in_one_group(model, settings.integrator, device);
+    let dispatches = colours as u32 * sweeps;
+    let how = match (in_group(DiscreteGpu), in_group(Cpu)) {
+        (true, true) => format!("all in one dispatch of one workgroup per {per}"),
+        (true, false) => format!(
+            "all in one dispatch of one workgroup per {per} on a GPU; {dispatches} {kernel} \
+             dispatches per {per} on a CPU adapter, which runs a workgroup on one core"
+        ),
+        _ => format!("{dispatches} {kernel} dispatches per {per}"),
+    };
+    let _ = writeln!(s, "  {head}: {how}");
 }

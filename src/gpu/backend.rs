@@ -7,9 +7,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::context::{DeviceError, GpuContext, ReadBackOf};
-use super::dispatch::{Dispatch, FrameState, SLOTS_PER_STEP, frame_threads, why_not_in_group};
+use super::dispatch::{Dispatch, SLOTS_PER_STEP, why_not_in_group};
 use super::encode::{Dispatcher, in_pass};
-use super::implicit::{self, Budgets, ImplicitStep, Path, SolverHome};
+use super::implicit::{self, Budgets, ImplicitStep, Path};
 use super::kernels::Kernel;
 use super::layout::FrameSolve;
 use super::limits::check_fits;
@@ -17,8 +17,8 @@ use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
 use super::resources::Resources;
-use super::shaders::constants;
 use super::stages::{Clock, StageSlots};
+use super::tuning::{Tuning, specialise};
 use crate::backend::{Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, find_divergence};
 use crate::divergence::Divergence;
 use crate::integrator::{Integrator, Step};
@@ -65,8 +65,8 @@ impl GpuBackend {
     /// The GPU backend stepping `model` as `step` says, on the adapter whose name contains
     /// `adapter` (the best one when `None`).
     pub fn new(model: Arc<Model>, step: Step, adapter: Option<&str>) -> Result<Self, BackendError> {
-        let path = implicit::path(&model);
-        Self::with_paths(model, step, adapter, (path, ExplicitPath::InGroup))
+        let tuning = Tuning::for_model(&model);
+        Self::with_tuning(model, step, adapter, tuning)
     }
 
     /// As `new`, with implicit Euler's steps taken by `implicit` whatever the system's
@@ -78,21 +78,26 @@ impl GpuBackend {
         model: Arc<Model>,
         step: Step,
         adapter: Option<&str>,
-        paths: (Path, ExplicitPath),
+        (implicit, explicit): (Path, ExplicitPath),
     ) -> Result<Self, BackendError> {
-        Self::with_frame_state(model, step, adapter, paths, FrameState::Workgroup)
+        let tuning = Tuning {
+            implicit,
+            explicit,
+            ..Tuning::for_model(&model)
+        };
+        Self::with_tuning(model, step, adapter, tuning)
     }
 
-    /// As `with_paths`, with the one-workgroup steps' state kept where `frame_state` says
-    /// where it fits (the tests run both homes on one scene).
+    /// As `new`, with the choices `tuning` fixes (the tests and the benchmark examples compare
+    /// them on one scene).
     #[doc(hidden)]
-    pub fn with_frame_state(
+    pub fn with_tuning(
         model: Arc<Model>,
         step: Step,
         adapter: Option<&str>,
-        (path, explicit): (Path, ExplicitPath),
-        frame_state: FrameState,
+        tuning: Tuning,
     ) -> Result<Self, BackendError> {
+        let (path, explicit) = (tuning.implicit, tuning.explicit);
         let Step {
             integrator,
             dt_secs,
@@ -133,7 +138,7 @@ impl GpuBackend {
             Path::Passes => implicit::solver_groups(model.mass_count(), ctx.info.device_type),
             Path::InGroup => 1,
         };
-        let resources = Resources::new(
+        let mut resources = Resources::new(
             device,
             &ctx.limits,
             (&layouts, links.as_ref()),
@@ -141,40 +146,9 @@ impl GpuBackend {
             step,
             needed.implicit.map(|path| (path, grid(path))),
         );
-        let kind_shift = links.as_ref().map_or(31, |l| l.kind_shift);
-        let stencils = links.as_ref().is_some_and(|l| l.stencils.table.count > 0);
-        let group_threads = implicit::group_threads(ctx.info.device_type);
-        let (stage_stride, _) = StageSlots::stride_for(
-            ctx.limits.min_uniform_buffer_offset_alignment,
-            model.effects.colliders.len(),
-        );
-        let frame_threads = frame_threads(
-            ctx.info.device_type,
-            model.mass_count(),
-            ctx.limits
-                .max_compute_invocations_per_workgroup
-                .min(ctx.limits.max_compute_workgroup_size_x),
-        );
-        // The one-workgroup steps' state in workgroup memory where it fits.
-        let frame_state_masses = frame_state
-            .masses_in_workgroup(
-                model.mass_count(),
-                ctx.limits.max_compute_workgroup_storage_size,
-            )
-            .filter(|_| explicit == ExplicitPath::InGroup);
-        let home = match needed.implicit {
-            Some(path) => {
-                SolverHome::of(&model, path, ctx.limits.max_compute_workgroup_storage_size)
-            }
-            None => SolverHome::Buffers,
-        };
-        let constants = constants(
-            &model,
-            (integrator, dt_secs),
-            (kind_shift, stencils),
-            (group_threads, home.workgroup_arrays()),
-            (frame_threads, (stage_stride / 4) as u32, frame_state_masses),
-        );
+        let run = (model.as_ref(), step, explicit, needed.implicit);
+        let (constants, frame_state_in_workgroup) =
+            specialise(&ctx, run, &tuning, links.as_ref(), &mut resources);
         let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,
@@ -202,7 +176,7 @@ impl GpuBackend {
             recent_frames: VecDeque::new(),
             replays: 0,
             explicit_path: explicit,
-            frame_state_in_workgroup: frame_state_masses.is_some(),
+            frame_state_in_workgroup,
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -256,6 +230,11 @@ impl GpuBackend {
     /// Whether the steps in one workgroup keep the state in workgroup memory.
     pub fn frame_state_in_workgroup(&self) -> bool {
         self.frame_state_in_workgroup
+    }
+
+    /// Whether XPBD's or VBD's sweeps take one workgroup (`vbd_sweeps`, `xpbd_sweeps`).
+    pub fn sweeps_in_group(&self) -> bool {
+        self.resources.sweeps().one_group
     }
 
     /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:

@@ -313,19 +313,28 @@ bind_groups! {
         /// This group's colour and sweep, a window of one buffer holding them all.
         colour: Window "ColourRange",
     }
-    /// VBD's block solve of one colour (vbd.wgsl): `compute_forces`' group (mass_force reads
-    /// it), a group per colour.
-    VbdSolve @ 0 = ForcesModel + {
-        /// This group's colour, a window of one buffer holding them all.
-        colour: Window "ColourRange",
+    /// What VBD's block solve reads and writes (vbd_mass.wgsl): `compute_forces`' group
+    /// (mass_force reads it), the colours' masses, the step's start and the iterate.
+    VbdMasses @ 0 = ForcesModel + {
         /// Mass indices, colour by colour.
         colour_order: Read "array<u32>",
         /// The step's start.
         x: Read "array<vec4<f32>>",
         v: Read "array<vec4<f32>>",
-        /// The iterate (the xt and vt buffers): vbd_predict writes it, this refines it.
+        /// The iterate (the xt and vt buffers): vbd_predict writes it, the block solves refine it.
         x_in: ReadWrite "array<vec4<f32>>",
         v_in: ReadWrite "array<vec4<f32>>",
+    }
+    /// VBD's block solve of one colour (vbd.wgsl), a group per colour.
+    VbdSolve @ 0 = VbdMasses + {
+        /// This group's colour, a window of one buffer holding them all.
+        colour: Window "ColourRange",
+    }
+    /// `vbd_sweeps` (vbd_sweeps.wgsl): VBD's block solves, every sweep over every colour.
+    VbdSweeps @ 0 = VbdMasses + {
+        /// The sweeps, the colours, then where each colour's masses start in colour_order (one
+        /// more than colours).
+        sweep_plan: Read "array<u32>",
     }
     /// The fused steps (fused.wgsl); the state flows through group 1.
     Fused @ 0 {

@@ -66,6 +66,8 @@ pub struct ColourGroups {
     kinds: usize,
     workgroups: Vec<(u32, u32)>,
     pub sweeps: Sweeps,
+    /// The items of the widest colour.
+    pub widest: u32,
 }
 
 impl ColourGroups {
@@ -81,7 +83,9 @@ impl ColourGroups {
             .windows(2)
             .map(|w| groups_for(w[1] - w[0], max_per_dim))
             .collect();
+        let widest = starts.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0);
         Self {
+            widest,
             groups,
             kinds,
             sweeps: Sweeps {

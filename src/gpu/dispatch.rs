@@ -44,6 +44,58 @@ pub fn xpbd_in_one_group(spring_count: usize) -> bool {
     spring_count <= XPBD_ONE_GROUP_SPRINGS
 }
 
+/// Threads of the first level of implicit Euler's one-workgroup sums (`SUM_LEVEL`,
+/// shaders/implicit.wgsl): the fewest, a
+/// power of two from 8 to 32, whose square covers `threads`, so that neither level's adds are
+/// a long chain (64 threads: 8 of 8; 1 024: 32 of 32).
+pub fn sum_level(threads: u32) -> u32 {
+    let mut level = 8;
+    while level < 32 && level * level < threads {
+        level *= 2;
+    }
+    level
+}
+
+/// The most masses VBD sweeps in one workgroup (`vbd_sweeps.wgsl`) on a `device`. On a GPU,
+/// below it a colour holds a few hundred masses at most, which a dispatch per colour and sweep
+/// would spread over a few workgroups while paying a launch each (jello: 160 a step at one step
+/// per frame). A CPU adapter (lavapipe) runs a workgroup on one core: on two, one workgroup
+/// swept the hair 2.1× as fast, the jello and the cloth (1 000 masses) 0.94× (BENCHMARKS.md).
+pub fn vbd_one_group_masses(device: wgpu::DeviceType) -> usize {
+    match device {
+        wgpu::DeviceType::Cpu => 512,
+        _ => 4096,
+    }
+}
+
+/// Whether a VBD run with `mass_count` masses sweeps its colours in one dispatch on `device`.
+pub fn vbd_in_one_group(mass_count: usize, device: wgpu::DeviceType) -> bool {
+    mass_count <= vbd_one_group_masses(device)
+}
+
+/// Whether a run's colour sweeps (XPBD's springs, VBD's masses) take one workgroup on `device`.
+pub fn sweeps_in_one_group(
+    model: &crate::model::Model,
+    integrator: Integrator,
+    device: wgpu::DeviceType,
+) -> bool {
+    match integrator {
+        Integrator::Xpbd => xpbd_in_one_group(model.spring_count()),
+        Integrator::Vbd => vbd_in_one_group(model.mass_count(), device),
+        _ => false,
+    }
+}
+
+/// Threads of `vbd_sweeps`' workgroup whose widest colour has `widest` masses, on a `device`
+/// allowing `most` invocations in a workgroup's x: a CPU adapter (lavapipe) one SIMD vector, as
+/// `frame_threads`; a GPU a thread per mass of the widest colour, a warp's worth at least.
+pub fn vbd_threads(device: wgpu::DeviceType, widest: u32, most: u32) -> u32 {
+    match device {
+        wgpu::DeviceType::Cpu => 8,
+        _ => (32 * widest.div_ceil(32).max(1)).min(1024).min(most).max(1),
+    }
+}
+
 /// The most masses whose Euler or semi-implicit steps run a submission in one dispatch of one
 /// workgroup (`fused_frame.wgsl`, `plan::ExplicitPath::InGroup`) on a `device`: below it, a
 /// dispatch per step costs more in launches than one workgroup loses in parallelism. A CPU
@@ -196,6 +248,9 @@ mod tests {
     /// adapter's is one SIMD vector; a CPU adapter takes fewer masses in one workgroup.
     #[test]
     fn one_workgroup_is_sized_to_the_adapter() {
+        // Implicit Euler's sums: both levels short.
+        let levels = [8, 64, 65, 256, 257, 1024].map(sum_level);
+        assert_eq!(levels, [8, 8, 16, 16, 32, 32]);
         assert_eq!(frame_threads(DiscreteGpu, 100, 1024), 128);
         assert_eq!(frame_threads(DiscreteGpu, 1000, 1024), 1024);
         assert_eq!(frame_threads(DiscreteGpu, 2048, 1024), 1024);

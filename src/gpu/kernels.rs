@@ -268,6 +268,14 @@ macro_rules! kernel_table {
                 bytes: |z| z.n * (4 + 8 + 4 + 4 * 16 + 2 * 16) + z.ns * 2 * (8 + 20 + 2 * 16) + z.colliders,
             }
 
+            /// Every sweep over every colour in one workgroup, for small scenes.
+            VbdSweeps = vbd_sweeps in VbdSweeps {
+                group: VbdSweeps, threads: OneGroup, needs: Vbd,
+                cpu: "every sweep of vbd_solve_mass over every colour in one workgroup; the CPU's sweeps are in vbd.rs",
+                // As vbd_solve_mass over all the masses, once per sweep.
+                bytes: |z| z.n * (4 + 8 + 4 + 4 * 16 + 2 * 16) + z.ns * 2 * (8 + 20 + 2 * 16) + z.colliders,
+            }
+
             // ---- xpbd.wgsl: XPBD's springs, projected colour by colour ----
             /// Dispatched once per colour and sweep; its bytes are per sweep over all colours.
             XpbdSolveSpring = xpbd_solve_spring in Xpbd {

@@ -38,6 +38,7 @@ mod resources;
 mod shaders;
 mod stages;
 mod stencils;
+mod tuning;
 mod vbd;
 mod xpbd;
 
@@ -47,7 +48,8 @@ pub use context::{
     adapters, describe_error,
 };
 pub use dispatch::{
-    FRAME_STATE_BYTES_PER_MASS, FrameState, one_group_step_masses, why_not_in_group,
+    FRAME_STATE_BYTES_PER_MASS, FrameState, one_group_step_masses, sweeps_in_one_group,
+    vbd_one_group_masses, why_not_in_group,
 };
 pub use implicit::Budgets as ImplicitBudgets;
 pub use implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
@@ -58,3 +60,4 @@ pub use plan::ONE_GROUP_BUILD_MASSES;
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::{missing, program_groups, programs, unmet};
 pub use stencils::stencil_cover;
+pub use tuning::Tuning;

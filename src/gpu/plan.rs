@@ -2,7 +2,7 @@
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
 use super::dispatch::{
-    ColourPass, Dispatch, Flow, StateIn, Sweeps, why_not_in_group, xpbd_in_one_group,
+    ColourPass, Dispatch, Flow, StateIn, Sweeps, sweeps_in_one_group, why_not_in_group,
 };
 use super::implicit;
 use super::kernels::Kernel;
@@ -77,12 +77,17 @@ pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Di
     }
 }
 
-/// XPBD's substep between the kick and the new state: every sweep over every colour.
-fn xpbd_sweeps(sweeps: Sweeps) -> Vec<Dispatch> {
+/// Every sweep over every colour of `sweeps` at stage slot `slot`: one dispatch of `in_group`
+/// when they take one workgroup, else a dispatch of `per_colour` per colour and sweep.
+fn sweeps_plan(
+    (per_colour, in_group): (Kernel, Kernel),
+    sweeps: Sweeps,
+    slot: u32,
+) -> Vec<Dispatch> {
     if sweeps.one_group {
-        return vec![Dispatch::at(Kernel::XpbdSweeps, 0)];
+        return vec![Dispatch::at(in_group, slot)];
     }
-    colour_sweeps(Kernel::XpbdSolveSpring, sweeps, 0).collect()
+    colour_sweeps(per_colour, sweeps, slot).collect()
 }
 
 /// `kernel` over every colour of `sweeps`, once per sweep, at stage slot `slot`.
@@ -185,7 +190,7 @@ pub fn step_plan(
         // compute_forces is compiled with XPBD: every force but the springs'.
         Integrator::Xpbd => [forces(XV, 0), at(XpbdPredict, 0)]
             .into_iter()
-            .chain(xpbd_sweeps(sweeps))
+            .chain(sweeps_plan((XpbdSolveSpring, XpbdSweeps), sweeps, 0))
             .chain([at(XpbdUpdateVelocity, 0)])
             .collect(),
         // Implicit's solve is planned apart.
@@ -194,7 +199,7 @@ pub fn step_plan(
         // and collider poses); the forces there for the ledger; the new state.
         Integrator::Vbd => [at(VbdPredict, 0)]
             .into_iter()
-            .chain(colour_sweeps(VbdSolveMass, sweeps, 3))
+            .chain(sweeps_plan((VbdSolveMass, VbdSweeps), sweeps, 3))
             .chain([forces(XtVt, 3), at(VbdFinal, 3)])
             .collect(),
     };
@@ -271,7 +276,7 @@ pub fn step_passes(
     let one_sweep = Sweeps {
         colours: 1,
         iterations: 1,
-        one_group: xpbd_in_one_group(model.spring_count()),
+        one_group: sweeps_in_one_group(model, integrator, wgpu::DeviceType::DiscreteGpu),
     };
     let plan = steady_step_plan(model, integrator, path, one_sweep);
     passes.extend(plan.into_iter().map(|d| match d.colour {
@@ -314,18 +319,19 @@ pub fn sweeps_of(
     model: &Model,
     integrator: Integrator,
     options: crate::integrator::StepOptions,
+    one_group: bool,
 ) -> Sweeps {
     match integrator {
         Integrator::Xpbd => Sweeps {
             colours: crate::physics::colour_springs(&model.springs, &model.inv_mass).colours()
                 as u32,
             iterations: options.xpbd_iterations,
-            one_group: xpbd_in_one_group(model.spring_count()),
+            one_group,
         },
         Integrator::Vbd => Sweeps {
             colours: crate::physics::vbd_colouring(model).colours() as u32,
             iterations: options.vbd_iterations,
-            one_group: false,
+            one_group,
         },
         _ => Sweeps::default(),
     }
@@ -352,16 +358,17 @@ fn steady_step_plan(
 }
 
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
-/// evaluates a(x₀)), as the plans above record them on `path`.
+/// evaluates a(x₀)), as the plans above record them on `explicit`, with XPBD's or VBD's sweeps
+/// in one workgroup or not (`sweeps_in_group`: the run's, `GpuBackend::sweeps_in_group`).
 pub fn dispatches_per_step(
     model: &Model,
     integrator: Integrator,
     options: crate::integrator::StepOptions,
-    explicit: ExplicitPath,
+    (explicit, sweeps_in_group): (ExplicitPath, bool),
 ) -> DispatchCount {
     use implicit::*;
     let count = |n: usize| n as u32;
-    let sweeps = sweeps_of(model, integrator, options);
+    let sweeps = sweeps_of(model, integrator, options, sweeps_in_group);
     let steps = count(steady_step_plan(model, integrator, explicit, sweeps).len());
     match (integrator, path(model)) {
         (Integrator::Implicit, Path::InGroup) => DispatchCount {

@@ -8,12 +8,13 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 10] = [
+const LIBRARIES: [(&str, &str); 11] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
     ),
     ("mass_force", include_str!("../../shaders/mass_force.wgsl")),
+    ("vbd_mass", include_str!("../../shaders/vbd_mass.wgsl")),
     (
         "neighbour_walk",
         include_str!("../../shaders/neighbour_walk.wgsl"),
@@ -75,12 +76,13 @@ pub enum Program {
     Xpbd,
     XpbdSweeps,
     Vbd,
+    VbdSweeps,
     Fused,
     FusedFrame,
 }
 
 impl Program {
-    pub const ALL: [Program; 13] = [
+    pub const ALL: [Program; 14] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
@@ -92,6 +94,7 @@ impl Program {
         Program::Xpbd,
         Program::XpbdSweeps,
         Program::Vbd,
+        Program::VbdSweeps,
         Program::Fused,
         Program::FusedFrame,
     ];
@@ -128,6 +131,7 @@ impl Program {
             Program::Xpbd => file!("xpbd.wgsl"),
             Program::XpbdSweeps => file!("xpbd_sweeps.wgsl"),
             Program::Vbd => file!("vbd.wgsl"),
+            Program::VbdSweeps => file!("vbd_sweeps.wgsl"),
             Program::Fused => file!("fused.wgsl"),
             Program::FusedFrame => file!("fused_frame.wgsl"),
         }

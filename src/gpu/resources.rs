@@ -318,7 +318,10 @@ impl Resources {
             }),
             Integrator::Vbd => layouts.group(Group::VbdSolve).map(|layout| {
                 let setup = colour_setup(layout, options.vbd_iterations);
-                vbd_groups(&mut a, &b, model, &setup)
+                let sweeps_layout = layouts.group(Group::VbdSweeps);
+                let (colours, sweeps) = vbd_groups(&mut a, &b, model, &setup, sweeps_layout);
+                groups.groups[Group::VbdSweeps as usize] = sweeps;
+                colours
             }),
             _ => None,
         };

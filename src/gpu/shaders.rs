@@ -11,7 +11,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Shape};
 
 /// Every shader program as compiled: (file name, source).
-pub fn programs() -> [(&'static str, String); 13] {
+pub fn programs() -> [(&'static str, String); Program::ALL.len()] {
     Program::ALL.map(|p| (p.file(), source(p)))
 }
 
@@ -121,7 +121,8 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// whether grid bodies take their springs from stencils (`stencils.rs`); the
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
-/// the one-workgroup fused steps (`dispatch::frame_threads`), how far apart the stage slots
+/// the one-workgroup fused steps (`dispatch::frame_threads`) and of VBD's sweeps in one workgroup
+/// (`dispatch::vbd_threads`), how far apart the stage slots
 /// lie, in words (`StageSlots::stride_for`), and the masses whose state those steps keep in
 /// workgroup memory, if they do (`FrameState::masses_in_workgroup`).
 pub fn constants(
@@ -129,7 +130,7 @@ pub fn constants(
     (integrator, dt_secs): (Integrator, f64),
     (kind_shift, stencils): (u32, bool),
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
-    (frame_threads, stage_stride_words, frame_state): (u32, u32, Option<u32>),
+    ((frame_threads, vbd_threads), stage_stride_words, frame_state): ((u32, u32), u32, Option<u32>),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -162,7 +163,13 @@ pub fn constants(
         ("NEWTON_STALL", NEWTON_STALL),
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
+        (
+            "SUM_LEVEL",
+            f64::from(super::dispatch::sum_level(group_threads)),
+        ),
+        ("SUM_SLOTS", f64::from(group_threads.max(WORKGROUP))),
         ("FRAME_THREADS", f64::from(frame_threads)),
+        ("VBD_THREADS", f64::from(vbd_threads)),
         ("STAGE_STRIDE_WORDS", f64::from(stage_stride_words)),
     ]);
     // A workgroup array has at least one element, used or not.

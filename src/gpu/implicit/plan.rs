@@ -14,20 +14,25 @@ use crate::model::Model;
 /// pass spreads the masses over the device.
 pub const IN_GROUP_MAX_MASSES: usize = 2048;
 
-/// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL, at most 64). On a CPU adapter
-/// (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and each
-/// further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
-/// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU keeps 64.
-pub fn group_threads(device: wgpu::DeviceType) -> u32 {
+/// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL) for `mass_count` masses. On a
+/// CPU adapter (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and
+/// each further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
+/// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU runs the workgroup on one
+/// SM, where each CG iteration is a chain of passes over the masses with sums between them: a
+/// thread per mass, a warp's worth at least, up to the 1 024 a workgroup may hold.
+pub fn group_threads(device: wgpu::DeviceType, mass_count: usize) -> u32 {
     match device {
         wgpu::DeviceType::Cpu => 8,
-        _ => 64,
+        _ => (mass_count.div_ceil(32).clamp(2, 32) * 32) as u32,
     }
 }
 
-/// Workgroup memory the one-workgroup step's sums take (`sum_sh`, `part_sh`, `total_sh`,
-/// `flag_sh` in shaders/implicit.wgsl) and mass_force's unused word of `state_sh`, rounded up.
-const SUM_SCRATCH_BYTES: u64 = 64 * 16 + 8 * 16 + 16 + 16 + 16;
+/// Workgroup memory the one-workgroup step's sums take with `threads` threads (`sum_sh`, at
+/// least the per-pass kernels' 64 slots, `part_sh`, `total_sh`, `flag_sh` in
+/// shaders/implicit.wgsl) and mass_force's unused word of `state_sh`, rounded up.
+fn sum_scratch_bytes(threads: u32) -> u64 {
+    16 * u64::from(threads.max(64)) + 32 * 16 + 16 + 16 + 16
+}
 
 /// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
 /// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the
@@ -46,10 +51,11 @@ pub enum SolverHome {
 }
 
 impl SolverHome {
-    pub fn of(model: &Model, path: Path, workgroup_bytes: u32) -> Self {
+    /// For `model` on `path`, with `threads` in the one-workgroup step.
+    pub fn of(model: &Model, path: Path, (threads, workgroup_bytes): (u32, u32)) -> Self {
         let vectors = SOLVER_VECTORS * model.mass_count() as u64;
         let terms = 2 * model.adjacency.entries.len() as u64;
-        let bytes = 16 * (vectors + terms) + SUM_SCRATCH_BYTES;
+        let bytes = 16 * (vectors + terms) + sum_scratch_bytes(threads);
         match (path, u32::try_from(vectors), u32::try_from(terms)) {
             (Path::InGroup, Ok(vectors), Ok(terms))
                 if bytes <= u64::from(workgroup_bytes) && terms > 0 =>
@@ -143,5 +149,22 @@ pub fn passes(path: Path) -> String {
             names(&NEWTON_END),
             names(&END)
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::DeviceType::{Cpu, DiscreteGpu};
+
+    /// A GPU's workgroup has a thread per mass in whole warps, two warps at least and 1 024 at
+    /// most; a CPU adapter's is one SIMD register.
+    #[test]
+    fn the_one_workgroup_step_is_sized_to_the_adapter() {
+        assert_eq!(group_threads(Cpu, 1000), 8);
+        assert_eq!(group_threads(DiscreteGpu, 10), 64);
+        assert_eq!(group_threads(DiscreteGpu, 100), 128);
+        assert_eq!(group_threads(DiscreteGpu, 1000), 1024);
+        assert_eq!(group_threads(DiscreteGpu, 2048), 1024);
     }
 }

@@ -1,0 +1,113 @@
+//! The choices a GPU run makes for itself: which path its steps take, where a small scene's
+//! state lives between steps, how many threads a one-workgroup solve has, whether VBD sweeps its
+//! colours in one workgroup. `GpuBackend::new` takes the defaults; the tests and the benchmark
+//! examples fix one choice at a time to compare the paths on one scene.
+
+use super::context::GpuContext;
+use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_threads};
+use super::implicit::{self, Path, SolverHome};
+use super::links::Links;
+use super::plan::ExplicitPath;
+use super::resources::Resources;
+use super::shaders::constants;
+use super::stages::StageSlots;
+use crate::integrator::{Integrator, Step};
+use crate::model::Model;
+
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Tuning {
+    /// Implicit Euler's steps, whatever the system's size (by default `implicit::path`).
+    pub implicit: Path,
+    /// The explicit steps, where the run allows it, else the next path open to it (`InGroup`,
+    /// then `Fused`, then `General`).
+    pub explicit: ExplicitPath,
+    /// Where `fused_frame` keeps a submission's state, where it fits.
+    pub frame_state: FrameState,
+    /// Threads of implicit Euler's one-workgroup step (by default `implicit::group_threads`).
+    pub solver_threads: Option<u32>,
+    /// VBD's sweeps in one workgroup (`Some(true)`, whatever the scene's size), a dispatch per
+    /// colour and sweep (`Some(false)`), or as the scene's size says on the adapter
+    /// (`None`: `vbd_in_one_group`).
+    pub vbd_in_group: Option<bool>,
+}
+
+impl Tuning {
+    /// What a run of `model` chooses for itself.
+    pub fn for_model(model: &Model) -> Self {
+        Self {
+            implicit: implicit::path(model),
+            explicit: ExplicitPath::InGroup,
+            frame_state: FrameState::Workgroup,
+            solver_threads: None,
+            vbd_in_group: None,
+        }
+    }
+}
+
+/// The override constants a run's pipelines are compiled with (`shaders::constants`), each
+/// one-workgroup kernel sized to the adapter in `ctx` as `tuning` says, and whether `fused_frame`
+/// keeps its state in workgroup memory. `run`: the model, its step, its explicit path and its
+/// implicit one (if it is implicit Euler's); `links`: the fused steps' links, if it has them.
+/// VBD's sweeps leave one workgroup here when `tuning` says so.
+pub(super) fn specialise(
+    ctx: &GpuContext,
+    (model, step, explicit, implicit): (&Model, Step, ExplicitPath, Option<Path>),
+    tuning: &Tuning,
+    links: Option<&Links>,
+    resources: &mut Resources,
+) -> (Vec<(&'static str, f64)>, bool) {
+    let device = ctx.info.device_type;
+    let limits = &ctx.limits;
+    let kind_shift = links.map_or(31, |l| l.kind_shift);
+    let stencils = links.is_some_and(|l| l.stencils.table.count > 0);
+    let group_threads = tuning
+        .solver_threads
+        .unwrap_or_else(|| implicit::group_threads(device, model.mass_count()));
+    let (stage_stride, _) = StageSlots::stride_for(
+        limits.min_uniform_buffer_offset_alignment,
+        model.effects.colliders.len(),
+    );
+    let widest_group = limits
+        .max_compute_invocations_per_workgroup
+        .min(limits.max_compute_workgroup_size_x);
+    let frame_threads = frame_threads(device, model.mass_count(), widest_group);
+    if let Some(colours) = resources.colours.as_mut()
+        && step.integrator == Integrator::Vbd
+    {
+        colours.sweeps.one_group = tuning
+            .vbd_in_group
+            .unwrap_or_else(|| vbd_in_one_group(model.mass_count(), device));
+    }
+    let vbd_threads = resources
+        .colours
+        .as_ref()
+        .map_or(1, |c| vbd_threads(device, c.widest, widest_group));
+    // The one-workgroup steps' state in workgroup memory where it fits.
+    let frame_state_masses = tuning
+        .frame_state
+        .masses_in_workgroup(
+            model.mass_count(),
+            limits.max_compute_workgroup_storage_size,
+        )
+        .filter(|_| explicit == ExplicitPath::InGroup);
+    let home = match implicit {
+        Some(path) => {
+            let bytes = limits.max_compute_workgroup_storage_size;
+            SolverHome::of(model, path, (group_threads, bytes))
+        }
+        None => SolverHome::Buffers,
+    };
+    let constants = constants(
+        model,
+        (step.integrator, step.dt_secs),
+        (kind_shift, stencils),
+        (group_threads, home.workgroup_arrays()),
+        (
+            (frame_threads, vbd_threads),
+            (stage_stride / 4) as u32,
+            frame_state_masses,
+        ),
+    );
+    (constants, frame_state_masses.is_some())
+}

@@ -39,8 +39,8 @@ fn gpu_implicit_euler_matches_the_cpu() {
 
 /// The one-workgroup step with a GPU's threads (a thread per mass, sums in two levels of up to
 /// 32), run here on lavapipe, which takes 8: the same tolerance. hair: 128 threads for 100
-/// masses, its vectors in workgroup memory; jello-sphere: 1 024 threads for 1 000 masses and
-/// contacts, its vectors in the buffers.
+/// masses, its vectors in workgroup memory; jello-sphere: 1 024 threads (the widest workgroup; a
+/// GPU takes 512) for 1 000 masses and contacts, its vectors in the buffers.
 #[test]
 fn gpu_implicit_euler_in_one_workgroup_of_a_gpus_threads_matches_the_cpu() {
     if !have_adapter() {

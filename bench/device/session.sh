@@ -10,6 +10,8 @@
 #   ../shared/gpu/kit.sh --peers && gunzip -c .gpu/bin/hooke.gz | xz -6 >.gpu/bin/hooke.xz &&
 #     rm .gpu/bin/hooke.gz
 #   1. carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/w1"]:  bash bench/device/session.sh a
+#      (or, for the peers alone, carrying [".gpu/bin", ".gpu/gl", ".gpu/w1"]: session.sh w, then
+#      [".gpu/w2"]: w, then [".gpu/w3", ".gpu/p"]: c)
 #   2. carrying [".gpu/w2"]:                                       bash bench/device/session.sh b
 #   3. carrying [".gpu/w3"]:                                       bash bench/device/session.sh c
 # a: issue 29's rows, this binary against the baseline (round 1), issue 31's rows at 1/60 s;
@@ -26,14 +28,16 @@ mkdir -p /tmp/parts
 # gather in /tmp/parts, the binaries in /tmp, and .gpu/p (env.sh and the peers' scripts, small)
 # travels with every call after the first.
 for w in .gpu/w1 .gpu/w2; do [ -d $w ] && cp $w/* /tmp/parts/; done
-[ "$phase" = w ] && { ls -la /tmp/parts; exit 0; }
 G=.gpu/bin
 [ -f $G/env.sh ] || G=.gpu/p
 # The binaries travel xz-compressed (14 MB each, against 22 gzipped) so that both fit in one
 # call beside Warp's first part.
 # A binary that travels replaces the one a warm machine kept.
 [ -f .gpu/bin/hooke.xz ] && xz -dc .gpu/bin/hooke.xz >/tmp/hooke && chmod +x /tmp/hooke
-. $G/env.sh
+# The Vulkan loader is installed by the call that carries .gpu/gl (w's first call too: phase c
+# carries no .gpu/gl, and its Hooke rows found no loader when w skipped this).
+[ -f $G/env.sh ] && . $G/env.sh
+[ "$phase" = w ] && { ls -la /tmp/parts; exit 0; }
 J="--json --repeat 3"
 rows=$out/$phase.jsonl
 : >"$rows"
@@ -115,8 +119,8 @@ l)
   xz -dc .gpu/ex/large_steps.xz >/tmp/large_steps && chmod +x /tmp/large_steps
   L=/tmp/large_steps
   f=0.016666666666666666
-  timeout 120 $L bench/scenes/jello-60hz.toml $f 60 3 64,128,256,512,1024
-  timeout 60 $L bench/scenes/cloth-60hz.toml $f 60 3 64,256,1024
+  timeout 120 $L bench/scenes/jello-60hz.toml $f 60 3 ${JELLO_THREADS:-64,128,256,512,1024}
+  timeout 60 $L bench/scenes/cloth-60hz.toml $f 60 3 ${CLOTH_THREADS:-64,256,1024}
   timeout 60 $L bench/scenes/hair-60hz.toml $f 240 3 64,128
   sed 's/^frame_rate_hz = .*/frame_rate_hz = 60/; s/^substeps = .*/substeps = 1/' \
     $G/peers/peer-cloth-64.toml >/tmp/peer-cloth-64-60hz.toml

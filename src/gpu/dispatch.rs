@@ -56,15 +56,16 @@ pub fn sum_level(threads: u32) -> u32 {
     level
 }
 
-/// The most masses VBD sweeps in one workgroup (`vbd_sweeps.wgsl`) on a `device`. On a GPU,
-/// below it a colour holds a few hundred masses at most, which a dispatch per colour and sweep
-/// would spread over a few workgroups while paying a launch each (jello: 160 a step at one step
-/// per frame). A CPU adapter (lavapipe) runs a workgroup on one core: on two, one workgroup
-/// swept the hair 2.1× as fast, the jello and the cloth (1 000 masses) 0.94× (BENCHMARKS.md).
+/// The most masses VBD sweeps in one workgroup (`vbd_sweeps.wgsl`) on a `device`, instead of a
+/// dispatch per colour and sweep. On an H100 at one step per frame (BENCHMARKS.md), one
+/// workgroup swept the hair (100 masses) 1.8-2x as fast, the cloth and the jello (1 000)
+/// 1.0-1.05x, the peer cloth at N = 64 (4 096) 0.52x: there a colour's masses fill many SMs.
+/// A CPU adapter (lavapipe) runs a workgroup on one core: on two, one workgroup swept the hair
+/// 2.1x as fast, the jello and the cloth 0.94x.
 pub fn vbd_one_group_masses(device: wgpu::DeviceType) -> usize {
     match device {
         wgpu::DeviceType::Cpu => 512,
-        _ => 4096,
+        _ => 1024,
     }
 }
 

@@ -61,9 +61,15 @@ pub(super) fn specialise(
     let limits = &ctx.limits;
     let kind_shift = links.map_or(31, |l| l.kind_shift);
     let stencils = links.is_some_and(|l| l.stencils.table.count > 0);
-    let group_threads = tuning
-        .solver_threads
-        .unwrap_or_else(|| implicit::group_threads(device, model.mass_count()));
+    // The one-workgroup step's threads; a run without it keeps the per-pass kernels' 64 slots of
+    // sums (implicit.wgsl's sum_sh, in every kernel of the file: more would cost each workgroup
+    // of the per-pass path occupancy, cloth-256 a third of its speed on an H100).
+    let group_threads = match implicit {
+        Some(Path::InGroup) => tuning
+            .solver_threads
+            .unwrap_or_else(|| implicit::group_threads(device, model.mass_count())),
+        _ => super::shaders::WORKGROUP,
+    };
     let (stage_stride, _) = StageSlots::stride_for(
         limits.min_uniform_buffer_offset_alignment,
         model.effects.colliders.len(),

@@ -19,11 +19,13 @@ pub const IN_GROUP_MAX_MASSES: usize = 2048;
 /// each further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
 /// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU runs the workgroup on one
 /// SM, where each CG iteration is a chain of passes over the masses with sums between them: a
-/// thread per mass, a warp's worth at least, up to the 1 024 a workgroup may hold.
+/// thread per mass, in whole warps, two at least and 512 at most. On an H100 the jello (1 000
+/// masses) stepped at 1/60 s 125, 201, 358, 493 and 402 times a second with 64, 128, 256, 512
+/// and 1 024 threads (BENCHMARKS.md): 1 024 leave each thread 64 registers.
 pub fn group_threads(device: wgpu::DeviceType, mass_count: usize) -> u32 {
     match device {
         wgpu::DeviceType::Cpu => 8,
-        _ => (mass_count.div_ceil(32).clamp(2, 32) * 32) as u32,
+        _ => (mass_count.div_ceil(32).clamp(2, 16) * 32) as u32,
     }
 }
 
@@ -157,14 +159,14 @@ mod tests {
     use super::*;
     use wgpu::DeviceType::{Cpu, DiscreteGpu};
 
-    /// A GPU's workgroup has a thread per mass in whole warps, two warps at least and 1 024 at
+    /// A GPU's workgroup has a thread per mass in whole warps, two warps at least and 512 at
     /// most; a CPU adapter's is one SIMD register.
     #[test]
     fn the_one_workgroup_step_is_sized_to_the_adapter() {
         assert_eq!(group_threads(Cpu, 1000), 8);
         assert_eq!(group_threads(DiscreteGpu, 10), 64);
         assert_eq!(group_threads(DiscreteGpu, 100), 128);
-        assert_eq!(group_threads(DiscreteGpu, 1000), 1024);
-        assert_eq!(group_threads(DiscreteGpu, 2048), 1024);
+        assert_eq!(group_threads(DiscreteGpu, 500), 512);
+        assert_eq!(group_threads(DiscreteGpu, 2048), 512);
     }
 }

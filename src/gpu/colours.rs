@@ -49,6 +49,22 @@ impl ColourWindows {
     }
 }
 
+/// What a one-workgroup sweeps kernel (`xpbd_sweeps`, `vbd_sweeps`) loops over, in one buffer:
+/// the sweeps, the colours, then where each colour's items start (one more than colours).
+pub(super) fn sweep_plan(
+    a: &mut Alloc<'_>,
+    label: &str,
+    iterations: u32,
+    starts: &[u32],
+) -> wgpu::Buffer {
+    let colours = starts.len().saturating_sub(1) as u32;
+    let plan: Vec<u32> = [iterations, colours]
+        .into_iter()
+        .chain(starts.iter().copied())
+        .collect();
+    a.model(label, bytemuck::cast_slice(&plan))
+}
+
 /// What a colour kernel's groups are made from: its bind group layout, a step's sweeps, and the
 /// adapter's limits.
 pub struct ColourSetup<'a> {

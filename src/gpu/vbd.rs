@@ -6,7 +6,7 @@
 
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::colours::{ColourGroups, ColourSetup, ColourWindows};
+use super::colours::{ColourGroups, ColourSetup, ColourWindows, sweep_plan};
 use crate::model::Model;
 use crate::physics::vbd_colouring;
 
@@ -40,12 +40,7 @@ pub(super) fn vbd_groups(
             bind_group(a.device, s.layout, &group)
         })
         .collect();
-    // The sweeps, the colours, then the colours' starts: what vbd_sweeps loops over.
-    let plan: Vec<u32> = [s.iterations, colours as u32]
-        .into_iter()
-        .chain(colouring.starts.iter().copied())
-        .collect();
-    let sweep_plan = a.model("vbd sweep plan", bytemuck::cast_slice(&plan));
+    let sweep_plan = sweep_plan(a, "vbd sweep plan", s.iterations, &colouring.starts);
     let sweeps_group = sweeps_layout.map(|layout| {
         let group = buffers::VbdSweeps {
             base: masses(),

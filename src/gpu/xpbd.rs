@@ -5,7 +5,7 @@
 
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
-use super::colours::{ColourGroups, ColourSetup, ColourWindows};
+use super::colours::{ColourGroups, ColourSetup, ColourWindows, sweep_plan};
 use super::dispatch::xpbd_in_one_group;
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
@@ -47,12 +47,7 @@ pub(super) fn xpbd_groups(
             bind_group(a.device, s.layout, &group)
         })
         .collect();
-    // The sweeps, the colours, then the colours' starts: what xpbd_sweeps loops over.
-    let plan: Vec<u32> = [s.iterations, colours as u32]
-        .into_iter()
-        .chain(colouring.starts.iter().copied())
-        .collect();
-    let sweep_plan = a.model("xpbd sweep plan", bytemuck::cast_slice(&plan));
+    let sweep_plan = sweep_plan(a, "xpbd sweep plan", s.iterations, &colouring.starts);
     let sweeps_group = sweeps_layout.map(|layout| {
         let group = buffers::XpbdSweeps {
             base: springs(),

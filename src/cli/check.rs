@@ -389,26 +389,24 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
 fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
     use hooke::integrator::Integrator;
     use wgpu::DeviceType::{Cpu, DiscreteGpu};
-    let (what, colours, sweeps, kernel, per) = match settings.integrator {
+    let (colours, sweeps) = match settings.integrator {
         Integrator::Xpbd => (
-            "XPBD: {} spring colours × {} iteration(s)",
             hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours(),
             settings.options.xpbd_iterations,
-            "xpbd_solve_spring",
-            "substep",
         ),
         Integrator::Vbd => (
-            "VBD: {} mass colours × {} sweep(s)",
             hooke::physics::vbd_colouring(model).colours(),
             settings.options.vbd_iterations,
-            "vbd_solve_mass",
-            "step",
         ),
         _ => return,
     };
-    let head = what
-        .replacen("{}", &colours.to_string(), 1)
-        .replacen("{}", &sweeps.to_string(), 1);
+    let (head, kernel, per) = if settings.integrator == Integrator::Xpbd {
+        let head = format!("XPBD: {colours} spring colours × {sweeps} iteration(s)");
+        (head, "xpbd_solve_spring", "substep")
+    } else {
+        let head = format!("VBD: {colours} mass colours × {sweeps} sweep(s)");
+        (head, "vbd_solve_mass", "step")
+    };
     let in_group = |device| hooke::gpu::sweeps_in_one_group(model, settings.integrator, device);
     let dispatches = colours as u32 * sweeps;
     let how = match (in_group(DiscreteGpu), in_group(Cpu)) {

@@ -45,9 +45,9 @@ pub fn xpbd_in_one_group(spring_count: usize) -> bool {
 }
 
 /// Threads of the first level of implicit Euler's one-workgroup sums (`SUM_LEVEL`,
-/// shaders/implicit.wgsl): the fewest, a
-/// power of two from 8 to 32, whose square covers `threads`, so that neither level's adds are
-/// a long chain (64 threads: 8 of 8; 1 024: 32 of 32).
+/// shaders/implicit.wgsl): the fewest, a power of two from 8 to 32, whose square covers
+/// `threads`, so that neither level's adds are a long chain (64 threads: 8 of 8; 1 024: 32 of
+/// 32).
 pub fn sum_level(threads: u32) -> u32 {
     let mut level = 8;
     while level < 32 && level * level < threads {

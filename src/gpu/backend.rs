@@ -149,8 +149,7 @@ impl GpuBackend {
         let run = (model.as_ref(), step, explicit, needed.implicit);
         let (constants, frame_state_in_workgroup) =
             specialise(&ctx, run, &tuning, links.as_ref(), &mut resources);
-        let checks = (needed, tuning.shader_checks);
-        let pipelines = Pipelines::new(device, &layouts, &constants, checks);
+        let pipelines = Pipelines::new(device, &layouts, &constants, needed);
         let stages = StageSlots::new(
             device,
             layouts.stages(),

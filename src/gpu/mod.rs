@@ -60,4 +60,4 @@ pub use plan::ONE_GROUP_BUILD_MASSES;
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::{missing, program_groups, programs, unmet};
 pub use stencils::stencil_cover;
-pub use tuning::{ShaderChecks, Tuning};
+pub use tuning::Tuning;

@@ -115,24 +115,6 @@ impl Needed {
     }
 }
 
-/// Whether wgpu injects its runtime checks into the kernels (an index clamped at every access to
-/// a workgroup array, and to a buffer where the driver does not bound it; a counter in every
-/// loop), or takes them as trusted (`Pipelines::new` says why they may be).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ShaderChecks {
-    Injected,
-    Trusted,
-}
-
-/// The checks a trusted kernel keeps: every one but bounds and loop bounding.
-fn trusted_checks() -> wgpu::ShaderRuntimeChecks {
-    wgpu::ShaderRuntimeChecks {
-        bounds_checks: false,
-        force_loop_bounding: false,
-        ..wgpu::ShaderRuntimeChecks::checked()
-    }
-}
-
 /// A pipeline per kernel the run needs.
 pub struct Pipelines {
     by_kernel: Vec<Option<wgpu::ComputePipeline>>,
@@ -143,7 +125,7 @@ impl Pipelines {
         device: &wgpu::Device,
         layouts: &Layouts,
         constants: &[(&str, f64)],
-        (needed, checks): (Needed, ShaderChecks),
+        needed: Needed,
     ) -> Self {
         let wanted = |k: &Kernel| needed.has(k.spec().needs);
         let modules: Vec<Option<wgpu::ShaderModule>> = Program::ALL
@@ -153,25 +135,10 @@ impl Pipelines {
                     .iter()
                     .any(|k| k.spec().program == p && wanted(k));
                 used.then(|| {
-                    let desc = wgpu::ShaderModuleDescriptor {
+                    device.create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(p.file()),
                         source: wgpu::ShaderSource::Wgsl(source(p).into()),
-                    };
-                    match checks {
-                        ShaderChecks::Injected => device.create_shader_module(desc),
-                        // SAFETY: the two checks left out guard against out-of-range indices and
-                        // endless loops. Every program is this crate's own WGSL, compiled into the
-                        // binary; every index it takes comes from the model's own layouts (the
-                        // CSR, the links, the colour orders, built and checked on the host) or
-                        // from a loop over a workgroup array sized by the same constant, and every
-                        // loop is bounded by a count of the model's or a solver's cap
-                        // (CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, the sweeps). Where the driver
-                        // bounds buffer access itself (Vulkan's robustBufferAccess2), it still
-                        // does. The suite runs every kernel on lavapipe.
-                        ShaderChecks::Trusted => unsafe {
-                            device.create_shader_module_trusted(desc, trusted_checks())
-                        },
-                    }
+                    })
                 })
             })
             .collect();

@@ -7,7 +7,6 @@ use super::context::GpuContext;
 use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_threads};
 use super::implicit::{self, Path, SolverHome};
 use super::links::Links;
-pub use super::pipelines::ShaderChecks;
 use super::plan::ExplicitPath;
 use super::resources::Resources;
 use super::shaders::constants;
@@ -31,8 +30,6 @@ pub struct Tuning {
     /// colour and sweep (`Some(false)`), or as the scene's size says on the adapter
     /// (`None`: `vbd_in_one_group`).
     pub vbd_in_group: Option<bool>,
-    /// Whether wgpu injects its runtime checks into the kernels.
-    pub shader_checks: ShaderChecks,
 }
 
 impl Tuning {
@@ -44,7 +41,6 @@ impl Tuning {
             frame_state: FrameState::Workgroup,
             solver_threads: None,
             vbd_in_group: None,
-            shader_checks: ShaderChecks::Injected,
         }
     }
 }

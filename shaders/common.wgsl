@@ -58,9 +58,10 @@ fn has_contact_terms() -> bool {
 override SEMI_IMPLICIT: bool = false;
 override KIND_SHIFT: u32 = 31u;
 // Threads of fused_frame's one workgroup (src/gpu/dispatch.rs's frame_threads), and of
-// vbd_sweeps' (vbd_threads there).
+// vbd_sweeps' (vbd_threads there); the threads VBD shares a mass's springs among (vbd_lanes).
 override FRAME_THREADS: u32 = 64u;
 override VBD_THREADS: u32 = 64u;
+override VBD_LANES: u32 = 1u;
 // How far apart the stage slots lie, in words (src/gpu/stages.rs's StageSlots::stride_for):
 // fused_frame reads every step's slot from them.
 override STAGE_STRIDE_WORDS: u32 = 8u;

@@ -50,7 +50,6 @@ struct MassForce {
 fn mass_force(i: u32) -> MassForce {
     let xi = x_at(i);
     let vi = v_at(i);
-    let m = mass[i].x;
     var f = vec3<f32>(0.0);
     var damping_w = 0.0;
     // XPBD without dashpots needs nothing of the springs here.
@@ -83,6 +82,16 @@ fn mass_force(i: u32) -> MassForce {
             f += n * elastic;
         }
     }
+    return mass_force_beyond_springs(i, xi, vi, f, damping_w);
+}
+
+// The rest of mass i's force at x_i, v_i, its springs' `f_springs` and their dashpots' power
+// `damping_w` taken: gravity, drag, the ground and the colliders (whose friction asks the force
+// so far), as mass_force's acceleration and ledger rates, and with IMPLICIT the contacts' block.
+// VBD (vbd_mass.wgsl) sums the springs its own way and calls it too.
+fn mass_force_beyond_springs(i: u32, xi: vec3<f32>, vi: vec3<f32>, f_springs: vec3<f32>, damping_w: f32) -> MassForce {
+    let m = mass[i].x;
+    var f = f_springs;
     if (HAS_GRAVITY) {
         f += m * params.gravity;
     }

@@ -186,8 +186,11 @@ fn gpu_vbd_matches_the_cpu() {
 }
 
 /// VBD's sweeps in one workgroup (small scenes, vbd_sweeps.wgsl) against a dispatch per colour
-/// and sweep (vbd.wgsl): each mass's arithmetic is the same function and a colour's masses share
-/// no spring, so the states agree bit for bit, contacts and a moving collider included.
+/// and sweep (vbd.wgsl), with a mass's springs in one lane (a CPU adapter's choice) and shared
+/// among 8 (a GPU's): each mass's arithmetic is the same functions and a colour's masses share no
+/// spring, so the states agree bit for bit, contacts and a moving collider included; and with 8
+/// lanes, which add the springs in another order than the CPU, the GPU still meets the CPU to
+/// the parity tolerance.
 #[test]
 fn gpu_vbd_sweeps_in_one_workgroup_match_a_dispatch_per_colour() {
     use hooke::gpu::{GpuBackend, Tuning};
@@ -197,28 +200,44 @@ fn gpu_vbd_sweeps_in_one_workgroup_match_a_dispatch_per_colour() {
     for (name, frames) in [("hair", 6), ("cloth", 4), ("jello-sphere", 20)] {
         let (model, _) = scene_model(name);
         let step = Step::new(Integrator::Vbd, FRAME_DT).with_options(vbd(10));
-        let [one, many] = [true, false].map(|vbd_in_group| {
-            let tuning = Tuning {
-                vbd_in_group: Some(vbd_in_group),
-                ..Tuning::for_model(&model)
-            };
-            let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
-            assert_eq!(gpu.sweeps_in_group(), vbd_in_group, "{name}");
-            for _ in 0..frames {
-                ok(gpu.advance(1));
+        for lanes in [1, 8] {
+            let [one, many] = [true, false].map(|vbd_in_group| {
+                let tuning = Tuning {
+                    vbd_in_group: Some(vbd_in_group),
+                    vbd_lanes: Some(lanes),
+                    ..Tuning::for_model(&model)
+                };
+                let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
+                assert_eq!(gpu.sweeps_in_group(), vbd_in_group, "{name}");
+                for _ in 0..frames {
+                    ok(gpu.advance(1));
+                }
+                ok(gpu.state())
+            });
+            let moved = one
+                .x
+                .iter()
+                .zip(&model.initial.x)
+                .any(|(a, b)| a.distance(*b) > 1e-3);
+            assert!(moved, "{name}: nothing moved");
+            assert!(
+                one.x == many.x && one.v == many.v,
+                "{name}, {lanes} lanes: one workgroup and a dispatch per colour differ"
+            );
+            if lanes > 1 {
+                let mut cpu = CpuBackend::new(model.clone(), step);
+                for _ in 0..frames {
+                    ok(cpu.advance(1));
+                }
+                let c = ok(cpu.state());
+                let worst =
+                    c.x.iter()
+                        .zip(&one.x)
+                        .map(|(a, b)| f64::from(a.distance(*b)))
+                        .fold(0.0, f64::max);
+                assert_parity(&format!("{name} vbd, {lanes} lanes"), &c, &one, worst);
             }
-            ok(gpu.state())
-        });
-        let moved = one
-            .x
-            .iter()
-            .zip(&model.initial.x)
-            .any(|(a, b)| a.distance(*b) > 1e-3);
-        assert!(moved, "{name}: nothing moved");
-        assert!(
-            one.x == many.x && one.v == many.v,
-            "{name}: one workgroup and a dispatch per colour differ"
-        );
+        }
     }
 }
 

@@ -417,5 +417,12 @@ fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
         ),
         _ => format!("{dispatches} {kernel} dispatches per {per}"),
     };
-    let _ = writeln!(s, "  {head}: {how}");
+    let lanes = match settings.integrator {
+        Integrator::Vbd => format!(
+            "; each mass's springs shared among {} threads on a GPU",
+            hooke::gpu::vbd_lanes(DiscreteGpu)
+        ),
+        _ => String::new(),
+    };
+    let _ = writeln!(s, "  {head}: {how}{lanes}");
 }

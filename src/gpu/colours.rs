@@ -80,6 +80,9 @@ pub struct ColourSetup<'a> {
 pub struct ColourGroups {
     groups: Vec<wgpu::BindGroup>,
     kinds: usize,
+    /// Each colour's items, and the workgroups over them.
+    counts: Vec<u32>,
+    max_per_dim: u32,
     workgroups: Vec<(u32, u32)>,
     pub sweeps: Sweeps,
     /// The items of the widest colour.
@@ -88,29 +91,38 @@ pub struct ColourGroups {
 
 impl ColourGroups {
     /// `groups` in colour order (each colour's `kinds` together) over the colours whose items
-    /// start at `starts`, swept `iterations` times a step.
+    /// start at `starts`, swept `iterations` times a step, a thread per item.
     pub(super) fn new(
         groups: Vec<wgpu::BindGroup>,
         kinds: usize,
         (starts, max_per_dim): (&[u32], u32),
         iterations: u32,
     ) -> Self {
-        let workgroups: Vec<(u32, u32)> = starts
-            .windows(2)
-            .map(|w| groups_for(w[1] - w[0], max_per_dim))
-            .collect();
-        let widest = starts.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0);
-        Self {
-            widest,
+        let counts: Vec<u32> = starts.windows(2).map(|w| w[1] - w[0]).collect();
+        let mut colour_groups = Self {
+            widest: counts.iter().copied().max().unwrap_or(0),
             groups,
             kinds,
             sweeps: Sweeps {
-                colours: workgroups.len() as u32,
+                colours: counts.len() as u32,
                 iterations,
                 one_group: false,
             },
-            workgroups,
-        }
+            counts,
+            max_per_dim,
+            workgroups: Vec::new(),
+        };
+        colour_groups.spread(1);
+        colour_groups
+    }
+
+    /// The workgroups over each colour for `threads` threads an item (VBD's lanes).
+    pub(super) fn spread(&mut self, threads: u32) {
+        self.workgroups = self
+            .counts
+            .iter()
+            .map(|&n| groups_for(n.saturating_mul(threads), self.max_per_dim))
+            .collect();
     }
 
     /// Bind group 0 of a sweep over one colour.

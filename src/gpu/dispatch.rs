@@ -57,15 +57,16 @@ pub fn sum_level(threads: u32) -> u32 {
 }
 
 /// The most masses VBD sweeps in one workgroup (`vbd_sweeps.wgsl`) on a `device`, instead of a
-/// dispatch per colour and sweep. On an H100 at one step per frame (BENCHMARKS.md), one
-/// workgroup swept the hair (100 masses) 1.8-2x as fast, the cloth and the jello (1 000)
-/// 1.0-1.05x, the peer cloth at N = 64 (4 096) 0.52x: there a colour's masses fill many SMs.
-/// A CPU adapter (lavapipe) runs a workgroup on one core: on two, one workgroup swept the hair
-/// 2.1x as fast, the jello and the cloth 0.94x.
+/// dispatch per colour and sweep. On an H100 at one step per frame, with 8 lanes a mass
+/// (BENCHMARKS.md), one workgroup swept the hair (100 masses, every colour in one round of its
+/// 512 threads) 1.7x as fast, the jello (1 000) 0.93x, the cloth (1 024) 0.62x and the peer cloth
+/// at N = 64 (4 096) 0.19x: a colour of more masses than a round holds is better spread over the
+/// card. A CPU adapter (lavapipe) runs a workgroup on one core: on two, one workgroup swept the
+/// hair 2.1x as fast, the jello and the cloth 0.94x.
 pub fn vbd_one_group_masses(device: wgpu::DeviceType) -> usize {
     match device {
         wgpu::DeviceType::Cpu => 512,
-        _ => 1024,
+        _ => 256,
     }
 }
 
@@ -87,14 +88,32 @@ pub fn sweeps_in_one_group(
     }
 }
 
-/// Threads of `vbd_sweeps`' workgroup whose widest colour has `widest` masses, on a `device`
-/// allowing `most` invocations in a workgroup's x: a CPU adapter (lavapipe) one SIMD vector, as
-/// `frame_threads`; a GPU a thread per mass of the widest colour, a warp's worth at least.
-pub fn vbd_threads(device: wgpu::DeviceType, widest: u32, most: u32) -> u32 {
+/// Threads VBD's block solves share a mass's springs among (`VBD_LANES`, vbd_mass.wgsl) on a
+/// `device`: on a GPU 8, so that a colour of a hundred masses keeps an SM's schedulers busy and
+/// each thread walks a few springs, not all; on a CPU adapter (lavapipe), whose workgroup runs on
+/// one core a SIMD vector at a time, one.
+pub fn vbd_lanes(device: wgpu::DeviceType) -> u32 {
     match device {
-        wgpu::DeviceType::Cpu => 8,
-        _ => (32 * widest.div_ceil(32).max(1)).min(1024).min(most).max(1),
+        wgpu::DeviceType::Cpu => 1,
+        _ => 8,
     }
+}
+
+/// Threads of `vbd_sweeps`' workgroup whose widest colour has `widest` masses of `lanes` threads
+/// each, on a `device` allowing `most` invocations in a workgroup's x: a CPU adapter (lavapipe)
+/// one SIMD vector, as `frame_threads`, or one mass's lanes if more; a GPU the lanes of every mass
+/// of the widest colour, a warp's worth at least and 512 at most (each thread's share takes 48
+/// bytes of workgroup memory). A whole number of masses either way.
+pub fn vbd_threads(device: wgpu::DeviceType, (widest, lanes): (u32, u32), most: u32) -> u32 {
+    let lanes = lanes.max(1);
+    let threads = match device {
+        wgpu::DeviceType::Cpu => 8.max(lanes),
+        _ => {
+            let wanted = widest.saturating_mul(lanes);
+            (32 * wanted.div_ceil(32).max(1)).min(512).min(most)
+        }
+    };
+    (threads / lanes).max(1) * lanes
 }
 
 /// The most masses whose Euler or semi-implicit steps run a submission in one dispatch of one
@@ -252,6 +271,14 @@ mod tests {
         // Implicit Euler's sums: both levels short.
         let levels = [8, 64, 65, 256, 257, 1024].map(sum_level);
         assert_eq!(levels, [8, 8, 16, 16, 32, 32]);
+        // VBD's sweeps: whole masses of 8 lanes on a GPU, up to 512 threads; one SIMD vector of
+        // one-lane masses on a CPU adapter.
+        assert_eq!(vbd_lanes(DiscreteGpu), 8);
+        assert_eq!(vbd_threads(DiscreteGpu, (34, 8), 1024), 288);
+        assert_eq!(vbd_threads(DiscreteGpu, (125, 8), 1024), 512);
+        assert_eq!(vbd_threads(DiscreteGpu, (125, 8), 256), 256);
+        assert_eq!(vbd_threads(Cpu, (125, vbd_lanes(Cpu)), 1024), 8);
+        assert_eq!(vbd_threads(Cpu, (125, 16), 1024), 16);
         assert_eq!(frame_threads(DiscreteGpu, 100, 1024), 128);
         assert_eq!(frame_threads(DiscreteGpu, 1000, 1024), 1024);
         assert_eq!(frame_threads(DiscreteGpu, 2048, 1024), 1024);

@@ -48,7 +48,7 @@ pub use context::{
     adapters, describe_error,
 };
 pub use dispatch::{
-    FRAME_STATE_BYTES_PER_MASS, FrameState, one_group_step_masses, sweeps_in_one_group,
+    FRAME_STATE_BYTES_PER_MASS, FrameState, one_group_step_masses, sweeps_in_one_group, vbd_lanes,
     vbd_one_group_masses, why_not_in_group,
 };
 pub use implicit::Budgets as ImplicitBudgets;

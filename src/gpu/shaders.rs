@@ -122,7 +122,7 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
 /// the one-workgroup fused steps (`dispatch::frame_threads`) and of VBD's sweeps in one workgroup
-/// (`dispatch::vbd_threads`), how far apart the stage slots
+/// (`dispatch::vbd_threads`) and the lanes it shares a mass among (`dispatch::vbd_lanes`), how far apart the stage slots
 /// lie, in words (`StageSlots::stride_for`), and the masses whose state those steps keep in
 /// workgroup memory, if they do (`FrameState::masses_in_workgroup`).
 pub fn constants(
@@ -130,7 +130,11 @@ pub fn constants(
     (integrator, dt_secs): (Integrator, f64),
     (kind_shift, stencils): (u32, bool),
     (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
-    ((frame_threads, vbd_threads), stage_stride_words, frame_state): ((u32, u32), u32, Option<u32>),
+    ((frame_threads, (vbd_threads, vbd_lanes)), stage_stride_words, frame_state): (
+        (u32, (u32, u32)),
+        u32,
+        Option<u32>,
+    ),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
@@ -170,6 +174,7 @@ pub fn constants(
         ("SUM_SLOTS", f64::from(group_threads.max(WORKGROUP))),
         ("FRAME_THREADS", f64::from(frame_threads)),
         ("VBD_THREADS", f64::from(vbd_threads)),
+        ("VBD_LANES", f64::from(vbd_lanes)),
         ("STAGE_STRIDE_WORDS", f64::from(stage_stride_words)),
     ]);
     // A workgroup array has at least one element, used or not.

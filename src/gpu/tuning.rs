@@ -4,7 +4,7 @@
 //! examples fix one choice at a time to compare the paths on one scene.
 
 use super::context::GpuContext;
-use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_threads};
+use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_lanes, vbd_threads};
 use super::implicit::{self, Path, SolverHome};
 use super::links::Links;
 use super::plan::ExplicitPath;
@@ -30,6 +30,8 @@ pub struct Tuning {
     /// colour and sweep (`Some(false)`), or as the scene's size says on the adapter
     /// (`None`: `vbd_in_one_group`).
     pub vbd_in_group: Option<bool>,
+    /// The threads VBD shares a mass's springs among (by default `vbd_lanes`).
+    pub vbd_lanes: Option<u32>,
 }
 
 impl Tuning {
@@ -41,6 +43,7 @@ impl Tuning {
             frame_state: FrameState::Workgroup,
             solver_threads: None,
             vbd_in_group: None,
+            vbd_lanes: None,
         }
     }
 }
@@ -85,10 +88,15 @@ pub(super) fn specialise(
             .vbd_in_group
             .unwrap_or_else(|| vbd_in_one_group(model.mass_count(), device));
     }
-    let vbd_threads = resources
-        .colours
-        .as_ref()
-        .map_or(1, |c| vbd_threads(device, c.widest, widest_group));
+    let lanes = tuning.vbd_lanes.unwrap_or_else(|| vbd_lanes(device));
+    if let Some(colours) = resources.colours.as_mut()
+        && step.integrator == Integrator::Vbd
+    {
+        colours.spread(lanes);
+    }
+    let vbd_threads = resources.colours.as_ref().map_or(lanes, |c| {
+        vbd_threads(device, (c.widest, lanes), widest_group)
+    });
     // The one-workgroup steps' state in workgroup memory where it fits.
     let frame_state_masses = tuning
         .frame_state
@@ -110,7 +118,7 @@ pub(super) fn specialise(
         (kind_shift, stencils),
         (group_threads, home.workgroup_arrays()),
         (
-            (frame_threads, vbd_threads),
+            (frame_threads, (vbd_threads, lanes)),
             (stage_stride / 4) as u32,
             frame_state_masses,
         ),

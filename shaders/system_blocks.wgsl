@@ -17,9 +17,13 @@ struct SpringTerms {
 // One spring's share of the system at the iterate, seen from mass i (src/cpu/implicit.rs's
 // linearise; the sign of n does not matter, the terms are in n nᵀ).
 fn spring_terms(i: u32, nb: Neighbor) -> SpringTerms {
-    let s = springs[nb.spring];
     let d = x_in[i].xyz - x_in[nb.other].xyz;
-    let len = length(d);
+    return spring_terms_along(springs[nb.spring], d, length(d));
+}
+
+// The same for spring `s` whose ends are `d` apart, `len` = |d| (VBD's share reads the ends once
+// for the force and the block).
+fn spring_terms_along(s: Spring, d: vec3<f32>, len: f32) -> SpringTerms {
     var t = SpringTerms(vec3<f32>(0.0), 0.0, 0.0, 0.0);
     if (len > MIN_SPRING_LENGTH) {
         let h = stage.dt;

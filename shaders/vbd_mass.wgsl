@@ -12,23 +12,20 @@
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params springs mass offsets neighbors x v x_in v_in stage
-// #calls mass_force_beyond_springs own_block symmetric_block invert_block
+// #calls mass_force_beyond_springs own_block symmetric_block invert_block spring_block spring_terms_along
 
-// One lane's share of a mass's springs: their force, and their part of the system's block as its
-// diagonal (xx, yy, zz) and off-diagonal (xy, xz, yz).
+// One lane's share of a mass's springs: their force, and their part of the system's block.
 struct VbdShare {
     f: vec3<f32>,
-    diag: vec3<f32>,
-    off: vec3<f32>,
+    block: mat3x3<f32>,
 }
 
 fn vbd_no_share() -> VbdShare {
-    return VbdShare(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    return VbdShare(vec3<f32>(0.0), mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)));
 }
 
 // Lane `lane`'s share of mass i's springs at the iterate: each spring's force (mass_force's
-// spring term) and block (system_blocks.wgsl's spring_terms and spring_block), from one read of
-// the other end.
+// spring term) and block (system_blocks.wgsl's spring_block), from one read of the other end.
 fn vbd_share(i: u32, lane: u32) -> VbdShare {
     var share = vbd_no_share();
     if (mass[i].y == 0.0) {
@@ -36,7 +33,6 @@ fn vbd_share(i: u32, lane: u32) -> VbdShare {
     }
     let xi = x_in[i].xyz;
     let vi = v_in[i].xyz;
-    let h = stage.dt;
     let end = offsets[i + 1u];
     for (var e = offsets[i] + lane; e < end; e += VBD_LANES) {
         let nb = neighbors[e];
@@ -52,21 +48,13 @@ fn vbd_share(i: u32, lane: u32) -> VbdShare {
             along += -s.damping * dot(vi - v_in[nb.other].xyz, n);
         }
         share.f += n * along;
-        // (h²k + h c) n nᵀ + h²k·max(0, 1 − L/l)(I − n nᵀ).
-        let k = h * h * s.stiffness;
-        let across = k * max(1.0 - s.rest / len, 0.0);
-        var stiff = k - across;
-        if (HAS_DAMPING) {
-            stiff += h * s.damping;
-        }
-        share.diag += stiff * n * n + vec3<f32>(across);
-        share.off += stiff * vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
+        share.block += spring_block(spring_terms_along(s, d, len));
     }
     return share;
 }
 
 fn vbd_add_share(a: VbdShare, b: VbdShare) -> VbdShare {
-    return VbdShare(a.f + b.f, a.diag + b.diag, a.off + b.off);
+    return VbdShare(a.f + b.f, a.block + b.block);
 }
 
 // Mass i's block solve from its springs' `share` (every lane's, added in lane order): the rest
@@ -87,7 +75,7 @@ fn vbd_finish(i: u32, share: VbdShare) {
     if (has_contact_terms()) {
         block += symmetric_block(mf.jac_diag, mf.jac_off);
     }
-    block += symmetric_block(share.diag, share.off);
+    block += share.block;
     let vn = vi + invert_block(block) * b;
     v_in[i] = vec4<f32>(vn, 0.0);
     x_in[i] = vec4<f32>(x[i].xyz + h * vn, 0.0);

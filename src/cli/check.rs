@@ -389,26 +389,38 @@ fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
 fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
     use hooke::integrator::Integrator;
     use wgpu::DeviceType::{Cpu, DiscreteGpu};
-    let (colours, sweeps) = match settings.integrator {
-        Integrator::Xpbd => (
-            hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours(),
-            settings.options.xpbd_iterations,
-        ),
-        Integrator::Vbd => (
-            hooke::physics::vbd_colouring(model).colours(),
-            settings.options.vbd_iterations,
-        ),
+    // Per integrator: its colours, the line's head, its kernel, what a plan of sweeps serves,
+    // and its lanes.
+    let (dispatches, head, (kernel, per), lanes) = match settings.integrator {
+        Integrator::Xpbd => {
+            let colours = hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours();
+            let iterations = settings.options.xpbd_iterations;
+            let head = format!("XPBD: {colours} spring colours × {iterations} iteration(s)");
+            (
+                colours as u32 * iterations,
+                head,
+                ("xpbd_solve_spring", "substep"),
+                String::new(),
+            )
+        }
+        Integrator::Vbd => {
+            let colours = hooke::physics::vbd_colouring(model).colours();
+            let sweeps = settings.options.vbd_iterations;
+            let head = format!("VBD: {colours} mass colours × {sweeps} sweep(s)");
+            let lanes = format!(
+                "; each mass's springs shared among {} threads on a GPU",
+                hooke::gpu::vbd_lanes(DiscreteGpu)
+            );
+            (
+                colours as u32 * sweeps,
+                head,
+                ("vbd_solve_mass", "step"),
+                lanes,
+            )
+        }
         _ => return,
     };
-    let (head, kernel, per) = if settings.integrator == Integrator::Xpbd {
-        let head = format!("XPBD: {colours} spring colours × {sweeps} iteration(s)");
-        (head, "xpbd_solve_spring", "substep")
-    } else {
-        let head = format!("VBD: {colours} mass colours × {sweeps} sweep(s)");
-        (head, "vbd_solve_mass", "step")
-    };
     let in_group = |device| hooke::gpu::sweeps_in_one_group(model, settings.integrator, device);
-    let dispatches = colours as u32 * sweeps;
     let how = match (in_group(DiscreteGpu), in_group(Cpu)) {
         (true, true) => format!("all in one dispatch of one workgroup per {per}"),
         (true, false) => format!(
@@ -416,13 +428,6 @@ fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
              dispatches per {per} on a CPU adapter, which runs a workgroup on one core"
         ),
         _ => format!("{dispatches} {kernel} dispatches per {per}"),
-    };
-    let lanes = match settings.integrator {
-        Integrator::Vbd => format!(
-            "; each mass's springs shared among {} threads on a GPU",
-            hooke::gpu::vbd_lanes(DiscreteGpu)
-        ),
-        _ => String::new(),
     };
     let _ = writeln!(s, "  {head}: {how}{lanes}");
 }

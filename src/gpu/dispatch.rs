@@ -102,7 +102,7 @@ pub fn vbd_lanes(device: wgpu::DeviceType) -> u32 {
 /// Threads of `vbd_sweeps`' workgroup whose widest colour has `widest` masses of `lanes` threads
 /// each, on a `device` allowing `most` invocations in a workgroup's x: a CPU adapter (lavapipe)
 /// one SIMD vector, as `frame_threads`, or one mass's lanes if more; a GPU the lanes of every mass
-/// of the widest colour, a warp's worth at least and 512 at most (each thread's share takes 48
+/// of the widest colour, a warp's worth at least and 512 at most (each thread's share takes 64
 /// bytes of workgroup memory). A whole number of masses either way.
 pub fn vbd_threads(device: wgpu::DeviceType, (widest, lanes): (u32, u32), most: u32) -> u32 {
     let lanes = lanes.max(1);

@@ -81,22 +81,18 @@ pub(super) fn specialise(
         .max_compute_invocations_per_workgroup
         .min(limits.max_compute_workgroup_size_x);
     let frame_threads = frame_threads(device, model.mass_count(), widest_group);
+    // VBD's sweeps: in one workgroup or a dispatch per colour, sized to a mass's lanes.
+    let lanes = tuning.vbd_lanes.unwrap_or_else(|| vbd_lanes(device));
+    let mut vbd_threads_wanted = lanes;
     if let Some(colours) = resources.colours.as_mut()
         && step.integrator == Integrator::Vbd
     {
         colours.sweeps.one_group = tuning
             .vbd_in_group
             .unwrap_or_else(|| vbd_in_one_group(model.mass_count(), device));
-    }
-    let lanes = tuning.vbd_lanes.unwrap_or_else(|| vbd_lanes(device));
-    if let Some(colours) = resources.colours.as_mut()
-        && step.integrator == Integrator::Vbd
-    {
         colours.spread(lanes);
+        vbd_threads_wanted = vbd_threads(device, (colours.widest, lanes), widest_group);
     }
-    let vbd_threads = resources.colours.as_ref().map_or(lanes, |c| {
-        vbd_threads(device, (c.widest, lanes), widest_group)
-    });
     // The one-workgroup steps' state in workgroup memory where it fits.
     let frame_state_masses = tuning
         .frame_state
@@ -118,7 +114,7 @@ pub(super) fn specialise(
         (kind_shift, stencils),
         (group_threads, home.workgroup_arrays()),
         (
-            (frame_threads, (vbd_threads, lanes)),
+            (frame_threads, (vbd_threads_wanted, lanes)),
             (stage_stride / 4) as u32,
             frame_state_masses,
         ),

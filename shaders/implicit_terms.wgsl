@@ -69,7 +69,8 @@ fn newton_done(residual: f32, scale: f32) -> bool {
 }
 
 // Newton's residual has stalled at the floor of f32 forces (src/cpu/implicit.rs's newton_stalled):
-// below NEWTON_FLOOR of |h f|, and not halved since the last iterate's.
+// below NEWTON_FLOOR of |h f| (physics::newton_floor of the step), and not halved since the last
+// iterate's.
 fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
     return residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last;
 }

@@ -61,6 +61,7 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     effects(&mut s, model);
     solver(&mut s, model, settings);
     gpu_passes(&mut s, model, settings);
+    preconditioner(&mut s, model, settings);
     if let Some(w) = dt_warning(model, settings) {
         let _ = writeln!(s, "warning: {w}");
     }
@@ -324,6 +325,37 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             }
         }
     }
+}
+
+/// What preconditions implicit Euler's conjugate gradients on each backend.
+fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
+    use hooke::physics::Preconditioner;
+    if settings.integrator != hooke::integrator::Integrator::Implicit {
+        return;
+    }
+    let cpu = Preconditioner::for_masses(model.mass_count());
+    let levels = (cpu == Preconditioner::Multigrid)
+        .then(|| hooke::cpu::multigrid_levels(model))
+        .flatten();
+    let _ = match levels {
+        Some(nodes) => writeln!(
+            s,
+            "  CG preconditioner: CPU {} (coarse levels of {} nodes, the last solved directly), \
+             GPU {} (the backends agree to the solver's tolerance, not the parity tolerance)",
+            cpu.name(),
+            nodes
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(" → "),
+            Preconditioner::BlockJacobi.name()
+        ),
+        None => writeln!(
+            s,
+            "  CG preconditioner: {} (both backends)",
+            Preconditioner::BlockJacobi.name()
+        ),
+    };
 }
 
 /// The passes one GPU step runs, and the effects compiled into its kernels.

@@ -10,6 +10,7 @@ use super::reduce::{compute_energies, compute_strain};
 use crate::backend::{Backend, BackendError, Internal, find_divergence};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
+use crate::physics::Preconditioner;
 use crate::state::{Snapshot, State, StepStats};
 
 pub struct CpuBackend {
@@ -53,6 +54,17 @@ impl CpuBackend {
         self.fused = kernel
             .filter(|_| FusedStep::serves(&self.model, self.integrator))
             .map(|k| FusedStep::new(&self.model, self.integrator, k));
+    }
+
+    /// Precondition implicit Euler's conjugate gradients with `p` from the next step on (by
+    /// default `Preconditioner::for_masses`): for the tests and benchmarks that compare them.
+    pub fn set_preconditioner(&mut self, p: Preconditioner) {
+        self.scratch.set_preconditioner(p);
+    }
+
+    /// What preconditions implicit Euler's conjugate gradients.
+    pub fn preconditioner(&self) -> Preconditioner {
+        self.scratch.preconditioner()
     }
 
     /// The fused step's kernel, `None` when the general path steps this model.

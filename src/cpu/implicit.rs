@@ -1,6 +1,7 @@
 //! `implicit_step`: backward Euler by Newton's method (Baraff & Witkin 1998), each linear system
-//! solved matrix-free by conjugate gradients with a 3 × 3 block-Jacobi preconditioner to a tenth
-//! of Newton's residual (inexact Newton).
+//! solved matrix-free by conjugate gradients with a 3 × 3 block-Jacobi preconditioner (aggregation
+//! multigrid from `physics::MULTIGRID_MIN_MASSES` masses on: `multigrid/`) to a tenth of Newton's
+//! residual (inexact Newton).
 //!
 //! Backward Euler asks for Δv with M Δv = h f(x₀ + h (v₀ + Δv), v₀ + Δv). Newton's method on
 //! that, from Δv = 0, solves at each iterate (x, v) = (x₀ + h (v₀ + Δv), v₀ + Δv)
@@ -26,11 +27,12 @@ use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::forces::{Gather, compute_forces};
+use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
-    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-    NEWTON_TOLERANCE, newton_residual,
+    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE,
+    Preconditioner, newton_floor, newton_residual,
 };
 use crate::state::{Power, State};
 
@@ -50,7 +52,7 @@ pub struct SolveStats {
 /// The system linearised at x₀.
 #[derive(Debug, Default)]
 pub struct Linearisation {
-    springs: Vec<SpringTerms>,
+    pub(super) springs: Vec<SpringTerms>,
     contacts: Vec<Vec<ContactTerms>>,
 }
 
@@ -71,10 +73,14 @@ pub struct ImplicitWork {
     dv_total: Vec<Vec3>,
     xk: Vec<Vec3>,
     vk: Vec<Vec3>,
+    /// Large systems' preconditioner (block Jacobi without it).
+    multigrid: Option<Multigrid>,
 }
 
 impl ImplicitWork {
-    pub fn new(model: &Model) -> Self {
+    /// Scratch for `model`'s solves, preconditioned by `preconditioner` (block Jacobi where
+    /// `model` has no coarse level to make).
+    pub fn new(model: &Model, preconditioner: Preconditioner) -> Self {
         let n = model.mass_count();
         let zeros = || vec![Vec3::ZERO; n];
         Self {
@@ -93,6 +99,10 @@ impl ImplicitWork {
             dv_total: zeros(),
             xk: zeros(),
             vk: zeros(),
+            multigrid: match preconditioner {
+                Preconditioner::Multigrid => Multigrid::new(model),
+                Preconditioner::BlockJacobi => None,
+            },
         }
     }
 }
@@ -201,6 +211,17 @@ fn linearise(
     }
 }
 
+/// The system linearised at `x` (for the tests of its preconditioners).
+#[cfg(test)]
+pub(super) fn linearised_at(model: &Model, x: &[Vec3], h: f32) -> Linearisation {
+    let mut lin = Linearisation {
+        springs: vec![SpringTerms::default(); model.spring_count()],
+        contacts: vec![Vec::new(); model.mass_count()],
+    };
+    linearise(model, &model.springs, x, 0.0, h, &mut lin);
+    lin
+}
+
 /// One backward Euler step of `dt`. The ledger takes the dissipation rates at the converged
 /// iterate, the end of the step (backward quadrature, as the scheme itself).
 pub fn implicit_step(
@@ -216,6 +237,7 @@ pub fn implicit_step(
     let mut power = Power::default();
     let mut scale = 0.0f64;
     let tolerance = newton_residual(f64::from(h));
+    let floor = newton_floor(f64::from(h));
     let mut last_residual = f64::INFINITY;
     implicit_begin(&mut w.dv_total);
     for _ in 0..NEWTON_MAX_ITERATIONS {
@@ -228,7 +250,8 @@ pub fn implicit_step(
             // relative to.
             scale = momentum;
         }
-        if newton_done(residual, scale, tolerance) || newton_stalled(residual, last_residual, scale)
+        if newton_done(residual, scale, tolerance)
+            || newton_stalled(residual, last_residual, scale, floor)
         {
             break;
         }
@@ -275,11 +298,14 @@ pub fn implicit_iterate(
 /// drag), its contacts along their normals, and each of its springs. Symmetric positive
 /// definite: the transverse spring term is clamped at zero by `linearise`.
 #[inline(always)]
-fn block_of_mass(model: &Model, lin: &Linearisation, h: f32, drag: f32, i: usize) -> Mat3 {
-    let mut d = own_block(model.mass_kg[i], h, drag);
-    for c in &lin.contacts[i] {
-        d += c.block();
-    }
+pub(super) fn block_of_mass(
+    model: &Model,
+    lin: &Linearisation,
+    h: f32,
+    drag: f32,
+    i: usize,
+) -> Mat3 {
+    let mut d = own_and_contacts(model, lin, h, drag, i);
     for nb in model.adjacency.of(i) {
         d += lin.springs[nb.spring as usize].block();
     }
@@ -346,11 +372,11 @@ pub fn newton_done(residual: f64, scale: f64, tolerance: f64) -> bool {
     residual <= tolerance * scale
 }
 
-/// Whether Newton's residual `residual` has stalled at the floor of f32 forces: below
-/// NEWTON_FLOOR of the step's momentum change `scale`, and not halved since the last iterate's
-/// (`last`). The step then ends at the current iterate.
-pub fn newton_stalled(residual: f64, last: f64, scale: f64) -> bool {
-    residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last
+/// Whether Newton's residual `residual` has stalled at the floor of f32 forces: below `floor`
+/// (`physics::newton_floor` of the step) of the step's momentum change `scale`, and not halved
+/// since the last iterate's (`last`). The step then ends at the current iterate.
+pub fn newton_stalled(residual: f64, last: f64, scale: f64, floor: f64) -> bool {
+    residual <= floor * scale && residual > NEWTON_STALL * last
 }
 
 /// Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
@@ -379,6 +405,7 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, b_norm: f64) -> (u32, f64)
         ap,
         dv,
         block_inv,
+        multigrid,
         ..
     } = w;
     dv.fill(Vec3::ZERO);
@@ -386,7 +413,19 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, b_norm: f64) -> (u32, f64)
     if b_norm == 0.0 {
         return (0, 0.0);
     }
-    {
+    let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
+    if let Some(mg) = multigrid.as_mut() {
+        mg.linearise(
+            |i| own_and_contacts(model, lin, h, drag, i),
+            |s| lin.springs[s].block(),
+        );
+        mg.cycle(
+            block_inv,
+            |p, out| apply_system(model, lin, h, p, out),
+            r,
+            z,
+        );
+    } else {
         let (r, block_inv) = (&*r, &*block_inv);
         each_mass(z, |i, z| *z = block_inv[i] * r[i]);
     }
@@ -405,7 +444,17 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, b_norm: f64) -> (u32, f64)
             return (iterations, residual);
         }
         let alpha = (rz / pap) as f32;
-        cg_update(alpha, (p, ap, block_inv), (dv, r, z));
+        if let Some(mg) = multigrid.as_mut() {
+            cg_update_unpreconditioned(alpha, (p, ap), (dv, r));
+            mg.cycle(
+                block_inv,
+                |p, out| apply_system(model, lin, h, p, out),
+                r,
+                z,
+            );
+        } else {
+            cg_update(alpha, (p, ap, block_inv), (dv, r, z));
+        }
         let rz_next = dot(r, z);
         let beta = (rz_next / rz) as f32;
         rz = rz_next;
@@ -444,6 +493,32 @@ pub fn cg_update(
     }
 }
 
+/// δ += α p, r −= α Ap (the multigrid preconditioner then makes z from r).
+fn cg_update_unpreconditioned(
+    alpha: f32,
+    (p, ap): (&[Vec3], &[Vec3]),
+    (dv, r): (&mut [Vec3], &mut [Vec3]),
+) {
+    each_mass(dv, |i, d| *d += alpha * p[i]);
+    each_mass(r, |i, r| *r -= alpha * ap[i]);
+}
+
+/// Mass `i`'s own block: its mass with drag, and its contacts, without its springs
+/// (`block_of_mass` adds them; the multigrid hierarchy takes them as its edges).
+pub(super) fn own_and_contacts(
+    model: &Model,
+    lin: &Linearisation,
+    h: f32,
+    drag: f32,
+    i: usize,
+) -> Mat3 {
+    let mut d = own_block(model.mass_kg[i], h, drag);
+    for c in &lin.contacts[i] {
+        d += c.block();
+    }
+    d
+}
+
 /// p = z + β p.
 pub fn cg_direction(beta: f32, z: &[Vec3], p: &mut [Vec3]) {
     each_mass(p, |i, p| *p = z[i] + beta * *p);
@@ -452,7 +527,7 @@ pub fn cg_direction(beta: f32, z: &[Vec3], p: &mut [Vec3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::NEWTON_RESIDUAL;
+    use crate::physics::{NEWTON_FLOOR, NEWTON_RESIDUAL};
 
     /// The hair scene at its own step: a stiff strand hanging under gravity, whose residual f32
     /// forces cannot take below about 3e-3 of the step's first. Newton once ran all 10
@@ -464,7 +539,7 @@ mod tests {
             settings, model, ..
         } = crate::prepare::planned("hair").expect("the built-in hair scene is planned");
         let mut gather = Gather::new(&model);
-        let mut work = ImplicitWork::new(&model);
+        let mut work = ImplicitWork::new(&model, Preconditioner::BlockJacobi);
         let mut state = model.initial.clone();
         let steps = 120;
         let newton: u32 = (0..steps)
@@ -494,10 +569,16 @@ mod tests {
         assert_eq!(newton_residual(1.0), NEWTON_RESIDUAL);
         assert!((newton_residual(1.0 / 120.0) - NEWTON_RESIDUAL / 2.0).abs() < 1e-12);
         // Stalled: below the floor and less than halved; not while falling fast, nor above it.
-        assert!(newton_stalled(2e-3, 3e-3, 1.0));
-        assert!(!newton_stalled(1e-4, 1.0, 1.0));
-        assert!(!newton_stalled(0.5, 0.6, 1.0));
-        assert!(!newton_stalled(1.0, f64::INFINITY, 1.0));
+        let floor = NEWTON_FLOOR;
+        assert!(newton_stalled(2e-3, 3e-3, 1.0, floor));
+        assert!(!newton_stalled(1e-4, 1.0, 1.0, floor));
+        assert!(!newton_stalled(0.5, 0.6, 1.0, floor));
+        assert!(!newton_stalled(1.0, f64::INFINITY, 1.0, floor));
+        // At one step per frame the floor is three times the tolerance; at small steps, the
+        // floor of f32 forces.
+        assert!((newton_floor(1.0 / 60.0) - 2.0 * NEWTON_RESIDUAL).abs() < 1e-12);
+        assert_eq!(newton_floor(1e-4), NEWTON_FLOOR);
+        assert!(newton_stalled(0.045, 0.046, 1.0, newton_floor(1.0 / 60.0)));
         // A solve stops at a tenth of the Newton residual it started from, or at its cap.
         assert!(cg_goes_on(CG_FORCING * 1.01, 0));
         assert!(!cg_goes_on(CG_FORCING * 0.99, 0));

@@ -12,6 +12,7 @@ use super::vbd::{VbdWork, vbd_step};
 use super::xpbd::XpbdWork;
 use crate::integrator::{Integrator, StepOptions};
 use crate::model::Model;
+use crate::physics::Preconditioner;
 use crate::state::{Power, State};
 
 /// Scratch buffers, allocated once per backend.
@@ -29,6 +30,8 @@ pub struct Scratch {
     limits: Vec<crate::model::SpringLimits>,
     /// Only for the implicit integrator.
     implicit: Option<ImplicitWork>,
+    /// What preconditions its conjugate gradients.
+    preconditioner: Preconditioner,
     /// Only for XPBD.
     xpbd: Option<XpbdWork>,
     /// Only for VBD.
@@ -44,6 +47,7 @@ impl Scratch {
             gather: Gather::new(model),
             limits: model.spring_limits(dt_secs),
             implicit: None,
+            preconditioner: Preconditioner::for_masses(n),
             xpbd: None,
             vbd: None,
             options,
@@ -59,6 +63,17 @@ impl Scratch {
 }
 
 impl Scratch {
+    /// Precondition implicit Euler's solves with `p` (its scratch is made again at the next
+    /// step).
+    pub fn set_preconditioner(&mut self, p: Preconditioner) {
+        self.preconditioner = p;
+        self.implicit = None;
+    }
+
+    pub fn preconditioner(&self) -> Preconditioner {
+        self.preconditioner
+    }
+
     /// The springs as they are now.
     pub fn springs(&self) -> &[crate::model::Spring] {
         self.gather.springs()
@@ -116,7 +131,9 @@ pub fn step(
         Integrator::Xpbd => xpbd_step(model, state, s, dt),
         // It keeps its own time.
         Integrator::Implicit => {
-            let work = s.implicit.get_or_insert_with(|| ImplicitWork::new(model));
+            let work = s
+                .implicit
+                .get_or_insert_with(|| ImplicitWork::new(model, s.preconditioner));
             return Some(implicit_step(model, &mut s.gather, state, work, dt));
         }
         Integrator::Vbd => {

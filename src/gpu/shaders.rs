@@ -137,8 +137,8 @@ pub fn constants(
     ),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
-        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-        NEWTON_TOLERANCE, newton_residual,
+        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE,
+        newton_floor, newton_residual,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -163,7 +163,7 @@ pub fn constants(
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
         ("NEWTON_RESIDUAL", newton_residual(dt_secs)),
-        ("NEWTON_FLOOR", NEWTON_FLOOR),
+        ("NEWTON_FLOOR", newton_floor(dt_secs)),
         ("NEWTON_STALL", NEWTON_STALL),
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),

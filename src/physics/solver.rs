@@ -28,6 +28,19 @@ pub const NEWTON_RESIDUAL_STEP_SECS: f64 = 1.0 / 60.0;
 pub const NEWTON_FLOOR: f64 = 1e-2;
 /// See `NEWTON_FLOOR`.
 pub const NEWTON_STALL: f64 = 0.5;
+/// At a large step the floor of f32 forces can sit above the tolerance itself: on a 256 × 256
+/// cloth at 1/60 s (positions near 1.5 m, whose f32 spacing times the springs' stiffness is a
+/// tenth of a mass's weight) Newton's residual fell to 4.3–4.5% of |h f| and stayed there for
+/// the seven iterations left to it. So Newton also counts as stalled below this many times the
+/// step's tolerance (`newton_floor`).
+pub const NEWTON_FLOOR_PER_TOLERANCE: f64 = 2.0;
+
+/// The residual, relative to |h f|, below which Newton ends a step once an iteration fails to
+/// halve it (`NEWTON_FLOOR`, or `NEWTON_FLOOR_PER_TOLERANCE` times the step's tolerance where
+/// that is more): 9% at one step per frame, 1% at a tenth of it and below.
+pub fn newton_floor(h_secs: f64) -> f64 {
+    NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs))
+}
 
 /// Newton's residual tolerance at step `h_secs`, relative to |h f|: `NEWTON_RESIDUAL` at one
 /// step per frame, and in proportion to the step below it. The scheme's own error per step
@@ -39,3 +52,37 @@ pub fn newton_residual(h_secs: f64) -> f64 {
 }
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;
+
+/// From this many masses on, the CPU backend preconditions implicit Euler's conjugate gradients
+/// by aggregation multigrid (`cpu/multigrid.rs`). Below it a cycle costs more than the
+/// iterations it saves: on the 1 024-mass cloth and the 1 000-mass jello at 1/60 s, two cores,
+/// multigrid ran 105–117 and 74–97 steps/s against block Jacobi's 220–253 and 72–148.
+pub const MULTIGRID_MIN_MASSES: usize = 4096;
+
+/// What preconditions implicit Euler's conjugate gradients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Preconditioner {
+    /// Each mass's 3 × 3 diagonal block of the system, inverted (both backends).
+    #[default]
+    BlockJacobi,
+    /// A V-cycle of aggregation multigrid over coarser copies of the system (CPU backend).
+    Multigrid,
+}
+
+impl Preconditioner {
+    /// The CPU backend's choice for a system of `mass_count` masses (the GPU's is block Jacobi).
+    pub fn for_masses(mass_count: usize) -> Self {
+        if mass_count >= MULTIGRID_MIN_MASSES {
+            Preconditioner::Multigrid
+        } else {
+            Preconditioner::BlockJacobi
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Preconditioner::BlockJacobi => "3×3 block Jacobi",
+            Preconditioner::Multigrid => "aggregation multigrid",
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! Implicit Euler on the CPU backend with each preconditioner of its conjugate gradients (3 × 3
+//! block Jacobi, aggregation multigrid), on one scene at one step: steps/s, CG iterations per
+//! step, and where the masses end. The preconditioners are timed in turn, round after round, so
+//! that a noisy machine slows them alike; each round steps from the scene's start.
+//!
+//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY]`
+//!
+//! DT defaults to 1/60 s (one step per frame), STEPS to 30, ROUNDS to 2; ONLY, `multigrid` or
+//! `block-jacobi`, times that one alone (for a profiler). `RAYON_NUM_THREADS`
+//! sets the threads. See BENCHMARKS.md.
+
+use std::time::Instant;
+
+use hooke::backend::Backend;
+use hooke::cpu::CpuBackend;
+use hooke::integrator::{Integrator, Step};
+use hooke::physics::Preconditioner;
+
+struct Row {
+    preconditioner: Preconditioner,
+    best_secs: f64,
+    cg_iterations: u64,
+    end: Vec<glam::Vec3>,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(scene) = args.first() else {
+        anyhow::bail!(
+            "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi]"
+        );
+    };
+    let hooke::prepare::Planned { model, .. } = hooke::prepare::planned(scene)?;
+    let dt: f64 = args.get(1).map_or(Ok(1.0 / 60.0), |s| s.parse())?;
+    let steps: u32 = args.get(2).map_or(Ok(30), |s| s.parse())?;
+    let rounds: usize = args.get(3).map_or(Ok(2), |s| s.parse())?;
+    let only = args.get(4).map(String::as_str);
+    let mut rows: Vec<Row> = [Preconditioner::BlockJacobi, Preconditioner::Multigrid]
+        .into_iter()
+        .filter(|p| match only {
+            Some("multigrid") => *p == Preconditioner::Multigrid,
+            Some("block-jacobi") => *p == Preconditioner::BlockJacobi,
+            _ => true,
+        })
+        .map(|preconditioner| Row {
+            preconditioner,
+            best_secs: f64::INFINITY,
+            cg_iterations: 0,
+            end: Vec::new(),
+        })
+        .collect();
+    for _ in 0..rounds {
+        for row in &mut rows {
+            let mut be = CpuBackend::new(model.clone(), Step::new(Integrator::Implicit, dt));
+            be.set_preconditioner(row.preconditioner);
+            let mut cg = 0u64;
+            let start = Instant::now();
+            for _ in 0..steps {
+                cg += u64::from(be.advance(1)?.solver_iterations);
+            }
+            row.best_secs = row.best_secs.min(start.elapsed().as_secs_f64());
+            row.cg_iterations = cg;
+            row.end = be.state()?.x;
+        }
+    }
+    println!(
+        "{scene}, {} masses, dt {dt:.5} s, {steps} steps from its start, best of {rounds} on {}:",
+        model.mass_count(),
+        rows.first()
+            .map(|_| format!("cpu ({} threads)", rayon::current_num_threads()))
+            .unwrap_or_default()
+    );
+    let first = rows.first().map(|r| r.end.clone()).unwrap_or_default();
+    for row in &rows {
+        let apart = first
+            .iter()
+            .zip(&row.end)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0f32, f32::max);
+        let mean_y = row.end.iter().map(|x| f64::from(x.y)).sum::<f64>() / row.end.len() as f64;
+        println!(
+            "  {:<24} {:>8.2} steps/s  {:>7.1} CG iterations a step  mean y {mean_y:+.5} m  max |Δx| from block Jacobi {apart:.2e} m",
+            row.preconditioner.name(),
+            f64::from(steps) / row.best_secs,
+            row.cg_iterations as f64 / f64::from(steps),
+        );
+    }
+    Ok(())
+}

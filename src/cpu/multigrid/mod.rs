@@ -1,0 +1,282 @@
+//! An aggregation multigrid preconditioner for implicit Euler's conjugate gradients on large
+//! systems (`physics::MULTIGRID_MIN_MASSES` masses and more).
+//!
+//! Block Jacobi leaves CG as slow as the system's condition number: a 256 × 256 cloth at one step
+//! per frame (h²k/m ≈ 3 600) needs hundreds of iterations per solve and ran into the cap of 200
+//! on most. A correction that spans the sheet has to travel there one spring per iteration.
+//! Multigrid carries it on coarser copies of the system instead.
+//!
+//! - **Aggregates.** Level l + 1's nodes are blocks of two masses along each axis of level l's
+//!   (2 × 2 on a sheet, 2 × 2 × 2 in a block): a grid body by its grid indices, a mesh body by
+//!   cells of its rest positions twice its springs' mean rest length wide. Pinned masses belong to
+//!   none (their Δv is zero). Coarsening stops at `COARSEST_NODES` nodes or when a level would not
+//!   halve.
+//! - **Coarse systems.** With P the piecewise-constant prolongation (a node's value copied to its
+//!   members), the coarse system is Pᵀ A P. The system is a sum of each node's own block (mass,
+//!   drag, contacts) and each spring's block S on its two ends (+S on the diagonal, −S off it),
+//!   so Pᵀ A P is again such a sum: a coarse node's own block is the sum of its members' (and of
+//!   the springs to pinned masses), a spring inside an aggregate vanishes, and the springs
+//!   between two aggregates add into one coarse edge. No subtraction: the coarse blocks keep
+//!   their precision however stiff the springs.
+//! - **The cycle.** A V-cycle with one damped block-Jacobi sweep before and after the coarse
+//!   correction (the same sweep: the cycle is a symmetric positive definite operator, as CG needs)
+//!   and a dense Cholesky solve, in f64, on the coarsest level.
+//!
+//! Every sum runs in a fixed order, so the result does not depend on the thread count.
+
+mod hierarchy;
+#[cfg(test)]
+mod tests;
+
+use glam::{DVec3, IVec3, Mat3, Vec3};
+
+use crate::model::Model;
+use hierarchy::{Level, Values, coarsen, each, mass_cells};
+
+/// The coarsest level's most nodes: its dense system (3 unknowns a node) is factored once per
+/// Newton iteration.
+pub const COARSEST_NODES: usize = 96;
+
+/// Block Jacobi's damping in the cycle's sweeps: the blocks' row sums bound D⁻¹A's eigenvalues by
+/// 2, so 2/3 damps the sheet's shortest waves (λ near 2) by a third and never amplifies one.
+const SMOOTHING: f32 = 2.0 / 3.0;
+
+/// How many times a level takes the next one's correction per cycle: 1, a V-cycle; 2, a W.
+/// (A W-cycle, 2, took a quarter fewer CG iterations on cloth-256 at 1/60 s, in no less time on
+/// two cores: each iteration's coarse work doubles.)
+const CYCLE_VISITS: usize = 1;
+
+/// The hierarchy, its numbers, and the coarsest level's factor.
+#[derive(Debug, Clone)]
+pub struct Multigrid {
+    levels: Vec<Level>,
+    values: Vec<Values>,
+    /// The finest level's scratch (one vector per mass).
+    fine_r: Vec<Vec3>,
+    fine_ax: Vec<Vec3>,
+    /// Lower-triangular Cholesky factor of the coarsest system, row-major, 3 unknowns a node
+    /// (empty when it has more than `COARSEST_NODES` nodes or failed to factor: the coarsest
+    /// level then takes a Jacobi sweep).
+    factor: Vec<f64>,
+}
+
+impl Multigrid {
+    /// The hierarchy for `model`, or None when it would have no coarse level.
+    pub fn new(model: &Model) -> Option<Self> {
+        let cells = mass_cells(model);
+        let mut levels = Vec::new();
+        // The finer level: its nodes' cells (and bodies), its edges.
+        let mut fine: Vec<Option<(u32, IVec3)>> = cells;
+        let mut fine_edges: Vec<[u32; 2]> = model.springs.iter().map(|s| [s.a, s.b]).collect();
+        let mut fine_nodes = model.mass_count();
+        loop {
+            let level = coarsen(&fine, &fine_edges);
+            if level.nodes == 0 || 2 * level.nodes > fine_nodes + 1 {
+                break;
+            }
+            fine = level.cells.iter().map(|c| Some(*c)).collect();
+            fine_edges = level.edges.clone();
+            fine_nodes = level.nodes;
+            let coarsest = level.nodes <= COARSEST_NODES;
+            levels.push(level);
+            if coarsest {
+                break;
+            }
+        }
+        if levels.is_empty() {
+            return None;
+        }
+        let values = levels
+            .iter()
+            .map(|l| Values {
+                own: vec![Mat3::ZERO; l.nodes],
+                edge: vec![Mat3::ZERO; l.edges.len()],
+                diag_inv: vec![Mat3::IDENTITY; l.nodes],
+                x: vec![Vec3::ZERO; l.nodes],
+                b: vec![Vec3::ZERO; l.nodes],
+                r: vec![Vec3::ZERO; l.nodes],
+            })
+            .collect();
+        Some(Self {
+            levels,
+            values,
+            fine_r: vec![Vec3::ZERO; model.mass_count()],
+            fine_ax: vec![Vec3::ZERO; model.mass_count()],
+            factor: Vec::new(),
+        })
+    }
+
+    /// Nodes on each coarse level.
+    pub fn nodes(&self) -> Vec<usize> {
+        self.levels.iter().map(|l| l.nodes).collect()
+    }
+}
+
+/// The nodes of each coarse level `model`'s hierarchy would have (for `hooke check`), or None
+/// when it has none.
+pub fn multigrid_levels(model: &Model) -> Option<Vec<usize>> {
+    Multigrid::new(model).map(|m| m.nodes())
+}
+
+/// x = ω D⁻¹ b (a sweep from zero).
+fn smooth_from_zero(diag_inv: &[Mat3], b: &[Vec3], x: &mut [Vec3]) {
+    each(x, |i, out| *out = SMOOTHING * (diag_inv[i] * b[i]));
+}
+
+/// r = b − A x, given ax = A x.
+fn residual(b: &[Vec3], ax: &[Vec3], r: &mut [Vec3]) {
+    each(r, |i, out| *out = b[i] - ax[i]);
+}
+
+/// x += ω D⁻¹ r.
+fn smooth(diag_inv: &[Mat3], r: &[Vec3], x: &mut [Vec3]) {
+    each(x, |i, out| *out += SMOOTHING * (diag_inv[i] * r[i]));
+}
+
+impl Multigrid {
+    /// The coarse levels' blocks at the current linearisation: `own(i)` is free mass i's own
+    /// block (mass, drag, contacts), `spring(s)` spring s's block.
+    pub fn linearise(
+        &mut self,
+        own: impl Fn(usize) -> Mat3 + Sync,
+        spring: impl Fn(usize) -> Mat3 + Sync,
+    ) {
+        let Some((first, rest)) = self.values.split_first_mut() else {
+            return;
+        };
+        self.levels[0].linearise(first, own, spring);
+        let mut finer: &Values = first;
+        for (level, v) in self.levels[1..].iter().zip(rest.iter_mut()) {
+            level.linearise(v, |m| finer.own[m], |f| finer.edge[f]);
+            finer = v;
+        }
+        self.factor = self.coarsest_factor().unwrap_or_default();
+    }
+
+    /// The Cholesky factor of the coarsest level's system, in f64 (None if it is too large, or
+    /// not positive definite in f64, which rounding alone could make it).
+    fn coarsest_factor(&self) -> Option<Vec<f64>> {
+        let (level, v) = (self.levels.last()?, self.values.last()?);
+        // A hierarchy whose coarsening stalled above the coarsest size (many small bodies, a
+        // mesh whose cells do not merge) sweeps its last level instead of factoring it.
+        if level.nodes > COARSEST_NODES {
+            return None;
+        }
+        let n = 3 * level.nodes;
+        let mut a = vec![0.0f64; n * n];
+        let mut add = |r: usize, c: usize, m: Mat3, sign: f64| {
+            let m = m.as_dmat3();
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[(3 * r + i) * n + 3 * c + j] += sign * m.col(j)[i];
+                }
+            }
+        };
+        for node in 0..level.nodes {
+            add(node, node, v.own[node], 1.0);
+        }
+        for (e, &[p, q]) in level.edges.iter().enumerate() {
+            let (p, q) = (p as usize, q as usize);
+            add(p, p, v.edge[e], 1.0);
+            add(q, q, v.edge[e], 1.0);
+            add(p, q, v.edge[e], -1.0);
+            add(q, p, v.edge[e], -1.0);
+        }
+        for j in 0..n {
+            let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
+            if d.is_nan() || d <= 0.0 || !d.is_finite() {
+                return None;
+            }
+            let d = d.sqrt();
+            a[j * n + j] = d;
+            for i in j + 1..n {
+                let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
+                a[i * n + j] = s / d;
+            }
+        }
+        Some(a)
+    }
+
+    /// x = A⁻¹ b on the coarsest level (a Jacobi sweep if it did not factor).
+    fn solve_coarsest(&mut self) {
+        let Some(v) = self.values.last_mut() else {
+            return;
+        };
+        let n = 3 * v.b.len();
+        if self.factor.len() != n * n {
+            smooth_from_zero(&v.diag_inv, &v.b, &mut v.x);
+            return;
+        }
+        let l = &self.factor;
+        let mut y: Vec<f64> = v.b.iter().flat_map(|b| b.as_dvec3().to_array()).collect();
+        for i in 0..n {
+            let s = y[i] - (0..i).map(|k| l[i * n + k] * y[k]).sum::<f64>();
+            y[i] = s / l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let s = y[i] - (i + 1..n).map(|k| l[k * n + i] * y[k]).sum::<f64>();
+            y[i] = s / l[i * n + i];
+        }
+        for (node, x) in v.x.iter_mut().enumerate() {
+            *x = DVec3::new(y[3 * node], y[3 * node + 1], y[3 * node + 2]).as_vec3();
+        }
+    }
+
+    /// z = one cycle on r: the preconditioner CG applies. `block_inv` is each mass's inverted
+    /// diagonal block, `apply(p, out)` the system's product.
+    pub fn cycle(
+        &mut self,
+        block_inv: &[Mat3],
+        apply: impl Fn(&[Vec3], &mut [Vec3]),
+        r: &[Vec3],
+        z: &mut [Vec3],
+    ) {
+        smooth_from_zero(block_inv, r, z);
+        apply(z, &mut self.fine_ax);
+        residual(r, &self.fine_ax, &mut self.fine_r);
+        self.levels[0].restrict(&self.fine_r, &mut self.values[0].b);
+        self.coarse_cycle(0);
+        self.levels[0].prolong(&self.values[0].x, z);
+        apply(z, &mut self.fine_ax);
+        residual(r, &self.fine_ax, &mut self.fine_r);
+        smooth(block_inv, &self.fine_r, z);
+    }
+
+    /// Coarse level k's x from its b: the coarsest solved directly, any other by a sweep, the
+    /// next level's correction (`CYCLE_VISITS` times) and a sweep.
+    fn coarse_cycle(&mut self, k: usize) {
+        if k + 1 == self.levels.len() {
+            self.solve_coarsest();
+            return;
+        }
+        {
+            let v = &mut self.values[k];
+            smooth_from_zero(&v.diag_inv, &v.b, &mut v.x);
+        }
+        for _ in 0..CYCLE_VISITS {
+            self.hand_down(k);
+            self.coarse_cycle(k + 1);
+            let (here, below) = self.values.split_at_mut(k + 1);
+            self.levels[k + 1].prolong(&below[0].x, &mut here[k].x);
+        }
+        self.residual_at(k);
+        let v = &mut self.values[k];
+        smooth(&v.diag_inv, &v.r, &mut v.x);
+    }
+
+    /// Level k's r = b − A x.
+    fn residual_at(&mut self, k: usize) {
+        let Values {
+            own, edge, x, b, r, ..
+        } = &mut self.values[k];
+        self.levels[k].apply((own, edge), x, r);
+        each(r, |i, out| *out = b[i] - *out);
+    }
+
+    /// Level k's residual, restricted into level k + 1's b.
+    fn hand_down(&mut self, k: usize) {
+        self.residual_at(k);
+        let (here, below) = self.values.split_at_mut(k + 1);
+        self.levels[k + 1].restrict(&here[k].r, &mut below[0].b);
+    }
+}

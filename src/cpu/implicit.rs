@@ -1,6 +1,6 @@
 //! `implicit_step`: backward Euler by Newton's method (Baraff & Witkin 1998), each linear system
 //! solved matrix-free by conjugate gradients with a 3 × 3 block-Jacobi preconditioner (aggregation
-//! multigrid from `physics::MULTIGRID_MIN_MASSES` masses on: `multigrid/`) to a tenth of Newton's
+//! multigrid from `physics::MULTIGRID_MIN_MASSES` masses on: `multigrid.rs`) to a tenth of Newton's
 //! residual (inexact Newton).
 //!
 //! Backward Euler asks for Δv with M Δv = h f(x₀ + h (v₀ + Δv), v₀ + Δv). Newton's method on

@@ -4,6 +4,7 @@
 // Each module is named for the WGSL file its kernels' twins are in (`src/cpu/grid.rs` and
 // `shaders/grid.wgsl`); `gpu::kernels` names the twin of every GPU kernel, and checks that it
 // exists, so the modules are visible to the crate.
+mod aggregates;
 mod backend;
 pub(crate) mod chunks;
 pub(crate) mod collide;

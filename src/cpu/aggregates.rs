@@ -1,13 +1,14 @@
-//! The multigrid hierarchy's levels: which nodes make each coarse node and which edges each
-//! coarse edge (built once per model), and each level's products at the current linearisation.
+//! The aggregates of implicit Euler's multigrid preconditioner (`multigrid.rs`): which nodes make
+//! each coarse node and which edges each coarse edge (built once per model), and each level's
+//! products at the current linearisation.
 
 use std::collections::HashMap;
 
 use glam::{IVec3, Mat3, Vec3};
 use rayon::prelude::*;
 
-use super::super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use super::super::system_blocks::invert_block;
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use super::system_blocks::invert_block;
 use crate::model::{BodyShape, Model};
 
 /// A pinned mass's aggregate: none.

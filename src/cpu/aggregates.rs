@@ -5,9 +5,8 @@
 use std::collections::HashMap;
 
 use glam::{IVec3, Mat3, Vec3};
-use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use super::chunks::each_mass as each;
 use super::system_blocks::invert_block;
 use crate::model::{BodyShape, Model};
 
@@ -206,21 +205,6 @@ pub(super) fn coarsen(fine: &[Option<(u32, IVec3)>], fine_edges: &[[u32; 2]]) ->
         own_sources,
         incident,
         cells,
-    }
-}
-
-/// `f(i, &mut out[i])` for every element, on the thread pool when there are many (fixed chunks:
-/// each element is written by one call, whatever the scheduling).
-pub(super) fn each<T: Send>(out: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
-    let chunk = |(c, part): (usize, &mut [T])| {
-        for (k, o) in part.iter_mut().enumerate() {
-            f(c * CHUNK + k, o);
-        }
-    };
-    if out.len() >= PARALLEL_MIN_MASSES {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
-    } else {
-        out.chunks_mut(CHUNK).enumerate().for_each(chunk);
     }
 }
 

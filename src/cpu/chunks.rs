@@ -6,3 +6,19 @@ pub const CHUNK: usize = 1024;
 
 /// Below this many masses the thread pool costs more than it saves.
 pub const PARALLEL_MIN_MASSES: usize = 4 * CHUNK;
+
+/// `f(i, &mut out[i])` for every element, on the thread pool from `PARALLEL_MIN_MASSES` elements
+/// on, over fixed chunks: each element is written by one call, whatever the scheduling.
+pub fn each_mass<T: Send>(out: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
+    use rayon::prelude::*;
+    let chunk = |(c, part): (usize, &mut [T])| {
+        for (k, o) in part.iter_mut().enumerate() {
+            f(c * CHUNK + k, o);
+        }
+    };
+    if out.len() >= PARALLEL_MIN_MASSES {
+        out.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
+    } else {
+        out.chunks_mut(CHUNK).enumerate().for_each(chunk);
+    }
+}

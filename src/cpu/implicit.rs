@@ -25,7 +25,7 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass};
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
@@ -122,21 +122,6 @@ fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
         partials.into_iter().sum()
     } else {
         a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(chunk).sum()
-    }
-}
-
-/// `f(i, &mut out[i])` for every mass, on the thread pool for large models (fixed chunks, so
-/// each element is written by one call and the result does not depend on scheduling).
-fn each_mass<T: Send>(out: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
-    let chunk = |(c, part): (usize, &mut [T])| {
-        for (k, o) in part.iter_mut().enumerate() {
-            f(c * CHUNK + k, o);
-        }
-    };
-    if out.len() >= PARALLEL_MIN_MASSES {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
-    } else {
-        out.chunks_mut(CHUNK).enumerate().for_each(chunk);
     }
 }
 

@@ -26,7 +26,8 @@
 
 use glam::{DVec3, IVec3, Mat3, Vec3};
 
-use super::aggregates::{Level, Values, coarsen, each, mass_cells};
+use super::aggregates::{Level, Values, coarsen, mass_cells};
+use super::chunks::each_mass as each;
 use crate::model::Model;
 
 /// The coarsest level's most nodes: its dense system (3 unknowns a node) is factored once per

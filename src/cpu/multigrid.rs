@@ -51,10 +51,12 @@ pub struct Multigrid {
     /// The finest level's scratch (one vector per mass).
     fine_r: Vec<Vec3>,
     fine_ax: Vec<Vec3>,
-    /// Lower-triangular Cholesky factor of the coarsest system, row-major, 3 unknowns a node
-    /// (empty when it has more than `COARSEST_NODES` nodes or failed to factor: the coarsest
-    /// level then takes a Jacobi sweep).
+    /// Lower-triangular Cholesky factor of the coarsest system, row-major, 3 unknowns a node,
+    /// and whether it holds one (not when that level has more than `COARSEST_NODES` nodes or
+    /// failed to factor: it then takes a Jacobi sweep); the solve's scratch.
     factor: Vec<f64>,
+    factored: bool,
+    coarse_y: Vec<f64>,
 }
 
 impl Multigrid {
@@ -100,6 +102,8 @@ impl Multigrid {
             fine_r: vec![Vec3::ZERO; model.mass_count()],
             fine_ax: vec![Vec3::ZERO; model.mass_count()],
             factor: Vec::new(),
+            factored: false,
+            coarse_y: Vec::new(),
         })
     }
 
@@ -113,6 +117,24 @@ impl Multigrid {
 /// when it has none.
 pub fn multigrid_levels(model: &Model) -> Option<Vec<usize>> {
     Multigrid::new(model).map(|m| m.nodes())
+}
+
+/// Factors the symmetric `n` × `n` matrix `a` (row-major) into its lower Cholesky factor in
+/// place; false if it is not positive definite.
+fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        for i in j + 1..n {
+            let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
+            a[i * n + j] = s / d;
+        }
+    }
+    true
 }
 
 /// x = ω D⁻¹ b (a sweep from zero).
@@ -147,20 +169,25 @@ impl Multigrid {
             level.linearise(v, |m| finer.own[m], |f| finer.edge[f]);
             finer = v;
         }
-        self.factor = self.coarsest_factor().unwrap_or_default();
+        self.factor_coarsest();
     }
 
-    /// The Cholesky factor of the coarsest level's system, in f64 (None if it is too large, or
-    /// not positive definite in f64, which rounding alone could make it).
-    fn coarsest_factor(&self) -> Option<Vec<f64>> {
-        let (level, v) = (self.levels.last()?, self.values.last()?);
+    /// Factors the coarsest level's system into `factor`, in f64, in place (`factored` false if
+    /// it is too large, or not positive definite in f64, which rounding alone could make it).
+    fn factor_coarsest(&mut self) {
+        self.factored = false;
+        let (Some(level), Some(v)) = (self.levels.last(), self.values.last()) else {
+            return;
+        };
         // A hierarchy whose coarsening stalled above the coarsest size (many small bodies, a
         // mesh whose cells do not merge) sweeps its last level instead of factoring it.
         if level.nodes > COARSEST_NODES {
-            return None;
+            return;
         }
         let n = 3 * level.nodes;
-        let mut a = vec![0.0f64; n * n];
+        let a = &mut self.factor;
+        a.clear();
+        a.resize(n * n, 0.0);
         let mut add = |r: usize, c: usize, m: Mat3, sign: f64| {
             let m = m.as_dmat3();
             for i in 0..3 {
@@ -179,19 +206,7 @@ impl Multigrid {
             add(p, q, v.edge[e], -1.0);
             add(q, p, v.edge[e], -1.0);
         }
-        for j in 0..n {
-            let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
-            if d.is_nan() || d <= 0.0 || !d.is_finite() {
-                return None;
-            }
-            let d = d.sqrt();
-            a[j * n + j] = d;
-            for i in j + 1..n {
-                let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
-                a[i * n + j] = s / d;
-            }
-        }
-        Some(a)
+        self.factored = cholesky_in_place(a, n);
     }
 
     /// x = A⁻¹ b on the coarsest level (a Jacobi sweep if it did not factor).
@@ -199,13 +214,14 @@ impl Multigrid {
         let Some(v) = self.values.last_mut() else {
             return;
         };
-        let n = 3 * v.b.len();
-        if self.factor.len() != n * n {
+        if !self.factored {
             smooth_from_zero(&v.diag_inv, &v.b, &mut v.x);
             return;
         }
-        let l = &self.factor;
-        let mut y: Vec<f64> = v.b.iter().flat_map(|b| b.as_dvec3().to_array()).collect();
+        let (l, n) = (&self.factor, 3 * v.b.len());
+        let y = &mut self.coarse_y;
+        y.clear();
+        y.extend(v.b.iter().flat_map(|b| b.as_dvec3().to_array()));
         for i in 0..n {
             let s = y[i] - (0..i).map(|k| l[i * n + k] * y[k]).sum::<f64>();
             y[i] = s / l[i * n + i];

@@ -3,11 +3,11 @@
 //! step, and where the masses end. The preconditioners are timed in turn, round after round, so
 //! that a noisy machine slows them alike; each round steps from the scene's start.
 //!
-//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY]`
+//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY] [INTEGRATOR]`
 //!
 //! DT defaults to 1/60 s (one step per frame), STEPS to 30, ROUNDS to 2; ONLY, `multigrid` or
-//! `block-jacobi`, times that one alone (for a profiler). `RAYON_NUM_THREADS`
-//! sets the threads. See BENCHMARKS.md.
+//! `block-jacobi`, times that one alone (for a profiler; `both` times both); INTEGRATOR is
+//! `implicit` (the default) or `bdf2`. `RAYON_NUM_THREADS` sets the threads. See BENCHMARKS.md.
 
 use std::time::Instant;
 
@@ -27,7 +27,7 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(scene) = args.first() else {
         anyhow::bail!(
-            "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi]"
+            "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi|both] [implicit|bdf2]"
         );
     };
     let hooke::prepare::Planned { model, .. } = hooke::prepare::planned(scene)?;
@@ -35,6 +35,11 @@ fn main() -> anyhow::Result<()> {
     let steps: u32 = args.get(2).map_or(Ok(30), |s| s.parse())?;
     let rounds: usize = args.get(3).map_or(Ok(2), |s| s.parse())?;
     let only = args.get(4).map(String::as_str);
+    let integrator = match args.get(5).map(String::as_str) {
+        None | Some("implicit") => Integrator::Implicit,
+        Some("bdf2") => Integrator::Bdf2,
+        Some(other) => anyhow::bail!("INTEGRATOR is implicit or bdf2, not {other:?}"),
+    };
     let mut rows: Vec<Row> = [Preconditioner::BlockJacobi, Preconditioner::Multigrid]
         .into_iter()
         .filter(|p| match only {
@@ -51,7 +56,7 @@ fn main() -> anyhow::Result<()> {
         .collect();
     for _ in 0..rounds {
         for row in &mut rows {
-            let mut be = CpuBackend::new(model.clone(), Step::new(Integrator::Implicit, dt));
+            let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
             be.set_preconditioner(row.preconditioner);
             let mut cg = 0u64;
             let start = Instant::now();
@@ -64,7 +69,7 @@ fn main() -> anyhow::Result<()> {
         }
     }
     println!(
-        "{scene}, {} masses, dt {dt:.5} s, {steps} steps from its start, best of {rounds} on {}:",
+        "{scene}, {integrator}, {} masses, dt {dt:.5} s, {steps} steps from its start, best of {rounds} on {}:",
         model.mass_count(),
         rows.first()
             .map(|_| format!("cpu ({} threads)", rayon::current_num_threads()))

@@ -19,6 +19,9 @@ override HAS_TEARING: bool = false;
 // Implicit Euler: compute_forces also linearises the contacts, and the solver's stopping rules
 // (set from src/physics/solver.rs, so both backends stop alike).
 override IMPLICIT: bool = false;
+// BDF2: each step blends its start from the last (implicit_blend_at).
+override HISTORY: bool = false;
+override NEWTON_WORK_SHARE: f32 = 1e-2;
 override CG_MAX_ITERATIONS: u32 = 200u;
 override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
@@ -117,8 +120,10 @@ struct Stage {
     step: u32,
     // The submission's steps from this one on (fused_frame.wgsl runs them all in one dispatch).
     steps: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // The whole step, where dt is a backward scheme's solve's (the ledger's quadrature), and the
+    // blend of the step's start (src/physics/solver.rs's BackwardStep).
+    whole_dt: f32,
+    history: f32,
     poses: array<Pose, MAX_COLLIDERS>,
 }
 
@@ -349,6 +354,10 @@ const PRODUCT: u32 = 5u;
 const DIAGONAL: u32 = 6u;
 const DIAGONAL_OFF: u32 = 7u;
 const SOLVER_VECTORS: u32 = 8u;
+// BDF2's last step start, after the solver's vectors in the work buffer (never in workgroup
+// memory: it outlives the step).
+const HISTORY_X: u32 = 8u;
+const HISTORY_V: u32 = 9u;
 
 fn block(k: u32, i: u32) -> u32 {
     return k * params.mass_count + i;

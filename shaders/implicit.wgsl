@@ -213,7 +213,7 @@ fn implicit_step(@builtin(local_invocation_index) lid: u32) {
             // The step's momentum change |h f| at its first iterate.
             scale = sqrt(t.z);
         }
-        if (newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) {
+        if ((newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) && newton_may_end(t.w)) {
             break;
         }
         last_residual = b_norm;
@@ -378,7 +378,7 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (sv.scale == 0.0) {
         sv.scale = sqrt(t.z);
     }
-    if (newton_done(b_norm, sv.scale) || newton_stalled(b_norm, sv.last_residual, sv.scale)) {
+    if ((newton_done(b_norm, sv.scale) || newton_stalled(b_norm, sv.last_residual, sv.scale)) && newton_may_end(t.w)) {
         // The step's equations hold well enough: the step ends at this iterate.
         sv.cg_active = 0u;
         sv.newton_pending = 0u;

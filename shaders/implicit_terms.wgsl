@@ -75,6 +75,12 @@ fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
     return residual <= NEWTON_FLOOR * scale && residual > NEWTON_STALL * last;
 }
 
+// Whether the step may end at this iterate (newton_done or newton_stalled) given the residual's
+// summed work `work` (implicit_rhs_at's w): BDF2's must be at most 0 (physics::NEWTON_WORK_SHARE).
+fn newton_may_end(work: f32) -> bool {
+    return !HISTORY || work <= 0.0;
+}
+
 // A finished step's CG iterations and residual, kept for the frame's snapshot.
 fn book_solve(iterations: u32, residual: f32) {
     atomicMax(&counters[2], iterations);
@@ -98,6 +104,25 @@ fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
 
 fn implicit_begin_at(i: u32) {
     set_vector(DV_TOTAL, i, vec4<f32>(0.0));
+    if (HISTORY) {
+        implicit_blend_at(i);
+    }
+}
+
+// BDF2's start (src/cpu/backward.rs's implicit_blend): x̂ = x + history (x − x₋₁), the same for
+// v, keeping x and v as the next step's history. Its first step's history is 0: x₋₁ is unused.
+fn implicit_blend_at(i: u32) {
+    let b = stage.history;
+    let xo = x[i].xyz;
+    let vo = v[i].xyz;
+    let xl = work[block(HISTORY_X, i)].xyz;
+    let vl = work[block(HISTORY_V, i)].xyz;
+    if (b != 0.0) {
+        x[i] = vec4<f32>(xo + b * (xo - xl), 0.0);
+        v[i] = vec4<f32>(vo + b * (vo - vl), 0.0);
+    }
+    work[block(HISTORY_X, i)] = vec4<f32>(xo, 0.0);
+    work[block(HISTORY_V, i)] = vec4<f32>(vo, 0.0);
 }
 
 fn implicit_iterate_at(i: u32) {
@@ -111,7 +136,7 @@ fn implicit_final_at(i: u32) {
     let vn = v[i].xyz + vector_at(DV_TOTAL, i).xyz;
     v[i] = vec4<f32>(vn, 0.0);
     x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
-    ledger[i] += stage.dt * deriv[2u * i + 1u];
+    ledger[i] += stage.whole_dt * deriv[2u * i + 1u];
     check_state(x[i].xyz, vn);
 }
 
@@ -128,7 +153,8 @@ fn block_inverse_at(i: u32) -> mat3x3<f32> {
 
 // Newton's right-hand side h f − M Δv, the inverted diagonal block of the block-Jacobi
 // preconditioner, and the solve's start from δ = 0: r = b, z = B⁻¹ r, p = z. Returns
-// (r·z, b·b, |h f|², 0).
+// (r·z, b·b, |h f|², BDF2's residual work: src/cpu/implicit.rs's residual_work).
+// (Its parts are summed in f32 here, in f64 on the CPU: near 0 its sign may differ.)
 fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var b = vec3<f32>(0.0);
     var hf = vec3<f32>(0.0);
@@ -159,7 +185,12 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
     set_vector(DIRECTION, i, vec4<f32>(z, 0.0));
     set_vector(DIAGONAL, i, vec4<f32>(inv[0][0], inv[1][1], inv[2][2], inv[0][1]));
     set_vector(DIAGONAL_OFF, i, vec4<f32>(inv[0][2], inv[1][2], 0.0, 0.0));
-    return vec4<f32>(dot(b, z), dot(b, b), dot(hf, hf), 0.0);
+    var work = 0.0;
+    if (HISTORY && mass[i].y != 0.0) {
+        let vk = v_in[i].xyz;
+        work = -dot(vk, b) - NEWTON_WORK_SHARE * 0.5 * mass[i].x * dot(vk, vk);
+    }
+    return vec4<f32>(dot(b, z), dot(b, b), dot(hf, hf), work);
 }
 
 // The search direction at mass j: p, or (`pending`: the per-pass cg_apply, before cg_advance

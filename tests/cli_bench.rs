@@ -106,7 +106,7 @@ fn bench_accuracy_writes_its_table_and_chart_and_finds_the_stable_step() {
 }
 
 /// The fast end of the ladder: doublings of the scene's step up to one step per frame, where
-/// the explicit schemes diverge and implicit Euler and VBD stay stable (XPBD with one sweep
+/// the explicit schemes diverge and implicit Euler, BDF2 and VBD stay stable (XPBD with one sweep
 /// stretches the strand there, its elastic energy growing: fast and wrong), and a table of each
 /// solver there.
 #[test]
@@ -127,7 +127,7 @@ fn bench_accuracy_reaches_one_step_per_frame() {
     );
     for r in &at_frame {
         match r[1] {
-            "implicit" | "vbd" => assert_eq!(r[7], "true", "{csv}"),
+            "implicit" | "bdf2" | "vbd" => assert_eq!(r[7], "true", "{csv}"),
             "xpbd" => {}
             _ => assert_eq!(r[7], "false", "{csv}"),
         }

@@ -48,6 +48,7 @@ fn gpu_implicit_euler_in_one_workgroup_of_a_gpus_threads_matches_the_cpu() {
     }
     for (name, frames, threads) in [("hair", 10, 128), ("jello-sphere", 20, 1024)] {
         implicit_parity_with(
+            Integrator::Implicit,
             name,
             frames,
             hooke::gpu::ImplicitPath::InGroup,
@@ -69,6 +70,25 @@ fn gpu_implicit_euler_a_dispatch_per_pass_matches_the_cpu() {
     }
 }
 
+/// BDF2 is implicit Euler's solve from a blend of the step's start with the last one's, which
+/// each backend keeps (the GPU in its solver's buffer, restored with the frame when a frame is
+/// replayed): on both paths, the same tolerance as implicit Euler's. Its first step is implicit
+/// Euler's, its others BDF2's.
+#[test]
+fn gpu_bdf2_matches_the_cpu_on_both_paths() {
+    if !have_adapter() {
+        return;
+    }
+    use hooke::gpu::ImplicitPath::{InGroup, Passes};
+    for (name, frames, path) in [
+        ("hair", 10, InGroup),
+        ("jello-sphere", 20, InGroup),
+        ("jello-sphere", 20, Passes),
+    ] {
+        implicit_parity_with(Integrator::Bdf2, name, frames, path, None);
+    }
+}
+
 /// The per-pass path encodes each frame with budgets (Newton iterations per step, CG iterations
 /// per solve) and replays a frame whose step or solve ran out of them. A replay must end exactly
 /// where a frame with room to spare ends: the same run with every frame started from budgets of
@@ -80,14 +100,20 @@ fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
         return;
     }
     use hooke::gpu::{ExplicitPath, ImplicitBudgets, ImplicitPath};
-    // tear: its springs and the energy they let go are part of the frame's start too.
-    for name in ["hair", "jello-sphere", "tear"] {
+    // tear: its springs and the energy they let go are part of the frame's start too; BDF2:
+    // so is the last step's start, which it blends each step's from.
+    for (name, integrator) in [
+        ("hair", Integrator::Implicit),
+        ("jello-sphere", Integrator::Implicit),
+        ("tear", Integrator::Implicit),
+        ("jello-sphere", Integrator::Bdf2),
+    ] {
         let (model, _) = scene_model(name);
         let dt = 1.0 / 300.0;
         let start = |m| {
             ok(GpuBackend::with_paths(
                 m,
-                Step::new(Integrator::Implicit, dt),
+                Step::new(integrator, dt),
                 None,
                 (ImplicitPath::Passes, ExplicitPath::Fused),
             ))
@@ -106,23 +132,23 @@ fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
             assert_eq!(
                 (a.solver_iterations, a.solver_residual.to_bits()),
                 (b.solver_iterations, b.solver_residual.to_bits()),
-                "{name} frame {frame}"
+                "{name} {integrator} frame {frame}"
             );
             let (sa, sb) = (ok(roomy.state()), ok(tight.state()));
             assert!(
                 sa.x == sb.x && sa.v == sb.v && sa.ledger == sb.ledger,
-                "{name} frame {frame}: a replayed frame ends elsewhere"
+                "{name} {integrator} frame {frame}: a replayed frame ends elsewhere"
             );
         }
         // Every starved frame was replayed at least once (its first solve needs more than one
         // CG iteration); the roomy run's budgets, fitted to its frames, rarely are.
         assert!(
             tight.implicit_replays() >= 6,
-            "{name}: {} replays",
+            "{name} {integrator}: {} replays",
             tight.implicit_replays()
         );
         eprintln!(
-            "{name}: {} replays starved, {} at fitted budgets",
+            "{name} {integrator}: {} replays starved, {} at fitted budgets",
             tight.implicit_replays(),
             roomy.implicit_replays()
         );
@@ -173,12 +199,13 @@ fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() 
 }
 
 fn implicit_parity(name: &str, frames: u64, path: hooke::gpu::ImplicitPath) {
-    implicit_parity_with(name, frames, path, None);
+    implicit_parity_with(Integrator::Implicit, name, frames, path, None);
 }
 
-/// As `implicit_parity`, the one-workgroup step with `threads` threads (by default the
-/// adapter's choice).
+/// As `implicit_parity`, with `integrator` (implicit Euler or BDF2), the one-workgroup step with
+/// `threads` threads (by default the adapter's choice).
 fn implicit_parity_with(
+    integrator: Integrator,
     name: &str,
     frames: u64,
     path: hooke::gpu::ImplicitPath,
@@ -186,7 +213,7 @@ fn implicit_parity_with(
 ) {
     let (model, _) = scene_model(name);
     let dt = 1.0 / 60.0;
-    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::Implicit, dt));
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
     let tuning = hooke::gpu::Tuning {
         implicit: path,
         explicit: hooke::gpu::ExplicitPath::Fused,
@@ -195,11 +222,12 @@ fn implicit_parity_with(
     };
     let mut gpu = ok(GpuBackend::with_tuning(
         model.clone(),
-        Step::new(Integrator::Implicit, dt),
+        Step::new(integrator, dt),
         None,
         tuning,
     ));
     let (mut worst_x, mut worst_v) = (0.0f64, 0.0f64);
+    let mut totals = (0.0f64, 0.0f64);
     for frame in 1..=frames {
         // The GPU's solve figures come back with the frame's snapshot.
         let sc = ok(cpu.advance(1));
@@ -217,13 +245,17 @@ fn implicit_parity_with(
                 s.solver_residual
             );
         }
-        // The same system converges in about the same number of iterations.
+        // The same system converges in about the same number of iterations: step by step for
+        // implicit Euler; over the run for BDF2, whose steps on the resting jello sit near
+        // Newton's thresholds (moving the CPU's own start by 1e-7 m took its sixth step from 30
+        // to 51 CG iterations, and its fifteenth from 141 to 30).
         let (ic, ig) = (
             f64::from(sc.solver_iterations),
             f64::from(sg.solver_iterations),
         );
+        totals = (totals.0 + ic, totals.1 + ig);
         assert!(
-            (ic - ig).abs() <= 0.25 * ic + 8.0,
+            integrator == Integrator::Bdf2 || (ic - ig).abs() <= 0.25 * ic + 8.0,
             "{name} {path:?} frame {frame}: {ic} CG iterations on the CPU, {ig} on the GPU"
         );
         let (c, g) = (ok(cpu.state()), ok(gpu.state()));
@@ -233,12 +265,26 @@ fn implicit_parity_with(
         for (a, b) in c.v.iter().zip(&g.v) {
             worst_v = worst_v.max(f64::from(a.distance(*b)));
         }
+        // A step's velocities hold to NEWTON_RESIDUAL, and a dashpot's power is quadratic in
+        // them: BDF2's steps, near Newton's thresholds, may end on iterates that far apart (the
+        // jello struck at frame 19 dissipated 4.3% more on the CPU from a start moved by 1e-7 m,
+        // 4.9% more on the GPU); implicit Euler's stay within 2% there.
+        let share = match integrator {
+            Integrator::Bdf2 => 2.0 * hooke::physics::NEWTON_RESIDUAL,
+            _ => hooke::physics::NEWTON_RESIDUAL,
+        };
         let (ec, eg) = (c.ledger.dissipated_j(), g.ledger.dissipated_j());
         assert!(
-            (ec - eg).abs() <= hooke::physics::NEWTON_RESIDUAL * ec.abs().max(1e-3),
+            (ec - eg).abs() <= share * ec.abs().max(1e-3),
             "{name} {path:?} frame {frame}: dissipated {ec} J on the CPU, {eg} J on the GPU"
         );
     }
+    assert!(
+        (totals.0 - totals.1).abs() <= 0.25 * totals.0 + 8.0,
+        "{name} {integrator} {path:?}: {} CG iterations on the CPU, {} on the GPU",
+        totals.0,
+        totals.1
+    );
     let moved = ok(cpu.state())
         .v
         .iter()
@@ -247,9 +293,9 @@ fn implicit_parity_with(
     assert!(moved > 1e-3, "{name}: nothing moved");
     assert!(
         worst_x <= 5e-4 && worst_v <= 2e-2,
-        "{name} {path:?}: GPU implicit Euler differs from the CPU by {worst_x:.3e} m, {worst_v:.3e} m/s"
+        "{name} {integrator} {path:?}: the GPU differs from the CPU by {worst_x:.3e} m, {worst_v:.3e} m/s"
     );
-    println!("{name} implicit {path:?}: |Δx| {worst_x:.2e} m, |Δv| {worst_v:.2e} m/s");
+    println!("{name} {integrator} {path:?}: |Δx| {worst_x:.2e} m, |Δv| {worst_v:.2e} m/s");
 }
 
 /// From 4 096 masses the CPU preconditions implicit Euler's CG with aggregation multigrid, the

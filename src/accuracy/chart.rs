@@ -10,6 +10,7 @@ use super::results::Accuracy;
 /// until it has its own).
 const COLORS: [&str; Integrator::ALL.len()] = [
     "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#8c564b",
+    "#bcbd22",
 ];
 
 /// The work-precision chart: RMS error against wall time per simulated second, log–log.

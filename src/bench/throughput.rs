@@ -190,7 +190,7 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         (gpu.explicit_path(), gpu.sweeps_in_group()),
     );
     // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
-    if settings.integrator == Integrator::Implicit {
+    if settings.integrator.newton() {
         return Ok((None, None, Some(dispatches)));
     }
     let steps = opts.steps.clamp(1, 20);

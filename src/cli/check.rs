@@ -305,6 +305,13 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                     i.name()
                 );
             }
+            Some(_) if i == hooke::integrator::Integrator::Bdf2 => {
+                let _ = writeln!(
+                    s,
+                    "    {:<14} any in theory (A-stable on linear springs, second order: it damps slow motion far less than implicit Euler){mark}",
+                    i.name()
+                );
+            }
             Some(_) => {
                 let _ = writeln!(
                     s,
@@ -330,7 +337,7 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
 /// What preconditions implicit Euler's conjugate gradients on each backend.
 fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
     use hooke::physics::Preconditioner;
-    if settings.integrator != hooke::integrator::Integrator::Implicit {
+    if !settings.integrator.newton() {
         return;
     }
     let cpu = Preconditioner::for_masses(model.mass_count());

@@ -25,14 +25,16 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
+use super::backward::History;
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass};
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
+use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
-    CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE,
-    Preconditioner, newton_floor, newton_residual,
+    BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
+    NEWTON_TOLERANCE, NEWTON_WORK_SHARE, Preconditioner, newton_floor, newton_residual,
 };
 use crate::state::{Power, State};
 
@@ -75,6 +77,8 @@ pub struct ImplicitWork {
     vk: Vec<Vec3>,
     /// Large systems' preconditioner (block Jacobi without it).
     multigrid: Option<Multigrid>,
+    /// BDF2's last step start.
+    history: History,
 }
 
 impl ImplicitWork {
@@ -103,6 +107,7 @@ impl ImplicitWork {
                 Preconditioner::Multigrid => Multigrid::new(model),
                 Preconditioner::BlockJacobi => None,
             },
+            history: History::default(),
         }
     }
 }
@@ -207,36 +212,45 @@ pub(super) fn linearised_at(model: &Model, x: &[Vec3], h: f32) -> Linearisation 
     lin
 }
 
-/// One backward Euler step of `dt`. The ledger takes the dissipation rates at the converged
-/// iterate, the end of the step (backward quadrature, as the scheme itself).
+/// One step of `dt` of `integrator`, implicit Euler or BDF2 (`physics::BackwardStep`): backward
+/// Euler from the step's blended start. The ledger takes the dissipation rates at the converged
+/// iterate, the end of the step, over the whole step (backward quadrature, as the scheme itself).
 pub fn implicit_step(
     model: &Model,
     gather: &mut Gather,
     state: &mut State,
     w: &mut ImplicitWork,
-    dt: f32,
+    (integrator, dt): (Integrator, f32),
 ) -> SolveStats {
-    let h = dt;
-    let t_end = state.time_secs + f64::from(h);
+    let step = BackwardStep::of(integrator, dt, w.history.steps_taken());
+    let h = step.solve_secs;
+    let t_end = state.time_secs + f64::from(dt);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
     let mut scale = 0.0f64;
-    let tolerance = newton_residual(f64::from(h));
-    let floor = newton_floor(f64::from(h));
+    let order = integrator.order();
+    let tolerance = newton_residual(f64::from(dt), order);
+    let floor = newton_floor(f64::from(dt), order);
     let mut last_residual = f64::INFINITY;
+    // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
+    let keep = integrator == Integrator::Bdf2;
+    w.history
+        .implicit_blend(step, keep, &mut state.x, &mut state.v);
     implicit_begin(&mut w.dv_total);
     for _ in 0..NEWTON_MAX_ITERATIONS {
         implicit_iterate(&state.x, &state.v, &w.dv_total, h, (&mut w.xk, &mut w.vk));
-        power = compute_forces(model, gather, &w.xk, &w.vk, t_end, dt, &mut w.acc);
+        power = compute_forces(model, gather, &w.xk, &w.vk, t_end, h, &mut w.acc);
         linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
         let (residual, momentum) = implicit_rhs(model, w, h);
+        let work_ok = !keep || residual_work(model, &w.vk, &w.b) <= 0.0;
         if scale == 0.0 {
             // |h f| at the first iterate (Δv = 0: the first residual): what Newton's rule is
             // relative to.
             scale = momentum;
         }
-        if newton_done(residual, scale, tolerance)
-            || newton_stalled(residual, last_residual, scale, floor)
+        if (newton_done(residual, scale, tolerance)
+            || newton_stalled(residual, last_residual, scale, floor))
+            && work_ok
         {
             break;
         }
@@ -250,7 +264,7 @@ pub fn implicit_step(
         }
     }
     implicit_final(state, &w.dv_total, h);
-    state.ledger.accumulate(&power, f64::from(h));
+    state.ledger.accumulate(&power, f64::from(dt));
     state.time_secs = t_end;
     state.steps += 1;
     stats
@@ -334,6 +348,31 @@ pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32) -> (f64, f64) {
         .sum::<f64>()
         .sqrt();
     (dot(b, b).sqrt(), momentum)
+}
+
+/// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's
+/// velocities `v`, less `NEWTON_WORK_SHARE` of their kinetic energy: Σ (−v·b − share ½ m v²)
+/// over the movable masses, in f64, summed per chunk and the chunks in order. At most 0 when
+/// BDF2's step may end (`physics::NEWTON_WORK_SHARE`).
+pub fn residual_work(model: &Model, v: &[Vec3], b: &[Vec3]) -> f64 {
+    let share = NEWTON_WORK_SHARE;
+    let chunk = |c: usize| -> f64 {
+        let end = (c * CHUNK + CHUNK).min(v.len());
+        (c * CHUNK..end)
+            .filter(|&i| model.inv_mass[i] != 0.0)
+            .map(|i| {
+                let m = f64::from(model.mass_kg[i]);
+                -f64::from(v[i].dot(b[i])) - share * 0.5 * m * f64::from(v[i].length_squared())
+            })
+            .sum()
+    };
+    let chunks = v.len().div_ceil(CHUNK);
+    if v.len() >= PARALLEL_MIN_MASSES {
+        let partials: Vec<f64> = (0..chunks).into_par_iter().map(chunk).collect();
+        partials.iter().sum()
+    } else {
+        (0..chunks).map(chunk).sum()
+    }
 }
 
 /// Δv += δ; returns whether Newton has converged: the update is small against Δv (or Δv is
@@ -534,7 +573,7 @@ mod tests {
                     &mut gather,
                     &mut state,
                     &mut work,
-                    settings.dt_secs as f32,
+                    (Integrator::Implicit, settings.dt_secs as f32),
                 );
                 assert!(s.newton < NEWTON_MAX_ITERATIONS, "{s:?}");
                 s.newton
@@ -549,10 +588,11 @@ mod tests {
     fn newton_ends_on_its_residual_and_each_solve_at_a_share_of_it() {
         assert!(newton_done(0.0299, 1.0, 0.03));
         assert!(!newton_done(0.0301, 1.0, 0.03));
-        // The tolerance: 3% at one step per frame, in proportion below it.
-        assert_eq!(newton_residual(1.0 / 60.0), NEWTON_RESIDUAL);
-        assert_eq!(newton_residual(1.0), NEWTON_RESIDUAL);
-        assert!((newton_residual(1.0 / 120.0) - NEWTON_RESIDUAL / 2.0).abs() < 1e-12);
+        // The tolerance: 3% at one step per frame, as the step to the scheme's order below it.
+        assert_eq!(newton_residual(1.0 / 60.0, 1), NEWTON_RESIDUAL);
+        assert_eq!(newton_residual(1.0, 2), NEWTON_RESIDUAL);
+        assert!((newton_residual(1.0 / 120.0, 1) - NEWTON_RESIDUAL / 2.0).abs() < 1e-12);
+        assert!((newton_residual(1.0 / 120.0, 2) - NEWTON_RESIDUAL / 4.0).abs() < 1e-12);
         // Stalled: below the floor and less than halved; not while falling fast, nor above it.
         let floor = NEWTON_FLOOR;
         assert!(newton_stalled(2e-3, 3e-3, 1.0, floor));
@@ -561,9 +601,14 @@ mod tests {
         assert!(!newton_stalled(1.0, f64::INFINITY, 1.0, floor));
         // At one step per frame the floor is three times the tolerance; at small steps, the
         // floor of f32 forces.
-        assert!((newton_floor(1.0 / 60.0) - 2.0 * NEWTON_RESIDUAL).abs() < 1e-12);
-        assert_eq!(newton_floor(1e-4), NEWTON_FLOOR);
-        assert!(newton_stalled(0.045, 0.046, 1.0, newton_floor(1.0 / 60.0)));
+        assert!((newton_floor(1.0 / 60.0, 1) - 2.0 * NEWTON_RESIDUAL).abs() < 1e-12);
+        assert_eq!(newton_floor(1e-4, 1), NEWTON_FLOOR);
+        assert!(newton_stalled(
+            0.045,
+            0.046,
+            1.0,
+            newton_floor(1.0 / 60.0, 1)
+        ));
         // A solve stops at a tenth of the Newton residual it started from, or at its cap.
         assert!(cg_goes_on(CG_FORCING * 1.01, 0));
         assert!(!cg_goes_on(CG_FORCING * 0.99, 0));

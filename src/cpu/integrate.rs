@@ -130,11 +130,17 @@ pub fn step(
         Integrator::Verlet => verlet_step(model, state, s, dt),
         Integrator::Xpbd => xpbd_step(model, state, s, dt),
         // It keeps its own time.
-        Integrator::Implicit => {
+        Integrator::Implicit | Integrator::Bdf2 => {
             let work = s
                 .implicit
                 .get_or_insert_with(|| ImplicitWork::new(model, s.preconditioner));
-            return Some(implicit_step(model, &mut s.gather, state, work, dt));
+            return Some(implicit_step(
+                model,
+                &mut s.gather,
+                state,
+                work,
+                (integrator, dt),
+            ));
         }
         Integrator::Vbd => {
             let iterations = s.options.vbd_iterations;

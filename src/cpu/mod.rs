@@ -6,6 +6,7 @@
 // exists, so the modules are visible to the crate.
 mod aggregates;
 mod backend;
+pub(crate) mod backward;
 pub(crate) mod chunks;
 pub(crate) mod collide;
 pub(crate) mod collide_masses;

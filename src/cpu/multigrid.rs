@@ -303,6 +303,7 @@ mod tests {
     };
     use super::super::system_blocks::invert_block;
     use super::*;
+    use crate::integrator::Integrator;
     use crate::physics::Preconditioner;
 
     /// A fixed pseudo-random vector per mass, in [−1, 1)³.
@@ -453,7 +454,16 @@ mod tests {
             let mut work = ImplicitWork::new(&model, p);
             let mut state = model.initial.clone();
             let iterations: u32 = (0..30)
-                .map(|_| implicit_step(&model, &mut gather, &mut state, &mut work, h).iterations)
+                .map(|_| {
+                    implicit_step(
+                        &model,
+                        &mut gather,
+                        &mut state,
+                        &mut work,
+                        (Integrator::Implicit, h),
+                    )
+                    .iterations
+                })
                 .sum();
             (iterations, state)
         };

@@ -103,7 +103,7 @@ impl GpuBackend {
             dt_secs,
             ..
         } = step;
-        let implicit = integrator == Integrator::Implicit;
+        let implicit = integrator.newton();
         integrator
             .supports(&model.effects)
             .map_err(DeviceError::Unsupported)?;
@@ -161,7 +161,7 @@ impl GpuBackend {
             ctx,
             model,
             integrator,
-            clock: Clock::new(dt_secs),
+            clock: Clock::new(dt_secs, integrator),
             ledger: Ledger::default(),
             verlet_primed: false,
             pipelines,
@@ -438,7 +438,7 @@ impl GpuBackend {
     /// device booked them; VBD's sweeps (its residual is not reduced on the device).
     fn with_solve(&self, stats: StepStats, (iterations, residual): (u32, f32)) -> StepStats {
         match self.integrator {
-            Integrator::Implicit => StepStats {
+            Integrator::Implicit | Integrator::Bdf2 => StepStats {
                 solver_iterations: iterations,
                 solver_residual: f64::from(residual),
                 ..stats

@@ -38,7 +38,10 @@ pub struct Stage {
     pub step: u32,
     /// The submission's steps from this one on (`fused_frame.wgsl` runs them in one dispatch).
     pub steps: u32,
-    pub _pad: [u32; 2],
+    /// The whole step, where `dt` is a backward scheme's solve's (the ledger's quadrature).
+    pub whole_dt: f32,
+    /// A backward scheme's blend of the step's start (`physics::BackwardStep::history`).
+    pub history: f32,
     pub poses: [Pose; MAX_COLLIDERS],
 }
 

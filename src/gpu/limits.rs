@@ -17,11 +17,12 @@ const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
-    // VBD keeps each mass's velocity at the last step's start in [i] (RK4 and Verlet use three).
-    let per_mass = if integrator == Integrator::Implicit {
-        16 * SOLVER_VECTORS
-    } else {
-        48
+    // VBD keeps each mass's velocity at the last step's start in [i] (RK4 and Verlet use three);
+    // BDF2 keeps the last step's start after the solver's vectors (HISTORY_X, HISTORY_V).
+    let per_mass = match integrator {
+        Integrator::Implicit => 16 * SOLVER_VECTORS,
+        Integrator::Bdf2 => 16 * (SOLVER_VECTORS + 2),
+        _ => 48,
     };
     per_mass * model.mass_count() as u64
 }
@@ -29,13 +30,12 @@ pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
 /// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler and VBD with
 /// contacts their linearisation.
 pub fn deriv_bytes(model: &Model, integrator: Integrator) -> u64 {
-    let per_mass = if matches!(integrator, Integrator::Implicit | Integrator::Vbd)
-        && model.effects.has_contact()
-    {
-        64
-    } else {
-        32
-    };
+    let per_mass =
+        if (integrator.newton() || integrator == Integrator::Vbd) && model.effects.has_contact() {
+            64
+        } else {
+            32
+        };
     per_mass * model.mass_count() as u64
 }
 
@@ -58,11 +58,7 @@ pub fn check_fits(
         ("adjacency", 16 * ns),
         (
             "implicit spring terms",
-            if integrator == Integrator::Implicit {
-                64 * ns
-            } else {
-                0
-            },
+            if integrator.newton() { 64 * ns } else { 0 },
         ),
         (
             "mass-contact hash grid",
@@ -98,7 +94,7 @@ pub fn check_fits(
         });
     }
     let allowed = ctx.limits.max_storage_buffers_per_shader_stage;
-    let needed = if integrator == Integrator::Implicit {
+    let needed = if integrator.newton() {
         IMPLICIT_STORAGE_BUFFERS_NEEDED
     } else {
         STORAGE_BUFFERS_NEEDED

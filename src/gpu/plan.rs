@@ -194,7 +194,7 @@ pub fn step_plan(
             .chain([at(XpbdUpdateVelocity, 0)])
             .collect(),
         // Implicit's solve is planned apart.
-        Integrator::Implicit => Vec::new(),
+        Integrator::Implicit | Integrator::Bdf2 => Vec::new(),
         // The guess; the block solves at the step's end (where backward Euler takes its forces
         // and collider poses); the forces there for the ledger; the new state.
         Integrator::Vbd => [at(VbdPredict, 0)]
@@ -203,7 +203,7 @@ pub fn step_plan(
             .chain([forces(XtVt, 3), at(VbdFinal, 3)])
             .collect(),
     };
-    if effects.has_contact() && !matches!(integrator, Integrator::Implicit | Integrator::Vbd) {
+    if effects.has_contact() && !(integrator.newton() || integrator == Integrator::Vbd) {
         plan.push(at(ProjectContacts, 3));
     }
     if effects.self_collision.is_some() {
@@ -266,7 +266,7 @@ pub fn step_passes(
     model: &Model,
     integrator: Integrator,
 ) -> (Vec<String>, Option<String>, Vec<&'static str>) {
-    let mut passes = if integrator == Integrator::Implicit {
+    let mut passes = if integrator.newton() {
         vec![implicit::passes(implicit::path(model))]
     } else {
         Vec::new()
@@ -284,7 +284,7 @@ pub fn step_passes(
         None => d.kernel.name().to_owned(),
     }));
     let why = match integrator {
-        Integrator::Implicit | Integrator::Xpbd | Integrator::Vbd => None,
+        Integrator::Implicit | Integrator::Bdf2 | Integrator::Xpbd | Integrator::Vbd => None,
         _ => why,
     };
     let effects = effect_constants(model)
@@ -370,12 +370,12 @@ pub fn dispatches_per_step(
     let count = |n: usize| n as u32;
     let sweeps = sweeps_of(model, integrator, options, sweeps_in_group);
     let steps = count(steady_step_plan(model, integrator, explicit, sweeps).len());
-    match (integrator, path(model)) {
-        (Integrator::Implicit, Path::InGroup) => DispatchCount {
+    match (integrator.newton(), path(model)) {
+        (true, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,
             ..DispatchCount::default()
         },
-        (Integrator::Implicit, Path::Passes) => DispatchCount {
+        (true, Path::Passes) => DispatchCount {
             fixed: count(BEGIN.len() + END.len()) + steps,
             per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len()),
             per_cg_iteration: count(CG_ITERATION.len()),

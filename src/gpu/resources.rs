@@ -291,8 +291,11 @@ impl Resources {
         let solver = implicit.map(|(path, grid)| {
             let mut s = SolverBuffers::new(&mut a, (&b, model), &mut groups, grid);
             if path == Path::Passes {
+                // BDF2's history lives in the solver's vectors (`sums`), so a replay restores them.
+                let history = (integrator == Integrator::Bdf2).then_some(&b.sums);
                 let changing = [&b.x, &b.v, &b.ledger, &b.counters]
                     .into_iter()
+                    .chain(history)
                     .chain(released.iter().flat_map(|r| [&b.springs, r]));
                 s.frame_start = changing
                     .map(|live| (live.clone(), a.copy_of(live, "frame start")))

@@ -138,7 +138,7 @@ pub fn constants(
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE,
-        newton_floor, newton_residual,
+        NEWTON_WORK_SHARE, newton_floor, newton_residual,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -147,8 +147,10 @@ pub fn constants(
         // VBD's block solve takes the contacts' block from mass_force, as implicit Euler does.
         (
             "IMPLICIT",
-            flag(matches!(integrator, Integrator::Implicit | Integrator::Vbd)),
+            flag(integrator.newton() || integrator == Integrator::Vbd),
         ),
+        // BDF2 blends each step's start from the last (implicit_blend_at).
+        ("HISTORY", flag(integrator == Integrator::Bdf2)),
         (
             "SEMI_IMPLICIT",
             flag(integrator == Integrator::SemiImplicit),
@@ -162,9 +164,13 @@ pub fn constants(
         ("CG_MAX_ITERATIONS", f64::from(CG_MAX_ITERATIONS)),
         ("NEWTON_TOLERANCE", NEWTON_TOLERANCE),
         ("NEWTON_MAX_ITERATIONS", f64::from(NEWTON_MAX_ITERATIONS)),
-        ("NEWTON_RESIDUAL", newton_residual(dt_secs)),
-        ("NEWTON_FLOOR", newton_floor(dt_secs)),
+        (
+            "NEWTON_RESIDUAL",
+            newton_residual(dt_secs, integrator.order()),
+        ),
+        ("NEWTON_FLOOR", newton_floor(dt_secs, integrator.order())),
         ("NEWTON_STALL", NEWTON_STALL),
+        ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
         ("GROUP_THREADS", f64::from(group_threads)),
         (

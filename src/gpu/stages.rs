@@ -4,12 +4,16 @@
 
 use super::bindings::{bind_group, buffers};
 use super::layout::{MAX_COLLIDERS, Pose, Stage};
+use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::physics::BackwardStep;
 
 /// The run's time: its dt, where it is, and the steps since the last snapshot was asked for.
 #[derive(Debug, Clone, Copy)]
 pub struct Clock {
     pub dt: f32,
+    /// The run's integrator: a backward scheme's step slot holds its solve's step and blend.
+    pub integrator: Integrator,
     pub time_secs: f64,
     pub steps: u64,
     /// Substeps advanced since the last snapshot was requested: a frame stepped in chunks
@@ -18,9 +22,10 @@ pub struct Clock {
 }
 
 impl Clock {
-    pub fn new(dt_secs: f64) -> Self {
+    pub fn new(dt_secs: f64, integrator: Integrator) -> Self {
         Self {
             dt: dt_secs as f32,
+            integrator,
             time_secs: 0.0,
             steps: 0,
             frame_steps: 0,
@@ -42,7 +47,8 @@ impl Clock {
 
     /// Stage slots for the first `laid` of `steps` steps from now: t, t + h/2 (RK4 stage 2),
     /// t + h/2 (stage 3), t + h. (A submission stepped in one workgroup reads its first step's
-    /// slots alone.)
+    /// slots alone.) The last slot is where implicit Euler and BDF2 take their forces: its dt
+    /// is their solve's step, `physics::BackwardStep`, its `history` their blend.
     pub fn stages<'a>(
         &'a self,
         model: &'a Model,
@@ -59,11 +65,16 @@ impl Clock {
                 steps: steps - k,
                 ..self.stage_at(model, time)
             };
+            let backward = BackwardStep::of(self.integrator, self.dt, self.steps + u64::from(k));
             let slots = [
                 at(t, 1.0, 0.5),
                 at(t + 0.5 * h, 2.0, 0.5),
                 at(t + 0.5 * h, 2.0, 1.0),
-                at(t + h, 1.0, 1.0),
+                Stage {
+                    dt: backward.solve_secs,
+                    history: backward.history,
+                    ..at(t + h, 1.0, 1.0)
+                },
             ];
             t += h;
             slots
@@ -87,7 +98,8 @@ impl Clock {
             next_scale: 1.0,
             step: 0,
             steps: 1,
-            _pad: [0; 2],
+            whole_dt: self.dt,
+            history: 0.0,
             poses,
         }
     }

@@ -40,17 +40,68 @@ pub const NEWTON_FLOOR_PER_TOLERANCE: f64 = 2.0;
 /// The residual, relative to |h f|, below which Newton ends a step once an iteration fails to
 /// halve it (`NEWTON_FLOOR`, or `NEWTON_FLOOR_PER_TOLERANCE` times the step's tolerance where
 /// that is more): 6% at one step per frame, 1% from a sixth of it down.
-pub fn newton_floor(h_secs: f64) -> f64 {
-    NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs))
+pub fn newton_floor(h_secs: f64, order: u32) -> f64 {
+    NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs, order))
 }
 
-/// Newton's residual tolerance at step `h_secs`, relative to |h f|: `NEWTON_RESIDUAL` at one
-/// step per frame, and in proportion to the step below it. The scheme's own error per step
-/// falls as h² and |h f| as h, so the solver's error stays a fixed share of the scheme's: with
-/// 3% at every step, implicit Euler's error on hair stopped halving with the step between 8e-4
-/// and 2e-4 s, and at 2e-4 s the hair gained energy.
-pub fn newton_residual(h_secs: f64) -> f64 {
-    NEWTON_RESIDUAL * (h_secs / NEWTON_RESIDUAL_STEP_SECS).min(1.0)
+/// Newton's residual tolerance at step `h_secs` for a scheme of order `order`, relative to
+/// |h f|: `NEWTON_RESIDUAL` at one step per frame, and as (h / (1/60 s))^order below it. The
+/// scheme's own error per step falls as h^(order + 1) and |h f| as h, so the solver's error
+/// stays a fixed share of the scheme's: with 3% at every step, implicit Euler's error on hair
+/// stopped halving with the step between 8e-4 and 2e-4 s, and at 2e-4 s the hair gained energy.
+pub fn newton_residual(h_secs: f64, order: u32) -> f64 {
+    let order = i32::try_from(order).unwrap_or(i32::MAX);
+    NEWTON_RESIDUAL * (h_secs / NEWTON_RESIDUAL_STEP_SECS).min(1.0).powi(order)
+}
+
+/// BDF2 has no numerical damping to absorb what an inexact Newton step leaves: on
+/// `tests/hard_cases.rs`'s very stiff chain at 1/60 s (k h²/m ≈ 1.4e4) its energy grew from the
+/// 25th step, spiking to 6 000 times its start by the 467th, while with every solve taken to
+/// 1e-6 it decayed as implicit Euler's does. A step whose Newton residual r = h f − M Δv is
+/// left over acts as an impulse −r on the masses, doing work −v·r on the step's velocities v.
+/// So BDF2's Newton also waits (its stall rule too) until that work is at most this share of
+/// their kinetic energy: Σ (−v·r − share · ½ m v²) ≤ 0 over the movable masses. With shares of
+/// 1e-2, 3e-3 and 1e-3 the chain's energy decayed as implicit Euler's; with 1e-2 and the stall
+/// rule left free it spiked to 0.68 J (from 0.20) at the 143rd step.
+pub const NEWTON_WORK_SHARE: f64 = 1e-2;
+
+/// BDF2's weights: x̂ = x + (x − x₋₁) / 3 (that is (4x − x₋₁) / 3), and its solve's step 2h / 3.
+pub const BDF2_HISTORY: f32 = 1.0 / 3.0;
+pub const BDF2_SOLVE_SHARE: f64 = 2.0 / 3.0;
+
+/// One step of the backward schemes, as both backends take it: from the blend
+/// x̂ = x + history (x − x₋₁), v̂ = v + history (v − v₋₁), where x₋₁ and v₋₁ are the last
+/// step's start, backward Euler over `solve_secs`,
+///   v₁ = v̂ + M⁻¹ f(x₁, v₁) solve_secs,   x₁ = x̂ + solve_secs v₁,
+/// with the forces at the step's end, t + `h`. Implicit Euler is history 0 and the whole step;
+/// BDF2, (3/2) x₁ − 2 x + (1/2) x₋₁ = h v₁ and the same for v, is history 1/3 and two thirds
+/// of it, and starts with an implicit Euler step (it has no x₋₁ yet). The dissipation ledger
+/// takes the rates at the end over the whole step h either way.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BackwardStep {
+    pub h_secs: f32,
+    pub solve_secs: f32,
+    pub history: f32,
+}
+
+impl BackwardStep {
+    /// Step `taken` (0 the run's first) of `integrator` at `dt`: BDF2 from its second step on,
+    /// else backward Euler.
+    pub fn of(integrator: crate::integrator::Integrator, dt: f32, taken: u64) -> Self {
+        if integrator == crate::integrator::Integrator::Bdf2 && taken > 0 {
+            Self {
+                h_secs: dt,
+                solve_secs: (f64::from(dt) * BDF2_SOLVE_SHARE) as f32,
+                history: BDF2_HISTORY,
+            }
+        } else {
+            Self {
+                h_secs: dt,
+                solve_secs: dt,
+                history: 0.0,
+            }
+        }
+    }
 }
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;

@@ -22,7 +22,7 @@ impl Recorder {
         settings: &Settings,
         backend: &str,
     ) -> RResult {
-        self.implicit = settings.integrator == crate::integrator::Integrator::Implicit;
+        self.implicit = settings.integrator.newton();
         let rec = &self.rec;
         let root = &self.root;
         if root.is_whole() {

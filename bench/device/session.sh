@@ -76,6 +76,8 @@ peer60() {
     --steps 119 --batch 1
   J="--json --repeat 1" row "31-peer60" $H /tmp/peer-cloth-$n-60hz.toml --integrator vbd \
     --steps 119 --batch 1
+  J="--json --repeat 1" row "31-peer60" $H /tmp/peer-cloth-$n-60hz.toml --integrator bdf2 \
+    --steps 119 --batch 1
   # 2 s at dt = 1e-4: 1 000 warm-up steps and 19 000 timed.
   timeout 120 "$H" bench throughput $p/peer-cloth-$n.toml --steps 19000 --batch 1000 --repeat 1 \
     --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
@@ -136,7 +138,13 @@ l)
     row "31-$tag" $b bench/scenes/hair-60hz.toml --integrator implicit --steps 600 --batch 1
     row "31-$tag" $b bench/scenes/hair-60hz.toml --integrator vbd --steps 600 --batch 60
   done
+  # BDF2 (this binary only: the baseline has none).
+  for s in jello cloth hair; do
+    row "31-bdf2" $H bench/scenes/$s-60hz.toml --integrator bdf2 --steps 120 --batch 1
+  done
+  row "31-bdf2" $H bench/scenes/cloth-256-60hz.toml --integrator bdf2 --steps 60 --batch 1
   peer60 64
+  peer60 256
   if [ -f .gpu/ex/dispatch_floor.xz ]; then
     xz -dc .gpu/ex/dispatch_floor.xz >/tmp/dispatch_floor && chmod +x /tmp/dispatch_floor
     for w in 64 4096 65536; do timeout 60 /tmp/dispatch_floor 2000 $w; done

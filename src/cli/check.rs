@@ -308,7 +308,7 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             Some(_) if i == hooke::integrator::Integrator::Bdf2 => {
                 let _ = writeln!(
                     s,
-                    "    {:<14} any in theory (A-stable on linear springs, second order: it damps slow motion far less than implicit Euler){mark}",
+                    "    {:<14} any in theory (A-stable on linear springs, second order: it damps slow motion far less than implicit Euler; on springs extremely stiff against the step take implicit, whose damping absorbs what an inexact step leaves){mark}",
                     i.name()
                 );
             }

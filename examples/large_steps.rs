@@ -1,6 +1,6 @@
 //! The GPU's large-step solvers on one scene, each way it can run: implicit Euler's
-//! one-workgroup step at several thread counts (and its dispatch per pass), VBD's sweeps in one
-//! workgroup and a dispatch per colour and sweep. Measured in one process and interleaved, so
+//! one-workgroup step at several thread counts (and its dispatch per pass), BDF2 on its path,
+//! VBD's sweeps in one workgroup and a dispatch per colour and sweep. Measured in one process and interleaved, so
 //! that a noisy machine slows them alike; each variant's final positions are compared with the
 //! first's of its integrator.
 //!
@@ -64,6 +64,8 @@ fn main() -> anyhow::Result<()> {
         Integrator::Implicit,
         passes,
     ));
+    // BDF2: the same solve from a blended start, on the path the run would take.
+    plans.push(("bdf2".to_owned(), Integrator::Bdf2, base));
     for (label, in_group) in [
         ("vbd, sweeps in one workgroup", true),
         ("vbd, a dispatch per colour", false),

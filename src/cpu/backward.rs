@@ -1,12 +1,15 @@
 //! The backward schemes' start (`physics::BackwardStep`): BDF2 keeps the last step's start and
-//! blends the step's start from it. The twin of `implicit_blend_at` in
-//! shaders/implicit_terms.wgsl, which keeps the same history in the solver's `work` buffer.
+//! blends the step's start from it (the twin of `implicit_blend_at` in
+//! shaders/implicit_terms.wgsl, which keeps the same history in the solver's `work` buffer), and
+//! the work guard on its Newton iterations (`residual_work`, the fourth sum of WGSL's
+//! `implicit_rhs_at`).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use crate::physics::BackwardStep;
+use crate::model::Model;
+use crate::physics::{BackwardStep, NEWTON_WORK_SHARE};
 
 /// The last step's start (x₋₁, v₋₁), once a step has been taken; empty for implicit Euler.
 #[derive(Debug, Default)]
@@ -60,5 +63,30 @@ fn blend(b: f32, y: &mut [Vec3], last: &mut [Vec3]) {
             .for_each(body);
     } else {
         body((y, last));
+    }
+}
+
+/// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's
+/// velocities `v`, less `NEWTON_WORK_SHARE` of their kinetic energy: Σ (−v·b − share ½ m v²)
+/// over the movable masses, in f64, summed per chunk and the chunks in order. At most 0 when
+/// BDF2's step may end (`physics::NEWTON_WORK_SHARE`).
+pub fn residual_work(model: &Model, v: &[Vec3], b: &[Vec3]) -> f64 {
+    let share = NEWTON_WORK_SHARE;
+    let chunk = |c: usize| -> f64 {
+        let end = (c * CHUNK + CHUNK).min(v.len());
+        (c * CHUNK..end)
+            .filter(|&i| model.inv_mass[i] != 0.0)
+            .map(|i| {
+                let m = f64::from(model.mass_kg[i]);
+                -f64::from(v[i].dot(b[i])) - share * 0.5 * m * f64::from(v[i].length_squared())
+            })
+            .sum()
+    };
+    let chunks = v.len().div_ceil(CHUNK);
+    if v.len() >= PARALLEL_MIN_MASSES {
+        let partials: Vec<f64> = (0..chunks).into_par_iter().map(chunk).collect();
+        partials.iter().sum()
+    } else {
+        (0..chunks).map(chunk).sum()
     }
 }

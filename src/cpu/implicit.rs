@@ -1,4 +1,5 @@
-//! `implicit_step`: backward Euler by Newton's method (Baraff & Witkin 1998), each linear system
+//! `implicit_step`: backward Euler by Newton's method (Baraff & Witkin 1998), and BDF2 as backward
+//! Euler from a blended start (`physics::BackwardStep`, `backward.rs`), each linear system
 //! solved matrix-free by conjugate gradients with a 3 × 3 block-Jacobi preconditioner (aggregation
 //! multigrid from `physics::MULTIGRID_MIN_MASSES` masses on: `multigrid.rs`) to a tenth of Newton's
 //! residual (inexact Newton).
@@ -25,7 +26,7 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use super::backward::History;
+use super::backward::{History, residual_work};
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass};
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
@@ -34,7 +35,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
     BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-    NEWTON_TOLERANCE, NEWTON_WORK_SHARE, Preconditioner, newton_floor, newton_residual,
+    NEWTON_TOLERANCE, Preconditioner, newton_floor, newton_residual,
 };
 use crate::state::{Power, State};
 
@@ -348,31 +349,6 @@ pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32) -> (f64, f64) {
         .sum::<f64>()
         .sqrt();
     (dot(b, b).sqrt(), momentum)
-}
-
-/// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's
-/// velocities `v`, less `NEWTON_WORK_SHARE` of their kinetic energy: Σ (−v·b − share ½ m v²)
-/// over the movable masses, in f64, summed per chunk and the chunks in order. At most 0 when
-/// BDF2's step may end (`physics::NEWTON_WORK_SHARE`).
-pub fn residual_work(model: &Model, v: &[Vec3], b: &[Vec3]) -> f64 {
-    let share = NEWTON_WORK_SHARE;
-    let chunk = |c: usize| -> f64 {
-        let end = (c * CHUNK + CHUNK).min(v.len());
-        (c * CHUNK..end)
-            .filter(|&i| model.inv_mass[i] != 0.0)
-            .map(|i| {
-                let m = f64::from(model.mass_kg[i]);
-                -f64::from(v[i].dot(b[i])) - share * 0.5 * m * f64::from(v[i].length_squared())
-            })
-            .sum()
-    };
-    let chunks = v.len().div_ceil(CHUNK);
-    if v.len() >= PARALLEL_MIN_MASSES {
-        let partials: Vec<f64> = (0..chunks).into_par_iter().map(chunk).collect();
-        partials.iter().sum()
-    } else {
-        (0..chunks).map(chunk).sum()
-    }
 }
 
 /// Δv += δ; returns whether Newton has converged: the update is small against Δv (or Δv is

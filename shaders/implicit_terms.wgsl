@@ -153,7 +153,7 @@ fn block_inverse_at(i: u32) -> mat3x3<f32> {
 
 // Newton's right-hand side h f − M Δv, the inverted diagonal block of the block-Jacobi
 // preconditioner, and the solve's start from δ = 0: r = b, z = B⁻¹ r, p = z. Returns
-// (r·z, b·b, |h f|², BDF2's residual work: src/cpu/implicit.rs's residual_work).
+// (r·z, b·b, |h f|², BDF2's residual work: src/cpu/backward.rs's residual_work).
 // (Its parts are summed in f32 here, in f64 on the CPU: near 0 its sign may differ.)
 fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var b = vec3<f32>(0.0);

@@ -61,8 +61,10 @@ pub fn newton_residual(h_secs: f64, order: u32) -> f64 {
 /// left over acts as an impulse −r on the masses, doing work −v·r on the step's velocities v.
 /// So BDF2's Newton also waits (its stall rule too) until that work is at most this share of
 /// their kinetic energy: Σ (−v·r − share · ½ m v²) ≤ 0 over the movable masses. With shares of
-/// 1e-2, 3e-3 and 1e-3 the chain's energy decayed as implicit Euler's; with 1e-2 and the stall
-/// rule left free it spiked to 0.68 J (from 0.20) at the 143rd step.
+/// 1e-2, 3e-3 and 1e-3 the chain's energy decayed as implicit Euler's on the CPU; with 1e-2 and
+/// the stall rule left free it spiked to 0.68 J (from 0.20) at the 143rd step. The GPU sums the
+/// work in f32, and on lavapipe one step still took the chain 16% above its start (BENCHMARKS.md,
+/// "BDF2: second order at one step per frame").
 pub const NEWTON_WORK_SHARE: f64 = 1e-2;
 
 /// BDF2's weights: x̂ = x + (x − x₋₁) / 3 (that is (4x − x₋₁) / 3), and its solve's step 2h / 3.

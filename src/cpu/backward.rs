@@ -7,7 +7,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, sum_chunks};
 use crate::model::Model;
 use crate::physics::{BackwardStep, NEWTON_WORK_SHARE};
 
@@ -72,21 +72,12 @@ fn blend(b: f32, y: &mut [Vec3], last: &mut [Vec3]) {
 /// BDF2's step may end (`physics::NEWTON_WORK_SHARE`).
 pub fn residual_work(model: &Model, v: &[Vec3], b: &[Vec3]) -> f64 {
     let share = NEWTON_WORK_SHARE;
-    let chunk = |c: usize| -> f64 {
-        let end = (c * CHUNK + CHUNK).min(v.len());
-        (c * CHUNK..end)
-            .filter(|&i| model.inv_mass[i] != 0.0)
+    sum_chunks(v.len(), |r| {
+        r.filter(|&i| model.inv_mass[i] != 0.0)
             .map(|i| {
                 let m = f64::from(model.mass_kg[i]);
                 -f64::from(v[i].dot(b[i])) - share * 0.5 * m * f64::from(v[i].length_squared())
             })
             .sum()
-    };
-    let chunks = v.len().div_ceil(CHUNK);
-    if v.len() >= PARALLEL_MIN_MASSES {
-        let partials: Vec<f64> = (0..chunks).into_par_iter().map(chunk).collect();
-        partials.iter().sum()
-    } else {
-        (0..chunks).map(chunk).sum()
-    }
+    })
 }

@@ -27,7 +27,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::backward::{History, residual_work};
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass};
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, sum_chunks};
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
@@ -116,19 +116,13 @@ impl ImplicitWork {
 /// a · b in f64, summed per chunk of masses and the chunks in order: the same result on any
 /// number of threads.
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let chunk = |(p, q): (&[Vec3], &[Vec3])| -> f64 {
-        p.iter().zip(q).map(|(p, q)| f64::from(p.dot(*q))).sum()
-    };
-    if a.len() >= PARALLEL_MIN_MASSES {
-        let partials: Vec<f64> = a
-            .par_chunks(CHUNK)
-            .zip(b.par_chunks(CHUNK))
-            .map(chunk)
-            .collect();
-        partials.into_iter().sum()
-    } else {
-        a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(chunk).sum()
-    }
+    sum_chunks(a.len(), |r| {
+        a[r.clone()]
+            .iter()
+            .zip(&b[r])
+            .map(|(p, q)| f64::from(p.dot(*q)))
+            .sum()
+    })
 }
 
 /// Σ over the springs of mass `i` of their stiffness and damping applied to p_i − p_j.

@@ -68,8 +68,8 @@ pub fn newton_residual(h_secs: f64, order: u32) -> f64 {
 pub const NEWTON_WORK_SHARE: f64 = 1e-2;
 
 /// BDF2's weights: x̂ = x + (x − x₋₁) / 3 (that is (4x − x₋₁) / 3), and its solve's step 2h / 3.
-pub const BDF2_HISTORY: f32 = 1.0 / 3.0;
-pub const BDF2_SOLVE_SHARE: f64 = 2.0 / 3.0;
+const BDF2_HISTORY: f32 = 1.0 / 3.0;
+const BDF2_SOLVE_SHARE: f64 = 2.0 / 3.0;
 
 /// One step of the backward schemes, as both backends take it: from the blend
 /// x̂ = x + history (x − x₋₁), v̂ = v + history (v − v₋₁), where x₋₁ and v₋₁ are the last

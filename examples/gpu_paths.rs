@@ -79,7 +79,11 @@ fn main() -> anyhow::Result<()> {
             &model,
             integrator,
             StepOptions::default(),
-            (be.explicit_path(), be.sweeps_in_group()),
+            (
+                be.explicit_path(),
+                be.sweeps_in_group(),
+                be.multigrid_levels(),
+            ),
         );
         let dispatches = if d.in_group {
             format!("{} dispatch per submission", d.fixed)

@@ -1,18 +1,22 @@
-//! Implicit Euler on the CPU backend with each preconditioner of its conjugate gradients (3 × 3
-//! block Jacobi, aggregation multigrid), on one scene at one step: steps/s, CG iterations per
-//! step, and where the masses end. The preconditioners are timed in turn, round after round, so
-//! that a noisy machine slows them alike; each round steps from the scene's start.
+//! Implicit Euler with each preconditioner of its conjugate gradients (3 × 3 block Jacobi,
+//! aggregation multigrid), on one scene at one step, on the CPU backend or the GPU's per-pass
+//! path: steps/s, CG iterations per step, and where the masses end. The preconditioners are
+//! timed in turn, round after round, so that a noisy machine slows them alike; each round steps
+//! from the scene's start, a frame a step.
 //!
-//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY] [INTEGRATOR]`
+//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY] [INTEGRATOR] [BACKEND]`
 //!
 //! DT defaults to 1/60 s (one step per frame), STEPS to 30, ROUNDS to 2; ONLY, `multigrid` or
 //! `block-jacobi`, times that one alone (for a profiler; `both` times both); INTEGRATOR is
-//! `implicit` (the default) or `bdf2`. `RAYON_NUM_THREADS` sets the threads. See BENCHMARKS.md.
+//! `implicit` (the default) or `bdf2`; BACKEND `cpu` (the default) or `gpu` (the best adapter,
+//! its CG iterations counted in an untimed run of the first round, a snapshot a step).
+//! `RAYON_NUM_THREADS` sets the CPU's threads. See BENCHMARKS.md.
 
 use std::time::Instant;
 
 use hooke::backend::Backend;
 use hooke::cpu::CpuBackend;
+use hooke::gpu::{GpuBackend, ImplicitPath, Tuning};
 use hooke::integrator::{Integrator, Step};
 use hooke::physics::Preconditioner;
 
@@ -40,6 +44,27 @@ fn main() -> anyhow::Result<()> {
         Some("bdf2") => Integrator::Bdf2,
         Some(other) => anyhow::bail!("INTEGRATOR is implicit or bdf2, not {other:?}"),
     };
+    let gpu = match args.get(6).map(String::as_str) {
+        None | Some("cpu") => false,
+        Some("gpu") => true,
+        Some(other) => anyhow::bail!("BACKEND is cpu or gpu, not {other:?}"),
+    };
+    let step = Step::new(integrator, dt);
+    // The backend with `preconditioner`, from the scene's start (the GPU on its per-pass path).
+    let start = |preconditioner: Preconditioner| -> anyhow::Result<Box<dyn Backend>> {
+        Ok(if gpu {
+            let tuning = Tuning {
+                implicit: ImplicitPath::Passes,
+                preconditioner,
+                ..Tuning::for_model(&model)
+            };
+            Box::new(GpuBackend::with_tuning(model.clone(), step, None, tuning)?)
+        } else {
+            let mut be = CpuBackend::new(model.clone(), step);
+            be.set_preconditioner(preconditioner);
+            Box::new(be)
+        })
+    };
     let mut rows: Vec<Row> = [Preconditioner::BlockJacobi, Preconditioner::Multigrid]
         .into_iter()
         .filter(|p| match only {
@@ -54,26 +79,38 @@ fn main() -> anyhow::Result<()> {
             end: Vec::new(),
         })
         .collect();
-    for _ in 0..rounds {
+    for round in 0..rounds {
         for row in &mut rows {
-            let mut be = CpuBackend::new(model.clone(), Step::new(integrator, dt));
-            be.set_preconditioner(row.preconditioner);
+            if gpu && round == 0 {
+                // A step's CG iterations come back with its snapshot.
+                let mut be = start(row.preconditioner)?;
+                for frame in 1..=u64::from(steps) {
+                    let stats = be.advance(1)?;
+                    row.cg_iterations +=
+                        u64::from(be.snapshot(frame, stats)?.stats.solver_iterations);
+                }
+            }
+            let mut be = start(row.preconditioner)?;
             let mut cg = 0u64;
-            let start = Instant::now();
+            let clock = Instant::now();
             for _ in 0..steps {
                 cg += u64::from(be.advance(1)?.solver_iterations);
             }
-            row.best_secs = row.best_secs.min(start.elapsed().as_secs_f64());
-            row.cg_iterations = cg;
             row.end = be.state()?.x;
+            row.best_secs = row.best_secs.min(clock.elapsed().as_secs_f64());
+            if !gpu {
+                row.cg_iterations = cg;
+            }
         }
     }
+    let on = if gpu {
+        "the GPU's per-pass path".to_owned()
+    } else {
+        format!("cpu ({} threads)", rayon::current_num_threads())
+    };
     println!(
-        "{scene}, {integrator}, {} masses, dt {dt:.5} s, {steps} steps from its start, best of {rounds} on {}:",
+        "{scene}, {integrator}, {} masses, dt {dt:.5} s, {steps} steps from its start, best of {rounds} on {on}:",
         model.mass_count(),
-        rows.first()
-            .map(|_| format!("cpu ({} threads)", rayon::current_num_threads()))
-            .unwrap_or_default()
     );
     let first = rows.first().map(|r| r.end.clone()).unwrap_or_default();
     for row in &rows {

@@ -29,6 +29,8 @@ override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
 override CG_FORCING: f32 = 0.1;
+// The damping of the multigrid cycle's block-Jacobi sweeps (src/physics/hierarchy.rs's SMOOTHING).
+override MG_SMOOTHING: f32 = 0.6666667;
 // Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads), the
 // threads of its sums' first level (sum_level there) and the slots of implicit.wgsl's sum_sh
 // (the most threads any of its kernels has).
@@ -141,6 +143,14 @@ struct Spring {
 struct XpbdSpring {
     alpha_tilde: f32,
     gamma: f32,
+}
+
+// The multigrid cycle's coarse level (multigrid.wgsl), 1 the first (src/gpu/layout.rs's MgLevel).
+struct MgLevel {
+    level: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct ColourRange {

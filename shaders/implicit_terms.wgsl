@@ -8,6 +8,10 @@
 
 // ---- where the solver's vectors live ----
 
+// The one-workgroup step's solver vectors and spring terms, when they fit (SOLVER_IN_WORKGROUP).
+var<workgroup> vectors_sh: array<vec4<f32>, WORKGROUP_VECTORS>;
+var<workgroup> terms_sh: array<vec4<f32>, WORKGROUP_TERMS>;
+
 // The solver's per-mass vector `k` (block() in common.wgsl) and each CSR entry's spring terms are
 // read many times a step. The one-workgroup step keeps them in workgroup memory when they fit
 // (SOLVER_IN_WORKGROUP, src/gpu/implicit/plan.rs's SolverHome); otherwise, and always in the

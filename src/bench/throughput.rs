@@ -187,7 +187,11 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         model,
         settings.integrator,
         settings.options,
-        (gpu.explicit_path(), gpu.sweeps_in_group()),
+        (
+            gpu.explicit_path(),
+            gpu.sweeps_in_group(),
+            gpu.multigrid_levels(),
+        ),
     );
     // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
     if settings.integrator.newton() {

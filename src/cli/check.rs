@@ -340,22 +340,26 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
     if !settings.integrator.newton() {
         return;
     }
-    let cpu = Preconditioner::for_masses(model.mass_count());
-    let levels = (cpu == Preconditioner::Multigrid)
-        .then(|| hooke::cpu::multigrid_levels(model))
+    let chosen = Preconditioner::for_masses(model.mass_count());
+    let hierarchy = (chosen == Preconditioner::Multigrid)
+        .then(|| hooke::physics::hierarchy::Hierarchy::new(model))
         .flatten();
-    let _ = match levels {
-        Some(nodes) => writeln!(
+    let _ = match hierarchy {
+        Some(h) => writeln!(
             s,
-            "  CG preconditioner: CPU {} (coarse levels of {} nodes, the last solved directly), \
-             GPU {} (the backends agree to the solver's tolerance, not the parity tolerance)",
-            cpu.name(),
-            nodes
+            "  CG preconditioner: {} on both backends (coarse levels of {} nodes, the last {}; \
+             the GPU's on its per-pass path, a dispatch per level and pass)",
+            chosen.name(),
+            h.nodes()
                 .iter()
                 .map(ToString::to_string)
                 .collect::<Vec<_>>()
                 .join(" → "),
-            Preconditioner::BlockJacobi.name()
+            if h.solves_coarsest() {
+                "solved directly"
+            } else {
+                "swept, its coarsening stalled"
+            }
         ),
         None => writeln!(
             s,

@@ -35,7 +35,6 @@ pub use fused::{FusedStep, Simd};
 pub use grid::{MassGrid, grid_cell, grid_hash};
 pub use implicit::SolveStats;
 pub use law::{Real, contact_force, spring_force};
-pub use multigrid::multigrid_levels;
 pub use neighbours::Neighbours;
 pub use reduce::{compute_energies, compute_strain};
 pub use springs::update_springs;

@@ -24,24 +24,12 @@
 //!
 //! Every sum runs in a fixed order, so the result does not depend on the thread count.
 
-use glam::{DVec3, IVec3, Mat3, Vec3};
+use glam::{DVec3, Mat3, Vec3};
 
-use super::aggregates::{Level, Values, coarsen, mass_cells};
+use super::aggregates::Values;
 use super::chunks::each_mass as each;
 use crate::model::Model;
-
-/// The coarsest level's most nodes: its dense system (3 unknowns a node) is factored once per
-/// Newton iteration.
-pub const COARSEST_NODES: usize = 96;
-
-/// Block Jacobi's damping in the cycle's sweeps: the blocks' row sums bound D⁻¹A's eigenvalues by
-/// 2, so 2/3 damps the sheet's shortest waves (λ near 2) by a third and never amplifies one.
-const SMOOTHING: f32 = 2.0 / 3.0;
-
-/// How many times a level takes the next one's correction per cycle: 1, a V-cycle; 2, a W.
-/// (A W-cycle, 2, took a quarter fewer CG iterations on cloth-256 at 1/60 s, in no less time on
-/// two cores: each iteration's coarse work doubles.)
-const CYCLE_VISITS: usize = 1;
+use crate::physics::hierarchy::{Hierarchy, Level, SMOOTHING};
 
 /// The hierarchy, its numbers, and the coarsest level's factor.
 #[derive(Debug, Clone)]
@@ -62,29 +50,7 @@ pub struct Multigrid {
 impl Multigrid {
     /// The hierarchy for `model`, or None when it would have no coarse level.
     pub fn new(model: &Model) -> Option<Self> {
-        let cells = mass_cells(model);
-        let mut levels = Vec::new();
-        // The finer level: its nodes' cells (and bodies), its edges.
-        let mut fine: Vec<Option<(u32, IVec3)>> = cells;
-        let mut fine_edges: Vec<[u32; 2]> = model.springs.iter().map(|s| [s.a, s.b]).collect();
-        let mut fine_nodes = model.mass_count();
-        loop {
-            let level = coarsen(&fine, &fine_edges);
-            if level.nodes == 0 || 2 * level.nodes > fine_nodes + 1 {
-                break;
-            }
-            fine = level.cells.iter().map(|c| Some(*c)).collect();
-            fine_edges = level.edges.clone();
-            fine_nodes = level.nodes;
-            let coarsest = level.nodes <= COARSEST_NODES;
-            levels.push(level);
-            if coarsest {
-                break;
-            }
-        }
-        if levels.is_empty() {
-            return None;
-        }
+        let levels = Hierarchy::new(model)?.levels;
         let values = levels
             .iter()
             .map(|l| Values {
@@ -108,15 +74,10 @@ impl Multigrid {
     }
 
     /// Nodes on each coarse level.
+    #[cfg(test)]
     pub fn nodes(&self) -> Vec<usize> {
         self.levels.iter().map(|l| l.nodes).collect()
     }
-}
-
-/// The nodes of each coarse level `model`'s hierarchy would have (for `hooke check`), or None
-/// when it has none.
-pub fn multigrid_levels(model: &Model) -> Option<Vec<usize>> {
-    Multigrid::new(model).map(|m| m.nodes())
 }
 
 /// Factors the symmetric `n` × `n` matrix `a` (row-major) into its lower Cholesky factor in
@@ -181,7 +142,7 @@ impl Multigrid {
         };
         // A hierarchy whose coarsening stalled above the coarsest size (many small bodies, a
         // mesh whose cells do not merge) sweeps its last level instead of factoring it.
-        if level.nodes > COARSEST_NODES {
+        if level.nodes > crate::physics::hierarchy::COARSEST_NODES {
             return;
         }
         let n = 3 * level.nodes;
@@ -256,7 +217,8 @@ impl Multigrid {
     }
 
     /// Coarse level k's x from its b: the coarsest solved directly, any other by a sweep, the
-    /// next level's correction (`CYCLE_VISITS` times) and a sweep.
+    /// next level's correction and a sweep (a V-cycle; a W-cycle, taking the correction twice,
+    /// took a quarter fewer CG iterations on cloth-256 at 1/60 s in no less time on two cores).
     fn coarse_cycle(&mut self, k: usize) {
         if k + 1 == self.levels.len() {
             self.solve_coarsest();
@@ -266,12 +228,10 @@ impl Multigrid {
             let v = &mut self.values[k];
             smooth_from_zero(&v.diag_inv, &v.b, &mut v.x);
         }
-        for _ in 0..CYCLE_VISITS {
-            self.hand_down(k);
-            self.coarse_cycle(k + 1);
-            let (here, below) = self.values.split_at_mut(k + 1);
-            self.levels[k + 1].prolong(&below[0].x, &mut here[k].x);
-        }
+        self.hand_down(k);
+        self.coarse_cycle(k + 1);
+        let (here, below) = self.values.split_at_mut(k + 1);
+        self.levels[k + 1].prolong(&below[0].x, &mut here[k].x);
         self.residual_at(k);
         let v = &mut self.values[k];
         smooth(&v.diag_inv, &v.r, &mut v.x);
@@ -296,7 +256,6 @@ impl Multigrid {
 
 #[cfg(test)]
 mod tests {
-    use super::super::aggregates::NONE;
     use super::super::forces::Gather;
     use super::super::implicit::{
         ImplicitWork, apply_system, block_of_mass, implicit_step, linearised_at, own_and_contacts,
@@ -305,6 +264,7 @@ mod tests {
     use super::*;
     use crate::integrator::Integrator;
     use crate::physics::Preconditioner;
+    use crate::physics::hierarchy::NONE;
 
     /// A fixed pseudo-random vector per mass, in [−1, 1)³.
     fn noise(n: usize, seed: u32) -> Vec<Vec3> {
@@ -364,7 +324,7 @@ mod tests {
     #[test]
     fn a_sheet_coarsens_by_blocks_of_two_by_two() {
         let (_, _, mg, _) = linearised_cloth();
-        assert_eq!(mg.nodes(), vec![1024, 256, 64]);
+        assert_eq!(mg.nodes(), vec![1024, 256, 64, 16]);
         // Every free mass has an aggregate; the two pinned corners have none.
         let parent = &mg.levels[0].parent;
         assert_eq!(parent.iter().filter(|&&p| p == NONE).count(), 2);

@@ -12,7 +12,8 @@ use super::encode::{Dispatcher, in_pass};
 use super::implicit::{self, Budgets, ImplicitStep, Path};
 use super::kernels::Kernel;
 use super::layout::FrameSolve;
-use super::limits::check_fits;
+use super::limits::{MULTIGRID_STORAGE_BUFFERS_NEEDED, check_fits};
+use super::multigrid::{self, Layout as MultigridLayout};
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
@@ -23,6 +24,8 @@ use crate::backend::{Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, fin
 use crate::divergence::Divergence;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
+use crate::physics::Preconditioner;
+use crate::physics::hierarchy::Hierarchy;
 use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
 /// Frames whose records implicit Euler's budgets follow (per-pass path).
@@ -123,8 +126,18 @@ impl GpuBackend {
             (Some(_), ExplicitPath::InGroup) if small() => ExplicitPath::InGroup,
             (Some(_), _) => ExplicitPath::Fused,
         };
+        // The per-pass path's CG preconditioned by multigrid where the tuning asks for it, the
+        // model has coarse levels and the adapter binds the cycle's storage buffers.
+        let multigrid = (implicit
+            && path == Path::Passes
+            && tuning.preconditioner == Preconditioner::Multigrid
+            && storage_buffers >= MULTIGRID_STORAGE_BUFFERS_NEEDED)
+            .then(|| Hierarchy::new(&model))
+            .flatten()
+            .map(|h| MultigridLayout::new(&model, &h));
         let needed = Needed {
             implicit: implicit.then_some(path),
+            multigrid: multigrid.is_some(),
             springs_change: model.effects.springs_change(),
             mass_contact: model.effects.self_collision.is_some(),
             xpbd: integrator == Integrator::Xpbd,
@@ -144,7 +157,10 @@ impl GpuBackend {
             (&layouts, links.as_ref()),
             &model,
             step,
-            needed.implicit.map(|path| (path, grid(path))),
+            (
+                needed.implicit.map(|path| (path, grid(path))),
+                multigrid.as_ref(),
+            ),
         );
         let run = (model.as_ref(), step, explicit, needed.implicit);
         let (constants, frame_state_in_workgroup) =
@@ -187,6 +203,12 @@ impl GpuBackend {
     #[doc(hidden)]
     pub fn set_implicit_budgets(&mut self, budgets: Budgets) {
         self.budgets = budgets;
+    }
+
+    /// The coarse levels of the multigrid cycle that preconditions implicit Euler's CG on the
+    /// per-pass path, 0 when block Jacobi does.
+    pub fn multigrid_levels(&self) -> u32 {
+        self.resources.multigrid.as_ref().map_or(0, |m| m.levels)
     }
 
     /// Implicit Euler's per-pass path: the frames replayed since the run began, because a step
@@ -313,11 +335,17 @@ impl GpuBackend {
         let Some(solver) = self.resources.solver.as_ref() else {
             return Err(BackendError::Internal(Internal::NoImplicitSolver));
         };
+        let cycle = self
+            .resources
+            .multigrid
+            .as_ref()
+            .map(|mg| (multigrid::linearise(mg.levels), multigrid::cycle(mg.levels)));
         let step = ImplicitStep {
             ctx: &self.ctx,
             kernels: self.kernels(),
             solver,
             post: &post,
+            multigrid: cycle.as_ref().map(|(l, c)| (&l[..], &c[..])),
         };
         // The solve's iterations and residual reach the snapshot, read back with the frame.
         if self.implicit_path == Some(Path::InGroup) {

@@ -241,6 +241,17 @@ bind_groups! {
         /// (h²k·max(0, 1 − L/l), …).
         terms: ReadWrite "array<vec4<f32>>",
     }
+    /// The multigrid cycle (multigrid.wgsl): the solver's group, the coarse levels and their
+    /// numbers, and which level the dispatch works on.
+    Multigrid @ 0 = Solve + {
+        /// Each level's record and rows (`gpu/multigrid.rs`).
+        mg_topology: Read "array<u32>",
+        /// Each level's blocks and vectors, the masses' sweep from zero and the coarsest
+        /// level's inverse.
+        mg_values: ReadWrite "array<vec4<f32>>",
+        /// This group's level, a window of one buffer holding them all.
+        level: Window "MgLevel",
+    }
     /// Plasticity and tearing (springs.wgsl).
     Springs @ 0 {
         params: Uniform "Params",

@@ -220,6 +220,8 @@ pub struct Dispatch {
     pub flow: Option<Flow>,
     pub slot: u32,
     pub colour: Option<ColourPass>,
+    /// The multigrid cycle's coarse level (1 the first; 0 for every other kernel).
+    pub level: u32,
 }
 
 impl Dispatch {
@@ -231,6 +233,7 @@ impl Dispatch {
             flow: None,
             slot,
             colour: None,
+            level: 0,
         }
     }
 

@@ -1,6 +1,7 @@
 //! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
 //! count, all as the kernel table says.
 
+use super::bindings::Group;
 use super::dispatch::{Dispatch, SLOTS_PER_STEP};
 use super::pipelines::Pipelines;
 use super::resources::Resources;
@@ -33,8 +34,12 @@ impl Dispatcher<'_> {
         };
         let pipeline = self.pipelines.get(d.kernel);
         // A colour's kernel binds its colour's group and runs over its colour's springs or masses.
+        // A multigrid kernel binds its level's group and runs over its level's nodes.
         let (group0, groups) = match d.colour {
             Some(pass) => self.resources.colour_pass(pass),
+            None if spec.group == Group::Multigrid => {
+                self.resources.level_pass(d.level, spec.threads)
+            }
             None => (
                 self.resources.group(spec.group),
                 self.resources.workgroups.of(spec.threads),

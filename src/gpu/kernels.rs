@@ -23,6 +23,9 @@ pub enum Threads {
     /// Implicit Euler's per-pass kernels: a fixed grid of workgroups striding over the masses
     /// (`implicit::solver_groups`).
     SolverGrid,
+    /// The multigrid cycle's kernels over one coarse level: a thread per node and edge (the
+    /// dispatch names the level).
+    Level,
 }
 
 /// How an implicit step runs (`implicit::path` chooses): the whole step in one workgroup, or a
@@ -41,6 +44,8 @@ pub enum Needs {
     ImplicitPasses,
     /// The implicit integrator, the whole step in one workgroup (small systems).
     ImplicitInGroup,
+    /// The implicit integrator a dispatch per pass, its CG preconditioned by multigrid.
+    ImplicitMultigrid,
     /// Plasticity or tearing.
     SpringsChange,
     /// Mass–mass contact.
@@ -330,6 +335,37 @@ macro_rules! kernel_table {
             NewtonEnd = newton_end in Implicit {
                 group: Solve, threads: OneGroup, needs: ImplicitPasses,
                 cpu: "reduces newton_update's per-workgroup maxima; the CPU's newton_update takes them whole",
+            }
+
+            // ---- multigrid.wgsl: the CG's multigrid cycle on the per-pass path (large systems),
+            // a dispatch per level and pass; the level's window names the level ----
+            MgLinearise = mg_linearise in Multigrid {
+                group: Multigrid, threads: Level, needs: ImplicitMultigrid,
+                cpu: "a level's blocks from the finer level's: the CPU's Multigrid::linearise (cpu/aggregates.rs's Level::linearise)",
+            }
+            MgInvert = mg_invert in Multigrid {
+                group: Multigrid, threads: Level, needs: ImplicitMultigrid,
+                cpu: "a level's inverted diagonal blocks, the last pass of the CPU's Level::linearise",
+            }
+            MgFactor = mg_factor in Multigrid {
+                group: Multigrid, threads: OneGroup, needs: ImplicitMultigrid,
+                cpu: "the coarsest level's dense inverse in f32; the CPU factors it by Cholesky in f64 (Multigrid::factor_coarsest)",
+            }
+            MgRestrict = mg_restrict in Multigrid {
+                group: Multigrid, threads: Level, needs: ImplicitMultigrid,
+                cpu: "the finer level's residual after its sweep, summed into a level's b, and the level's sweep: the CPU's hand_down and coarse_cycle in turn",
+            }
+            MgSolveCoarsest = mg_solve_coarsest in Multigrid {
+                group: Multigrid, threads: OneGroup, needs: ImplicitMultigrid,
+                cpu: "the coarsest level's solve, the CPU's Multigrid::solve_coarsest by its factor",
+            }
+            MgProlong = mg_prolong in Multigrid {
+                group: Multigrid, threads: Level, needs: ImplicitMultigrid,
+                cpu: "the coarser correction and a sweep, the end of the CPU's coarse_cycle",
+            }
+            MgFineUp = mg_fine_up in Multigrid {
+                group: Multigrid, threads: SolverGrid, needs: ImplicitMultigrid,
+                cpu: "the first level's correction and the last sweep on the masses, the end of the CPU's Multigrid::cycle, with cg_advance's partials",
             }
 
             // ---- fused.wgsl: the explicit steps with every per-mass pass fused into the force gather ----

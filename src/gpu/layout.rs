@@ -177,6 +177,14 @@ pub struct ColourRange {
     pub _pad: u32,
 }
 
+/// Which coarse level a multigrid kernel works on (`MgLevel` in WGSL): one window per level.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct MgLevel {
+    pub level: u32,
+    pub _pad: [u32; 3],
+}
+
 /// Spring kinds the fused steps' table holds (`MAX_SPRING_KINDS` in WGSL).
 pub const MAX_SPRING_KINDS: usize = 256;
 
@@ -242,7 +250,8 @@ impl Default for StencilTable {
 }
 
 /// The WGSL structs and the size of their host copies, for the layout test.
-pub const SHARED_STRUCTS: [(&str, usize); 16] = [
+pub const SHARED_STRUCTS: [(&str, usize); 17] = [
+    ("MgLevel", std::mem::size_of::<MgLevel>()),
     ("SpringKinds", std::mem::size_of::<SpringKinds>()),
     ("StencilBody", std::mem::size_of::<StencilBody>()),
     ("StencilSlot", std::mem::size_of::<StencilSlot>()),

@@ -14,6 +14,9 @@ const STORAGE_BUFFERS_NEEDED: u32 = 8;
 pub const FUSED_STORAGE_BUFFERS_NEEDED: u32 = 14;
 /// Implicit Euler's: implicit_step reads and writes everything a step touches (implicit.wgsl).
 const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
+/// The multigrid cycle's kernels bind the solver's and two more (multigrid.wgsl); an adapter
+/// with fewer preconditions the CG by block Jacobi.
+pub const MULTIGRID_STORAGE_BUFFERS_NEEDED: u32 = 17;
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {

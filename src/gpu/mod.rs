@@ -12,7 +12,8 @@
 //! - `links`: the fused steps' compact springs.
 //! - `plan`: the dispatch sequences of a step, fused or a pass per stage; `encode`: recording a
 //!   dispatch.
-//! - `implicit`: implicit Euler's solve; `readback`: what a snapshot reads back.
+//! - `implicit`: implicit Euler's solve; `multigrid`: its CG's multigrid cycle on large systems;
+//!   `readback`: what a snapshot reads back.
 //! - `backend`: `GpuBackend`; `profile` and `inspect` add to it (bench timings, test hooks).
 
 mod backend;
@@ -29,6 +30,7 @@ pub mod kernels;
 pub mod layout;
 mod limits;
 mod links;
+mod multigrid;
 mod pipelines;
 mod plan;
 mod profile;

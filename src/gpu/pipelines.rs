@@ -89,6 +89,8 @@ impl Layouts {
 pub struct Needed {
     /// Implicit Euler, and how its step runs.
     pub implicit: Option<Path>,
+    /// Its CG preconditioned by multigrid (the per-pass path only).
+    pub multigrid: bool,
     pub springs_change: bool,
     pub mass_contact: bool,
     pub xpbd: bool,
@@ -105,6 +107,7 @@ impl Needed {
             Needs::Always => true,
             Needs::ImplicitPasses => self.implicit == Some(Path::Passes),
             Needs::ImplicitInGroup => self.implicit == Some(Path::InGroup),
+            Needs::ImplicitMultigrid => self.multigrid,
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
             Needs::Xpbd => self.xpbd,

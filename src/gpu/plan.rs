@@ -6,9 +6,12 @@ use super::dispatch::{
 };
 use super::implicit;
 use super::kernels::Kernel;
+use super::multigrid;
 use super::shaders::effect_constants;
 use crate::integrator::Integrator;
 use crate::model::{Effects, Model};
+use crate::physics::Preconditioner;
+use crate::physics::hierarchy::Hierarchy;
 
 /// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
 /// folded into its force gathers, the state ping-ponging between A and B), fused with every step
@@ -267,7 +270,14 @@ pub fn step_passes(
     integrator: Integrator,
 ) -> (Vec<String>, Option<String>, Vec<&'static str>) {
     let mut passes = if integrator.newton() {
-        vec![implicit::passes(implicit::path(model))]
+        let path = implicit::path(model);
+        let levels = match (path, Preconditioner::for_masses(model.mass_count())) {
+            (implicit::Path::Passes, Preconditioner::Multigrid) => {
+                Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32)
+            }
+            _ => 0,
+        };
+        vec![implicit::passes(path, levels)]
     } else {
         Vec::new()
     };
@@ -359,17 +369,24 @@ fn steady_step_plan(
 
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
 /// evaluates a(x₀)), as the plans above record them on `explicit`, with XPBD's or VBD's sweeps
-/// in one workgroup or not (`sweeps_in_group`: the run's, `GpuBackend::sweeps_in_group`).
+/// in one workgroup or not (`sweeps_in_group`: the run's, `GpuBackend::sweeps_in_group`) and
+/// implicit Euler's CG preconditioned by a multigrid cycle over `multigrid_levels` coarse levels
+/// (`GpuBackend::multigrid_levels`; 0, block Jacobi).
 pub fn dispatches_per_step(
     model: &Model,
     integrator: Integrator,
     options: crate::integrator::StepOptions,
-    (explicit, sweeps_in_group): (ExplicitPath, bool),
+    (explicit, sweeps_in_group, multigrid_levels): (ExplicitPath, bool, u32),
 ) -> DispatchCount {
     use implicit::*;
     let count = |n: usize| n as u32;
     let sweeps = sweeps_of(model, integrator, options, sweeps_in_group);
     let steps = count(steady_step_plan(model, integrator, explicit, sweeps).len());
+    // The multigrid cycle's passes: a Newton iteration's levels and a cycle before each cg_apply.
+    let (linearise, cycle) = match multigrid_levels {
+        0 => (0, 0),
+        l => (multigrid::linearise(l).len(), multigrid::cycle(l).len()),
+    };
     match (integrator.newton(), path(model)) {
         (true, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,
@@ -377,8 +394,8 @@ pub fn dispatches_per_step(
         },
         (true, Path::Passes) => DispatchCount {
             fixed: count(BEGIN.len() + END.len()) + steps,
-            per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len()),
-            per_cg_iteration: count(CG_ITERATION.len()),
+            per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len() + linearise + cycle),
+            per_cg_iteration: count(CG_ITERATION.len() + cycle),
             ..DispatchCount::default()
         },
         _ => DispatchCount {

@@ -8,7 +8,7 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 11] = [
+const LIBRARIES: [(&str, &str); 12] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
@@ -41,6 +41,10 @@ const LIBRARIES: [(&str, &str); 11] = [
     ),
     ("fused_mass", include_str!("../../shaders/fused_mass.wgsl")),
     ("stage_pose", include_str!("../../shaders/stage_pose.wgsl")),
+    (
+        "solver_sums",
+        include_str!("../../shaders/solver_sums.wgsl"),
+    ),
 ];
 
 /// The library named `name`, if there is one.
@@ -70,6 +74,7 @@ pub enum Program {
     Collide,
     Reduce,
     Implicit,
+    Multigrid,
     Springs,
     Grid,
     CollideMasses,
@@ -82,12 +87,13 @@ pub enum Program {
 }
 
 impl Program {
-    pub const ALL: [Program; 14] = [
+    pub const ALL: [Program; 15] = [
         Program::Forces,
         Program::Integrate,
         Program::Collide,
         Program::Reduce,
         Program::Implicit,
+        Program::Multigrid,
         Program::Springs,
         Program::Grid,
         Program::CollideMasses,
@@ -125,6 +131,7 @@ impl Program {
             Program::Collide => file!("collide.wgsl"),
             Program::Reduce => file!("reduce.wgsl"),
             Program::Implicit => file!("implicit.wgsl"),
+            Program::Multigrid => file!("multigrid.wgsl"),
             Program::Springs => file!("springs.wgsl"),
             Program::Grid => file!("grid.wgsl"),
             Program::CollideMasses => file!("collide_masses.wgsl"),

@@ -9,6 +9,7 @@ use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
 use super::kernels::{Path, Sizes, Threads};
 use super::layout::{FrameSolve, MassContact, NEIGHBOUR_HEAD, NEIGHBOUR_SLOTS, neighbour_bytes};
 use super::links::Links;
+use super::multigrid::{Layout as MultigridLayout, MultigridGroups};
 use super::pipelines::Layouts;
 use super::shaders::{WORKGROUP, groups_for};
 use super::vbd::vbd_groups;
@@ -41,7 +42,7 @@ impl Workgroups {
             Threads::ScanBlocks => self.scan_blocks,
             Threads::OneGroup => (1, 1),
             Threads::SolverGrid => self.solver,
-            Threads::Colour => return None,
+            Threads::Colour | Threads::Level => return None,
         })
     }
 
@@ -67,6 +68,8 @@ pub struct SolverBuffers {
     pub scratch: wgpu::Buffer,
     /// Where the host reads the `FrameSolve` after a frame (the per-pass path).
     pub status: wgpu::Buffer,
+    /// Each CSR entry's spring terms at the Newton iterate.
+    pub terms: wgpu::Buffer,
     /// The per-pass path: each buffer a frame changes, and its copy from the frame's start, to
     /// replay the frame from when a budget ran out (`implicit.rs`). Empty on the one-workgroup
     /// path, which has no budgets.
@@ -97,6 +100,8 @@ pub struct Resources {
     pub solver: Option<SolverBuffers>,
     /// XPBD's or VBD's colour groups (a run has one integrator).
     pub colours: Option<ColourGroups>,
+    /// Implicit Euler's multigrid cycle, when its CG takes one (`gpu/multigrid.rs`).
+    pub multigrid: Option<MultigridGroups>,
     pub workgroups: Workgroups,
     /// Bytes of GPU memory held by the buffers above (all but the stage slots').
     pub memory_bytes: u64,
@@ -252,14 +257,15 @@ impl GroupSet<'_> {
 
 impl Resources {
     /// `links`: the fused steps' compact springs, for a fused run; `implicit`: implicit Euler's
-    /// path and the workgroups of its per-pass grid.
+    /// path and the workgroups of its per-pass grid, and the multigrid cycle's levels when its
+    /// CG takes one.
     pub fn new(
         device: &wgpu::Device,
         limits: &wgpu::Limits,
         (layouts, links): (&Layouts, Option<&Links>),
         model: &Model,
         step: Step,
-        implicit: Option<(Path, u32)>,
+        (implicit, multigrid): (Option<(Path, u32)>, Option<&MultigridLayout>),
     ) -> Self {
         let Step {
             integrator,
@@ -303,6 +309,18 @@ impl Resources {
             }
             s
         });
+        let multigrid = solver
+            .as_ref()
+            .zip(multigrid)
+            .zip(layouts.group(Group::Multigrid))
+            .map(|((s, layout), group_layout)| {
+                MultigridGroups::new(
+                    &mut a,
+                    (group_layout, layout),
+                    || solve_buffers(&b, (&s.scratch, &s.terms)),
+                    (limits.min_uniform_buffer_offset_alignment, max_dim),
+                )
+            });
         // XPBD's or VBD's colour groups, the run's integrator's.
         let colour_setup = |layout, iterations| ColourSetup {
             layout,
@@ -358,6 +376,7 @@ impl Resources {
             grid,
             solver,
             colours,
+            multigrid,
             workgroups,
             memory_bytes: a.bytes,
         }
@@ -376,6 +395,25 @@ impl Resources {
             colours.and_then(|c| c.group(pass)),
             colours.and_then(|c| c.workgroups(pass.colour)),
         )
+    }
+
+    /// The bind group 0 and workgroups of a multigrid kernel on coarse level `level`, over
+    /// `threads` (its level's nodes and edges, one workgroup, or the solver's grid); `None`
+    /// when the run has no cycle.
+    pub fn level_pass(
+        &self,
+        level: u32,
+        threads: Threads,
+    ) -> (Option<&wgpu::BindGroup>, Option<(u32, u32)>) {
+        let Some(mg) = self.multigrid.as_ref() else {
+            return (None, None);
+        };
+        let (group, over_level) = mg.level(level);
+        let groups = match threads {
+            Threads::Level => over_level,
+            other => self.workgroups.of(other),
+        };
+        (group, groups)
     }
 
     /// The colour sweeps of a step: XPBD's or VBD's (none for the other integrators).
@@ -415,24 +453,33 @@ impl SolverBuffers {
         let status = a.read_back("frame solve", FrameSolve::SIZE);
         // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
         let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
-        // The Newton iterate is the xt, vt pair; the solver's vectors live in `sums`.
-        groups.set(buffers::Solve {
-            base: b.forces_model(),
-            x: &b.x,
-            v: &b.v,
-            x_in: &b.xt,
-            v_in: &b.vt,
-            work: &b.sums,
-            ledger: &b.ledger,
-            counters: &b.counters,
-            scratch: &scratch,
-            terms: &terms,
-        });
+        groups.set(solve_buffers(b, (&scratch, &terms)));
         Self {
             scratch,
             status,
+            terms,
             frame_start: Vec::new(),
         }
+    }
+}
+
+/// The solver's group over the run's buffers, its status and partials (`scratch`) and its
+/// spring terms. The Newton iterate is the xt, vt pair; the solver's vectors live in `sums`.
+fn solve_buffers<'b>(
+    b: &'b Bufs,
+    (scratch, terms): (&'b wgpu::Buffer, &'b wgpu::Buffer),
+) -> buffers::Solve<'b> {
+    buffers::Solve {
+        base: b.forces_model(),
+        x: &b.x,
+        v: &b.v,
+        x_in: &b.xt,
+        v_in: &b.vt,
+        work: &b.sums,
+        ledger: &b.ledger,
+        counters: &b.counters,
+        scratch,
+        terms,
     }
 }
 

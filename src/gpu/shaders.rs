@@ -172,6 +172,10 @@ pub fn constants(
         ("NEWTON_STALL", NEWTON_STALL),
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
+        (
+            "MG_SMOOTHING",
+            f64::from(crate::physics::hierarchy::SMOOTHING),
+        ),
         ("GROUP_THREADS", f64::from(group_threads)),
         (
             "SUM_LEVEL",

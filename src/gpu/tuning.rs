@@ -13,6 +13,7 @@ use super::shaders::constants;
 use super::stages::StageSlots;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
+use crate::physics::Preconditioner;
 
 #[doc(hidden)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +33,9 @@ pub struct Tuning {
     pub vbd_in_group: Option<bool>,
     /// The threads VBD shares a mass's springs among (by default `vbd_lanes`).
     pub vbd_lanes: Option<u32>,
+    /// What preconditions implicit Euler's CG on the per-pass path (by default
+    /// `Preconditioner::for_masses`, as on the CPU; the one-workgroup step keeps block Jacobi).
+    pub preconditioner: Preconditioner,
 }
 
 impl Tuning {
@@ -44,6 +48,7 @@ impl Tuning {
             solver_threads: None,
             vbd_in_group: None,
             vbd_lanes: None,
+            preconditioner: Preconditioner::for_masses(model.mass_count()),
         }
     }
 }

@@ -1,11 +1,12 @@
 //! The physics both backends compute from, owned by neither: XPBD's spring colouring and
-//! constants, VBD's mass colouring, implicit Euler's stopping rules, the hash grid's sizing and
-//! the mass–mass contact's constants. `cpu/` and `gpu/` import these; `gpu/` imports nothing from `cpu/`
+//! constants, VBD's mass colouring, implicit Euler's stopping rules and its multigrid's coarse
+//! levels (`hierarchy`), the hash grid's sizing and the mass–mass contact's constants. `cpu/` and `gpu/` import these; `gpu/` imports nothing from `cpu/`
 //! (`tests/layers.rs`). The force laws that have a WGSL twin stay with the CPU backend
 //! (`cpu/law.rs`), named as their kernels.
 
 mod colouring;
 mod grid;
+pub mod hierarchy;
 mod mass_contact;
 mod solver;
 mod xpbd;

@@ -130,8 +130,9 @@ pub const CG_ITERATION: [Dispatch; 2] = [at(CgAdvance), at(CgApply)];
 pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
 pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
 
-/// For `hooke check`: the passes of one implicit step, the repeated parts in brackets.
-pub fn passes(path: Path) -> String {
+/// For `hooke check`: the passes of one implicit step, the repeated parts in brackets, its CG
+/// preconditioned by a multigrid cycle over `levels` coarse levels (0: block Jacobi).
+pub fn passes(path: Path, levels: u32) -> String {
     let names = |ds: &[Dispatch]| {
         ds.iter()
             .map(|d| d.kernel.name())
@@ -143,6 +144,24 @@ pub fn passes(path: Path) -> String {
             "{} (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
             names(&IN_GROUP)
         ),
+        Path::Passes if levels > 0 => {
+            let [begin @ .., apply] = NEWTON_BEGIN;
+            let [advance, _] = CG_ITERATION;
+            let cycle = format!("[cycle: {}]", super::super::multigrid::cycle_text(levels));
+            format!(
+                "{} → [Newton: {} → [levels: {} → {}] × {levels} → {} → {cycle} → {} → [CG: {} → {cycle} → {}] → {}] → {}",
+                names(&BEGIN),
+                names(&begin),
+                MgLinearise.name(),
+                MgInvert.name(),
+                MgFactor.name(),
+                apply.kernel.name(),
+                advance.kernel.name(),
+                apply.kernel.name(),
+                names(&NEWTON_END),
+                names(&END)
+            )
+        }
         Path::Passes => format!(
             "{} → [Newton: {} → [CG: {}] → {}] → {}",
             names(&BEGIN),

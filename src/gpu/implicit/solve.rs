@@ -113,6 +113,9 @@ pub struct ImplicitStep<'a> {
     pub solver: &'a SolverBuffers,
     /// The passes every integrator runs after its step (plasticity, tearing).
     pub post: &'a [Dispatch],
+    /// The multigrid cycle, when it preconditions the per-pass path's CG: a Newton iteration's
+    /// passes after cg_begin (the levels' blocks), and a cycle's (`gpu/multigrid.rs`).
+    pub multigrid: Option<(&'a [Dispatch], &'a [Dispatch])>,
 }
 
 /// How a frame on the per-pass path went: what its steps took (its record), the budgets it ran
@@ -210,10 +213,21 @@ impl ImplicitStep<'_> {
     ) -> Result<(), BackendError> {
         let k = &self.kernels;
         k.dispatch_all(pass, &BEGIN, slot)?;
+        // With multigrid, each z is the cycle's on the residual cg_advance (or forces_and_rhs)
+        // left, made before cg_apply reads it; the cycle's levels are linearised once per
+        // Newton iteration.
+        let (linearise, cycle): (&[Dispatch], &[Dispatch]) = self.multigrid.unwrap_or((&[], &[]));
+        let [newton_begin @ .., first_apply] = NEWTON_BEGIN;
+        let [advance, apply] = CG_ITERATION;
         for &cg in &budgets.cg[..budgets.newton as usize] {
-            k.dispatch_all(pass, &NEWTON_BEGIN, slot)?;
+            k.dispatch_all(pass, &newton_begin, slot)?;
+            k.dispatch_all(pass, linearise, slot)?;
+            k.dispatch_all(pass, cycle, slot)?;
+            k.dispatch(pass, first_apply, slot)?;
             for _ in 0..cg {
-                k.dispatch_all(pass, &CG_ITERATION, slot)?;
+                k.dispatch(pass, advance, slot)?;
+                k.dispatch_all(pass, cycle, slot)?;
+                k.dispatch(pass, apply, slot)?;
             }
             k.dispatch_all(pass, &NEWTON_END, slot)?;
         }

@@ -150,6 +150,32 @@ l)
     for w in 64 4096 65536; do timeout 60 /tmp/dispatch_floor 2000 $w; done
   fi
   ;;
+mg)
+  # Multigrid on the GPU (issue 31, seventh session), one short call carrying [".gpu/bin",
+  # ".gpu/gl", ".gpu/old", ".gpu/ex", ".gpu/p"], .gpu/ex holding preconditioners.xz:
+  #   strip -o /tmp/pc target/release/examples/preconditioners && mkdir -p .gpu/ex &&
+  #     xz -6 -c /tmp/pc >.gpu/ex/preconditioners.xz
+  # cloth-256 and the peer cloth at one step per frame, this binary (multigrid from 4 096
+  # masses) against the baseline (block Jacobi on the GPU), then each preconditioner in one
+  # process on the GPU's per-pass path.
+  nvidia-smi -L
+  old=/tmp/hooke-old
+  [ -x $old ] || { xz -dc .gpu/old/hooke.xz >$old && chmod +x $old; }
+  for tag in old new; do
+    b=$old
+    [ $tag = new ] && b=$H
+    row "31-$tag" $b bench/scenes/cloth-256-60hz.toml --integrator implicit --steps 60 --batch 1
+    row "31-$tag" $b bench/scenes/cloth-256-60hz.toml --integrator bdf2 --steps 60 --batch 1
+  done
+  peer60 64
+  peer60 256
+  if [ -f .gpu/ex/preconditioners.xz ]; then
+    xz -dc .gpu/ex/preconditioners.xz >/tmp/preconditioners && chmod +x /tmp/preconditioners
+    f=0.016666666666666666
+    timeout 120 /tmp/preconditioners bench/scenes/cloth-256-60hz.toml $f 30 2 both implicit gpu
+    timeout 120 /tmp/preconditioners /tmp/peer-cloth-256-60hz.toml $f 60 2 both bdf2 gpu
+  fi
+  ;;
 bisect)
   # Self-collision scenes for each binary in .gpu/bis/<commit>.xz, three interleaved rounds.
   for f in .gpu/bis/*.xz; do c=$(basename $f .xz); xz -dc $f >/tmp/hb-$c && chmod +x /tmp/hb-$c; done

@@ -1,7 +1,8 @@
 //! The library's imports run one way: no module reaches, through `crate::` paths, a module that
 //! reaches it back (docs/ARCHITECTURE.md draws the layers). Within a folder, no file reaches a
 //! sibling that reaches it back through `super::` paths either, and a folder's `mod.rs` only names
-//! and re-exports its files. A cycle here means a layer leans on one above it.
+//! and re-exports its files. A cycle here means a layer leans on one above it. And no source
+//! file is longer than 600 lines.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -323,5 +324,24 @@ fn backends_import_nothing_from_each_other() {
                 file.display()
             );
         }
+    }
+}
+
+/// No file of the library or its shaders grows past 600 lines: a longer one holds more than one
+/// concern and should be split by what it holds (the rule issue 29 set).
+#[test]
+fn no_source_file_exceeds_600_lines() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shaders = std::fs::read_dir(root.join("shaders"))
+        .unwrap_or_else(|e| panic!("shaders: {e}"))
+        .map(|e| e.unwrap_or_else(|e| panic!("{e}")).path());
+    for file in rust_files(&root.join("src")).into_iter().chain(shaders) {
+        let text = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{e}"));
+        let lines = text.lines().count();
+        assert!(
+            lines <= 600,
+            "{} has {lines} lines: split it by what it holds",
+            file.display()
+        );
     }
 }

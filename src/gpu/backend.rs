@@ -12,7 +12,7 @@ use super::encode::{Dispatcher, in_pass};
 use super::implicit::{self, Budgets, ImplicitStep, Path};
 use super::kernels::Kernel;
 use super::layout::FrameSolve;
-use super::limits::{MULTIGRID_STORAGE_BUFFERS_NEEDED, check_fits};
+use super::limits::check_fits;
 use super::multigrid::{self, Layout as MultigridLayout};
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
@@ -24,8 +24,6 @@ use crate::backend::{Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, fin
 use crate::divergence::Divergence;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
-use crate::physics::Preconditioner;
-use crate::physics::hierarchy::Hierarchy;
 use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
 /// Frames whose records implicit Euler's budgets follow (per-pass path).
@@ -126,15 +124,11 @@ impl GpuBackend {
             (Some(_), ExplicitPath::InGroup) if small() => ExplicitPath::InGroup,
             (Some(_), _) => ExplicitPath::Fused,
         };
-        // The per-pass path's CG preconditioned by multigrid where the tuning asks for it, the
-        // model has coarse levels and the adapter binds the cycle's storage buffers.
-        let multigrid = (implicit
-            && path == Path::Passes
-            && tuning.preconditioner == Preconditioner::Multigrid
-            && storage_buffers >= MULTIGRID_STORAGE_BUFFERS_NEEDED)
-            .then(|| Hierarchy::new(&model))
-            .flatten()
-            .map(|h| MultigridLayout::new(&model, &h));
+        let multigrid = implicit
+            .then(|| {
+                MultigridLayout::for_run(&model, (path, tuning.preconditioner), storage_buffers)
+            })
+            .flatten();
         let needed = Needed {
             implicit: implicit.then_some(path),
             multigrid: multigrid.is_some(),

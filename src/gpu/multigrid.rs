@@ -6,9 +6,12 @@ use super::bindings::{bind_group, buffers};
 use super::buffers::Alloc;
 use super::dispatch::Dispatch;
 use super::kernels::Kernel::{self, *};
+use super::kernels::Path;
 use super::layout::MgLevel;
+use super::limits::MULTIGRID_STORAGE_BUFFERS_NEEDED;
 use super::shaders::groups_for;
 use crate::model::Model;
+use crate::physics::Preconditioner;
 use crate::physics::hierarchy::{COARSEST_NODES, Hierarchy, Rows};
 
 /// Words of a level's record (`MG_RECORD_WORDS` in WGSL) and its fields' places.
@@ -80,6 +83,24 @@ fn spring_entries(model: &Model) -> Vec<u32> {
 }
 
 impl Layout {
+    /// The levels of an implicit run of `model` on `path` whose CG `preconditioner` is asked
+    /// for, on an adapter binding `storage_buffers` a stage: `None` (block Jacobi) unless it is
+    /// multigrid on the per-pass path, the model has coarse levels and the adapter binds the
+    /// cycle's buffers.
+    pub fn for_run(
+        model: &Model,
+        (path, preconditioner): (Path, Preconditioner),
+        storage_buffers: u32,
+    ) -> Option<Self> {
+        let wanted = path == Path::Passes
+            && preconditioner == Preconditioner::Multigrid
+            && storage_buffers >= MULTIGRID_STORAGE_BUFFERS_NEEDED;
+        wanted
+            .then(|| Hierarchy::new(model))
+            .flatten()
+            .map(|h| Self::new(model, &h))
+    }
+
     pub fn new(model: &Model, hierarchy: &Hierarchy) -> Self {
         let levels = hierarchy.levels.len();
         let n = model.mass_count();

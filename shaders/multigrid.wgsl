@@ -116,6 +116,16 @@ fn solve_running() -> bool {
     return scratch.solver.cg_active != 0u;
 }
 
+// The node of the dispatch's level this thread works on, or NONE (past the level's nodes, or
+// the solve has stopped).
+fn level_node(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    let n = thread_index(gid, groups);
+    if (!solve_running() || n >= rec(level.level, R_NODES)) {
+        return NONE;
+    }
+    return n;
+}
+
 // Level k's blocks from the finer level's (aggregates.rs's Level::linearise): each edge the sum
 // of its finer edges, each node the sum of its members' own blocks and its springs to pinned
 // masses. A thread an edge and a node.
@@ -151,12 +161,9 @@ fn mg_linearise(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 // Level k's inverted diagonal blocks: a node's own block and its edges'.
 @compute @workgroup_size(64)
 fn mg_invert(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    if (!solve_running()) {
-        return;
-    }
     let k = level.level;
-    let n = thread_index(gid, groups);
-    if (n >= rec(k, R_NODES)) {
+    let n = level_node(gid, groups);
+    if (n == NONE) {
         return;
     }
     var diag = sym_at(rec(k, R_OWN) + 2u * n);
@@ -313,12 +320,9 @@ fn finer_residual(k: u32, m: u32) -> vec3<f32> {
 // Level k's b, the sum of its members' residuals (restrict), and its sweep from zero, ω D⁻¹ b.
 @compute @workgroup_size(64)
 fn mg_restrict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    if (!solve_running()) {
-        return;
-    }
     let k = level.level;
-    let n = thread_index(gid, groups);
-    if (n >= rec(k, R_NODES)) {
+    let n = level_node(gid, groups);
+    if (n == NONE) {
         return;
     }
     var b = vec3<f32>(0.0);
@@ -362,12 +366,9 @@ fn mg_solve_coarsest(@builtin(local_invocation_index) lid: u32) {
 // Level k's result on the way up: x plus the coarser correction, then a sweep on the residual.
 @compute @workgroup_size(64)
 fn mg_prolong(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    if (!solve_running()) {
-        return;
-    }
     let k = level.level;
-    let n = thread_index(gid, groups);
-    if (n >= rec(k, R_NODES)) {
+    let n = level_node(gid, groups);
+    if (n == NONE) {
         return;
     }
     let x = coarse_operand(k, n, true);

@@ -112,6 +112,26 @@ pub fn check_fits(
     Ok(())
 }
 
+/// Why a run of `model` whose CG multigrid would precondition on the GPU takes block Jacobi
+/// there instead, on an adapter binding `storage_buffers` a stage (`None` when it does not).
+fn multigrid_unbound(
+    model: &Model,
+    integrator: Integrator,
+    storage_buffers: u32,
+) -> Option<String> {
+    let wanted = integrator.newton()
+        && super::implicit::path(model) == super::implicit::Path::Passes
+        && crate::physics::Preconditioner::for_masses(model.mass_count())
+            == crate::physics::Preconditioner::Multigrid;
+    (wanted && storage_buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED).then(|| {
+        format!(
+            "its CG takes block Jacobi on this adapter, not multigrid as on the CPU (the cycle \
+             binds {MULTIGRID_STORAGE_BUFFERS_NEEDED} storage buffers a stage, the adapter \
+             {storage_buffers}): the backends agree to the solver's tolerance"
+        )
+    })
+}
+
 /// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
 pub fn adapter_report(
     name: Option<&str>,
@@ -120,10 +140,15 @@ pub fn adapter_report(
 ) -> Result<String, AdapterError> {
     let ctx = GpuContext::open(name)?;
     let l = &ctx.limits;
-    let fits = match check_fits(&ctx, model, integrator) {
+    let mut fits = match check_fits(&ctx, model, integrator) {
         Ok(()) => "the scene fits".to_owned(),
         Err(e) => e.to_string(),
     };
+    if let Some(why) = multigrid_unbound(model, integrator, l.max_storage_buffers_per_shader_stage)
+    {
+        fits.push_str("; ");
+        fits.push_str(&why);
+    }
     Ok(format!(
         "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, {} KiB of workgroup memory, timestamps {}); {fits}",
         ctx.describe(),
@@ -137,4 +162,26 @@ pub fn adapter_report(
             "no"
         },
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `check` says when an adapter cannot bind the multigrid cycle and the GPU's CG falls back
+    /// to block Jacobi: only for a large implicit system, and only below the cycle's buffers.
+    #[test]
+    fn check_says_when_the_gpu_cannot_take_multigrid() {
+        let crate::prepare::Planned { model, .. } =
+            crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
+        let needed = MULTIGRID_STORAGE_BUFFERS_NEEDED;
+        let why = multigrid_unbound(&model, Integrator::Implicit, needed - 1);
+        assert!(why.is_some_and(|w| w.contains("block Jacobi")));
+        assert!(multigrid_unbound(&model, Integrator::Bdf2, needed - 1).is_some());
+        assert!(multigrid_unbound(&model, Integrator::Implicit, needed).is_none());
+        assert!(multigrid_unbound(&model, Integrator::SemiImplicit, needed - 1).is_none());
+        let crate::prepare::Planned { model, .. } =
+            crate::prepare::planned("jello").expect("the built-in jello is planned");
+        assert!(multigrid_unbound(&model, Integrator::Implicit, needed - 1).is_none());
+    }
 }

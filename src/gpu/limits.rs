@@ -119,8 +119,9 @@ fn multigrid_unbound(
     integrator: Integrator,
     storage_buffers: u32,
 ) -> Option<String> {
+    // A system that large takes the per-pass path, whose CG the cycle serves
+    // (implicit/plan.rs holds the two thresholds in that order).
     let wanted = integrator.newton()
-        && super::implicit::path(model) == super::implicit::Path::Passes
         && crate::physics::Preconditioner::for_masses(model.mass_count())
             == crate::physics::Preconditioner::Multigrid;
     (wanted && storage_buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED).then(|| {

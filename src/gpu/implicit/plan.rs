@@ -14,6 +14,10 @@ use crate::model::Model;
 /// pass spreads the masses over the device.
 pub const IN_GROUP_MAX_MASSES: usize = 2048;
 
+// Every system multigrid preconditions takes the per-pass path, which alone runs the cycle
+// (limits.rs's `multigrid_unbound` counts on it).
+const _: () = assert!(crate::physics::MULTIGRID_MIN_MASSES > IN_GROUP_MAX_MASSES);
+
 /// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL) for `mass_count` masses. On a
 /// CPU adapter (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and
 /// each further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran

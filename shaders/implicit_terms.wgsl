@@ -206,6 +206,15 @@ fn direction_at(j: u32, beta: f32, pending: bool) -> vec3<f32> {
     return vector_at(DIRECTION, j).xyz;
 }
 
+// CSR entry e's spring block times dp, the difference of the operand across it, from the terms
+// implicit_rhs_at stored (multigrid.wgsl's products take it too).
+fn entry_times(e: u32, dp: vec3<f32>) -> vec3<f32> {
+    let t = term_at(2u * e);
+    let stiff_across = term_at(2u * e + 1u).x;
+    let dn = dot(t.xyz, dp);
+    return t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
+}
+
 // Ap = (M − h D − h² K) p, pinned rows and columns filtered out, p as direction_at gives it.
 // Returns (p·Ap).
 fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
@@ -217,11 +226,7 @@ fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
         for (var e = offsets[i]; e < end; e++) {
             // The terms implicit_rhs_at stored. A pinned neighbour's p is always 0 (its b is 0 and
             // its row is filtered), so its column drops out without reading its mass.
-            let t = term_at(2u * e);
-            let stiff_across = term_at(2u * e + 1u).x;
-            let dp = pi - direction_at(neighbors[e].other, beta, pending);
-            let dn = dot(t.xyz, dp);
-            out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
+            out += entry_times(e, pi - direction_at(neighbors[e].other, beta, pending));
         }
         if (has_contact_terms()) {
             out += contact_times(i, pi);

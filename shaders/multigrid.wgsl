@@ -274,11 +274,7 @@ fn fine_product(i: u32, up: bool) -> vec3<f32> {
     var out = own_mass_term(i) * pi;
     let end = offsets[i + 1u];
     for (var e = offsets[i]; e < end; e++) {
-        let t = term_at(2u * e);
-        let stiff_across = term_at(2u * e + 1u).x;
-        let dp = pi - fine_operand(neighbors[e].other, up);
-        let dn = dot(t.xyz, dp);
-        out += t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
+        out += entry_times(e, pi - fine_operand(neighbors[e].other, up));
     }
     if (has_contact_terms()) {
         out += contact_times(i, pi);

@@ -13,7 +13,7 @@ use super::implicit::{self, Budgets, ImplicitStep, Path};
 use super::kernels::Kernel;
 use super::layout::FrameSolve;
 use super::limits::check_fits;
-use super::multigrid::{self, Layout as MultigridLayout};
+use super::multigrid::Layout as MultigridLayout;
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
 use super::readback::{self, Pending, ReadBack, StagingLayout};
@@ -329,17 +329,12 @@ impl GpuBackend {
         let Some(solver) = self.resources.solver.as_ref() else {
             return Err(BackendError::Internal(Internal::NoImplicitSolver));
         };
-        let cycle = self
-            .resources
-            .multigrid
-            .as_ref()
-            .map(|mg| (multigrid::linearise(mg.levels), multigrid::cycle(mg.levels)));
         let step = ImplicitStep {
             ctx: &self.ctx,
             kernels: self.kernels(),
             solver,
             post: &post,
-            multigrid: cycle.as_ref().map(|(l, c)| (&l[..], &c[..])),
+            multigrid: self.resources.multigrid.as_ref().map(|mg| mg.passes()),
         };
         // The solve's iterations and residual reach the snapshot, read back with the frame.
         if self.implicit_path == Some(Path::InGroup) {

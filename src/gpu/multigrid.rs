@@ -155,6 +155,9 @@ pub struct MultigridGroups {
     groups: Vec<wgpu::BindGroup>,
     workgroups: Vec<(u32, u32)>,
     pub levels: u32,
+    /// A Newton iteration's passes and a cycle's ([`linearise`], [`cycle`]), made once.
+    linearise: Vec<Dispatch>,
+    cycle: Vec<Dispatch>,
 }
 
 impl MultigridGroups {
@@ -207,7 +210,14 @@ impl MultigridGroups {
             groups,
             workgroups,
             levels: layout.levels as u32,
+            linearise: linearise(layout.levels as u32),
+            cycle: cycle(layout.levels as u32),
         }
+    }
+
+    /// A Newton iteration's passes after cg_begin, and a cycle's.
+    pub fn passes(&self) -> (&[Dispatch], &[Dispatch]) {
+        (&self.linearise, &self.cycle)
     }
 
     /// Level `k`'s bind group and workgroups (1 the first coarse level).

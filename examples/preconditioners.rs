@@ -4,12 +4,15 @@
 //! timed in turn, round after round, so that a noisy machine slows them alike; each round steps
 //! from the scene's start, a frame a step.
 //!
-//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY] [INTEGRATOR] [BACKEND]`
+//! `cargo run --release --example preconditioners -- SCENE [DT] [STEPS] [ROUNDS] [ONLY] [INTEGRATOR] [BACKEND] [PATH]`
 //!
 //! DT defaults to 1/60 s (one step per frame), STEPS to 30, ROUNDS to 2; ONLY, `multigrid` or
 //! `block-jacobi`, times that one alone (for a profiler; `both` times both); INTEGRATOR is
 //! `implicit` (the default) or `bdf2`; BACKEND `cpu` (the default) or `gpu` (the best adapter,
-//! its CG iterations counted in an untimed run of the first round, a snapshot a step).
+//! its CG iterations counted in an untimed run of the first round, a snapshot a step); PATH, on
+//! the GPU, `passes` (the default: a dispatch per pass) or `group` (the whole step in one
+//! workgroup, as small systems take it). Each row ends with a digest of the end positions' bits,
+//! to tell bit-identical runs apart from close ones.
 //! `RAYON_NUM_THREADS` sets the CPU's threads. See BENCHMARKS.md.
 
 use std::time::Instant;
@@ -31,7 +34,7 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(scene) = args.first() else {
         anyhow::bail!(
-            "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi|both] [implicit|bdf2]"
+            "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi|both] [implicit|bdf2] [cpu|gpu] [passes|group]"
         );
     };
     let hooke::prepare::Planned { model, .. } = hooke::prepare::planned(scene)?;
@@ -49,12 +52,17 @@ fn main() -> anyhow::Result<()> {
         Some("gpu") => true,
         Some(other) => anyhow::bail!("BACKEND is cpu or gpu, not {other:?}"),
     };
+    let path = match args.get(7).map(String::as_str) {
+        None | Some("passes") => ImplicitPath::Passes,
+        Some("group") => ImplicitPath::InGroup,
+        Some(other) => anyhow::bail!("PATH is passes or group, not {other:?}"),
+    };
     let step = Step::new(integrator, dt);
     // The backend with `preconditioner`, from the scene's start (the GPU on its per-pass path).
     let start = |preconditioner: Preconditioner| -> anyhow::Result<Box<dyn Backend>> {
         Ok(if gpu {
             let tuning = Tuning {
-                implicit: ImplicitPath::Passes,
+                implicit: path,
                 preconditioner,
                 ..Tuning::for_model(&model)
             };
@@ -104,7 +112,10 @@ fn main() -> anyhow::Result<()> {
         }
     }
     let on = if gpu {
-        "the GPU's per-pass path".to_owned()
+        match path {
+            ImplicitPath::Passes => "the GPU's per-pass path".to_owned(),
+            ImplicitPath::InGroup => "the GPU's one-workgroup step".to_owned(),
+        }
     } else {
         format!("cpu ({} threads)", rayon::current_num_threads())
     };
@@ -120,8 +131,16 @@ fn main() -> anyhow::Result<()> {
             .map(|(a, b)| a.distance(*b))
             .fold(0.0f32, f32::max);
         let mean_y = row.end.iter().map(|x| f64::from(x.y)).sum::<f64>() / row.end.len() as f64;
+        // FNV-1a over the positions' bits.
+        let digest = row
+            .end
+            .iter()
+            .flat_map(|p| p.to_array())
+            .fold(0xcbf2_9ce4_8422_2325u64, |h, c| {
+                (h ^ u64::from(c.to_bits())).wrapping_mul(0x0100_0000_01b3)
+            });
         println!(
-            "  {:<24} {:>8.2} steps/s  {:>7.1} CG iterations a step  mean y {mean_y:+.5} m  max |Δx| from block Jacobi {apart:.2e} m",
+            "  {:<24} {:>8.2} steps/s  {:>7.1} CG iterations a step  mean y {mean_y:+.5} m  max |Δx| from block Jacobi {apart:.2e} m  digest {digest:016x}",
             row.preconditioner.name(),
             f64::from(steps) / row.best_secs,
             row.cg_iterations as f64 / f64::from(steps),

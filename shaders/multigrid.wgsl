@@ -7,13 +7,13 @@
 // Per Newton iteration, after cg_begin: mg_linearise and mg_invert for each level, finest first
 // (a level's blocks are sums of the finer level's: the Galerkin product Pᵀ A P without a
 // subtraction), then mg_factor inverts the coarsest level's dense system in one workgroup.
-// Per CG iteration, after cg_advance (which left r and B⁻¹r, the block-Jacobi z): mg_restrict
-// down the levels (a level's b from the finer level's residual after one damped block-Jacobi
+// Per CG iteration, after cg_advance (which left r and B⁻¹r, the block-Jacobi z): mg_fine_down
+// on the masses (the sweep from zero and the residual after it), mg_restrict down the levels (a level's b from the finer level's residual after one damped block-Jacobi
 // sweep from zero, and its own sweep), mg_solve_coarsest, mg_prolong up the levels (the coarser
 // correction, then a sweep), and mg_fine_up on the masses (the first level's correction, a
 // sweep, and the partial sums (r·z, r·r) that cg_apply reads, as cg_advance's would be).
 // Every kernel of a stopped solve returns at once.
-// #import mass_force spring_records state_check system_blocks implicit_terms stage_pose solver_sums
+// #import mass_force spring_records state_check system_blocks implicit_terms stage_pose solver_sums implicit_group
 
 // A level's record: words at mg_topology[MG_RECORD_WORDS * level + field] (record 0 describes
 // the whole hierarchy: MG_LEVELS, MG_Z0, MG_DENSE, MG_SOLVED). Rows are (rows + 1) word indices
@@ -126,16 +126,9 @@ fn level_node(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return n;
 }
 
-// Level k's blocks from the finer level's (aggregates.rs's Level::linearise): each edge the sum
-// of its finer edges, each node the sum of its members' own blocks and its springs to pinned
-// masses. A thread an edge and a node.
-@compute @workgroup_size(64)
-fn mg_linearise(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    if (!solve_running()) {
-        return;
-    }
-    let k = level.level;
-    let t = thread_index(gid, groups);
+// Level k's blocks from the finer level's (aggregates.rs's Level::linearise): edge t the sum of
+// its finer edges, node t the sum of its members' own blocks and its springs to pinned masses.
+fn linearise_at(k: u32, t: u32) {
     if (t < rec(k, R_EDGES)) {
         let r = rows_of(k, R_EDGE_SOURCES, t);
         var block = mat3x3<f32>();
@@ -158,14 +151,17 @@ fn mg_linearise(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
 }
 
-// Level k's inverted diagonal blocks: a node's own block and its edges'.
+// A thread an edge and a node of the dispatch's level.
 @compute @workgroup_size(64)
-fn mg_invert(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = level.level;
-    let n = level_node(gid, groups);
-    if (n == NONE) {
+fn mg_linearise(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if (!solve_running()) {
         return;
     }
+    linearise_at(level.level, thread_index(gid, groups));
+}
+
+// Level k's inverted diagonal block of node n: its own block and its edges'.
+fn invert_at(k: u32, n: u32) {
     var diag = sym_at(rec(k, R_OWN) + 2u * n);
     let r = rows_of(k, R_INCIDENT, n);
     for (var s = r.x; s < r.y; s += 2u) {
@@ -174,26 +170,29 @@ fn mg_invert(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     set_sym(rec(k, R_DIAG) + 2u * n, invert_block(diag));
 }
 
+@compute @workgroup_size(64)
+fn mg_invert(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let n = level_node(gid, groups);
+    if (n != NONE) {
+        invert_at(level.level, n);
+    }
+}
+
 var<workgroup> dense_sh: array<f32, 2304>;
 var<workgroup> pivot_row_sh: array<f32, COARSEST_UNKNOWNS>;
 var<workgroup> pivot_col_sh: array<f32, COARSEST_UNKNOWNS>;
 
-// The coarsest level's dense system (3 unknowns a node), inverted in place by Gauss–Jordan
+// The coarsest level k's dense system (3 unknowns a node), inverted in place by Gauss–Jordan
 // elimination without pivoting (its pivots are positive: the system is symmetric positive
-// definite), in one workgroup. The CPU factors it by Cholesky in f64 instead; a pivot that is
-// not positive and finite here leaves the level to a sweep (mg_solve_coarsest), as a factor
-// that fails does there.
-@compute @workgroup_size(64)
-fn mg_factor(@builtin(local_invocation_index) lid: u32) {
-    if (uniform_status(lid, false).cg_active == 0u || rec(0u, MG_SOLVED) == 0u) {
-        return;
-    }
-    let k = level.level;
+// definite), by one workgroup of `threads` threads. The CPU factors it by Cholesky in f64
+// instead; a pivot that is not positive and finite here leaves the level to a sweep
+// (solve_coarsest), as a factor that fails does there. Call from uniform control flow.
+fn factor_coarsest(lid: u32, threads: u32, k: u32) {
     let nodes = rec(k, R_NODES);
     let n = 3u * nodes;
     // Row p of nodes p: its own block and its edges' on the diagonal, minus each edge's
     // towards its other end.
-    for (var p = lid; p < nodes; p += WORKGROUP) {
+    for (var p = lid; p < nodes; p += threads) {
         for (var c = 0u; c < n; c++) {
             for (var a = 0u; a < 3u; a++) {
                 dense_sh[(3u * p + a) * n + c] = 0.0;
@@ -222,12 +221,12 @@ fn mg_factor(@builtin(local_invocation_index) lid: u32) {
         workgroupBarrier();
         let pivot = dense_sh[p * n + p];
         failed = failed || !(pivot > 0.0 && pivot <= F32_MAX);
-        for (var t = lid; t < n; t += WORKGROUP) {
+        for (var t = lid; t < n; t += threads) {
             pivot_col_sh[t] = dense_sh[t * n + p];
             pivot_row_sh[t] = select(dense_sh[p * n + t], 1.0, t == p) / pivot;
         }
         workgroupBarrier();
-        for (var e = lid; e < n * n; e += WORKGROUP) {
+        for (var e = lid; e < n * n; e += threads) {
             let i = e / n;
             let j = e % n;
             if (i == p) {
@@ -242,9 +241,17 @@ fn mg_factor(@builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
         mg_values[at] = vec4<f32>(select(1.0, 0.0, failed), 0.0, 0.0, 0.0);
     }
-    for (var e = lid; e < n * n; e += WORKGROUP) {
+    for (var e = lid; e < n * n; e += threads) {
         mg_values[at + 1u + e / 4u][e % 4u] = dense_sh[e];
     }
+}
+
+@compute @workgroup_size(64)
+fn mg_factor(@builtin(local_invocation_index) lid: u32) {
+    if (uniform_status(lid, false).cg_active == 0u || rec(0u, MG_SOLVED) == 0u) {
+        return;
+    }
+    factor_coarsest(lid, WORKGROUP, level.level);
 }
 
 // ---- the cycle, per CG iteration ----
@@ -303,24 +310,36 @@ fn coarse_product(k: u32, n: u32, up: bool) -> vec3<f32> {
     return out;
 }
 
-// The finer level's residual after its sweep from zero, at its node m (level k's member). On
-// the fine level it also keeps the sweep for mg_fine_up.
+// The fine level's sweep from zero at mass i, kept for mg_fine_up, and the residual after it,
+// kept in the product's vector (free between a CG iteration's update and its next product). A
+// pass over the masses of its own, so that no thread walks all of a node's members' springs.
+fn fine_down_at(i: u32) {
+    mg_values[rec(0u, MG_Z0) + i] = vec4<f32>(fine_operand(i, false), 0.0);
+    set_vector(PRODUCT, i, vec4<f32>(vector_at(RESIDUAL, i).xyz - fine_product(i, false), 0.0));
+}
+
+// The finer level's residual after its sweep from zero, at its node m (level k's member).
 fn finer_residual(k: u32, m: u32) -> vec3<f32> {
     if (k == 1u) {
-        mg_values[rec(0u, MG_Z0) + m] = vec4<f32>(fine_operand(m, false), 0.0);
-        return vector_at(RESIDUAL, m).xyz - fine_product(m, false);
+        return vector_at(PRODUCT, m).xyz;
     }
     return value_at(k - 1u, R_B, m) - coarse_product(k - 1u, m, false);
 }
 
-// Level k's b, the sum of its members' residuals (restrict), and its sweep from zero, ω D⁻¹ b.
+// The cycle's start on the masses, over the solver's grid.
 @compute @workgroup_size(64)
-fn mg_restrict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = level.level;
-    let n = level_node(gid, groups);
-    if (n == NONE) {
+fn mg_fine_down(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!solve_running()) {
         return;
     }
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        fine_down_at(i);
+    }
+}
+
+// Level k's b at node n, the sum of its members' residuals (restrict), and its sweep from zero,
+// ω D⁻¹ b.
+fn restrict_at(k: u32, n: u32) {
     var b = vec3<f32>(0.0);
     let members = rows_of(k, R_MEMBERS, n);
     for (var s = members.x; s < members.y; s++) {
@@ -330,19 +349,22 @@ fn mg_restrict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     set_value(k, R_X, n, MG_SMOOTHING * (sym_at(rec(k, R_DIAG) + 2u * n) * b));
 }
 
-// The coarsest level's result: its inverse times b, or (too large to solve, or its inverse
-// failed) its sweep from zero. A thread a node.
 @compute @workgroup_size(64)
-fn mg_solve_coarsest(@builtin(local_invocation_index) lid: u32) {
-    if (!solve_running()) {
-        return;
+fn mg_restrict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let n = level_node(gid, groups);
+    if (n != NONE) {
+        restrict_at(level.level, n);
     }
-    let k = level.level;
+}
+
+// The coarsest level k's result: its inverse times b, or (too large to solve, or its inverse
+// failed) its sweep from zero. A thread a node, of `threads`.
+fn solve_coarsest(lid: u32, threads: u32, k: u32) {
     let nodes = rec(k, R_NODES);
     let n = 3u * nodes;
     let at = rec(0u, MG_DENSE);
     let direct = rec(0u, MG_SOLVED) != 0u && mg_values[at].x == 1.0;
-    for (var p = lid; p < nodes; p += WORKGROUP) {
+    for (var p = lid; p < nodes; p += threads) {
         if (!direct) {
             set_value(k, R_Y, p, value_at(k, R_X, p));
             continue;
@@ -359,21 +381,40 @@ fn mg_solve_coarsest(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
-// Level k's result on the way up: x plus the coarser correction, then a sweep on the residual.
 @compute @workgroup_size(64)
-fn mg_prolong(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = level.level;
-    let n = level_node(gid, groups);
-    if (n == NONE) {
-        return;
+fn mg_solve_coarsest(@builtin(local_invocation_index) lid: u32) {
+    if (solve_running()) {
+        solve_coarsest(lid, WORKGROUP, level.level);
     }
+}
+
+// Level k's result at node n on the way up: x plus the coarser correction, then a sweep on the
+// residual.
+fn prolong_at(k: u32, n: u32) {
     let x = coarse_operand(k, n, true);
     let r = value_at(k, R_B, n) - coarse_product(k, n, true);
     set_value(k, R_Y, n, x + MG_SMOOTHING * (sym_at(rec(k, R_DIAG) + 2u * n) * r));
 }
 
-// The cycle's end on the masses: z = the sweep from zero plus the first level's correction, then
-// a sweep on the residual; partials (r·z, r·r) for cg_apply, over the solver's grid.
+@compute @workgroup_size(64)
+fn mg_prolong(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let n = level_node(gid, groups);
+    if (n != NONE) {
+        prolong_at(level.level, n);
+    }
+}
+
+// The cycle's end at mass i: z = the sweep from zero plus the first level's correction, then a
+// sweep on the residual. Returns (r·z, r·r), as cg_update_at does.
+fn fine_up_at(i: u32) -> vec4<f32> {
+    let w = fine_operand(i, true);
+    let r = vector_at(RESIDUAL, i).xyz;
+    let z = w + MG_SMOOTHING * (block_inverse_at(i) * (r - fine_product(i, true)));
+    set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
+    return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
+}
+
+// The cycle's end on the masses, with partials (r·z, r·r) for cg_apply over the solver's grid.
 @compute @workgroup_size(64)
 fn mg_fine_up(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -385,11 +426,83 @@ fn mg_fine_up(
     }
     var partial = vec4<f32>(0.0);
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
-        let w = fine_operand(i, true);
-        let r = vector_at(RESIDUAL, i).xyz;
-        let z = w + MG_SMOOTHING * (block_inverse_at(i) * (r - fine_product(i, true)));
-        set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
-        partial += vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
+        partial += fine_up_at(i);
     }
     store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
+}
+
+// ---- the whole step in one workgroup (implicit_group.wgsl), its CG preconditioned by the cycle ----
+// The same passes in the same order as on the per-pass path, each a loop of the workgroup's
+// threads over a level's nodes, with a barrier where a dispatch would end.
+
+// Between the cycle's passes: the levels live in storage, the masses' vectors perhaps in
+// workgroup memory.
+fn cycle_barrier() {
+    storageBarrier();
+    if (SOLVER_IN_WORKGROUP) {
+        workgroupBarrier();
+    }
+}
+
+// The levels' blocks at the Newton iterate (each level's, then the coarsest's inverse), the
+// cycle's z on implicit_rhs_at's residual, and p = z. Returns r·z.
+fn group_cg_start(lid: u32, rz: f32) -> f32 {
+    let levels = rec(0u, MG_LEVELS);
+    // Every mass's spring terms and contact blocks are written.
+    cycle_barrier();
+    for (var k = 1u; k <= levels; k++) {
+        let threads = max(rec(k, R_NODES), rec(k, R_EDGES));
+        for (var t = lid; t < threads; t += GROUP_THREADS) {
+            linearise_at(k, t);
+        }
+        storageBarrier();
+        for (var n = lid; n < rec(k, R_NODES); n += GROUP_THREADS) {
+            invert_at(k, n);
+        }
+    }
+    storageBarrier();
+    if (rec(0u, MG_SOLVED) != 0u) {
+        factor_coarsest(lid, GROUP_THREADS, levels);
+    }
+    let sums = group_cg_sums(lid, vec4<f32>(0.0));
+    for (var i = lid; i < params.mass_count; i += GROUP_THREADS) {
+        cg_direction_at(i, 0.0);
+    }
+    return sums.x;
+}
+
+// One V-cycle on the residual cg_update_at (or implicit_rhs_at) left: z for every mass. Returns
+// the workgroup's (r·z, r·r).
+fn group_cg_sums(lid: u32, partial: vec4<f32>) -> vec4<f32> {
+    let levels = rec(0u, MG_LEVELS);
+    // Every mass's r and block-Jacobi z are written.
+    cycle_barrier();
+    for (var i = lid; i < params.mass_count; i += GROUP_THREADS) {
+        fine_down_at(i);
+    }
+    for (var k = 1u; k <= levels; k++) {
+        cycle_barrier();
+        for (var n = lid; n < rec(k, R_NODES); n += GROUP_THREADS) {
+            restrict_at(k, n);
+        }
+    }
+    storageBarrier();
+    solve_coarsest(lid, GROUP_THREADS, levels);
+    for (var k = levels; k > 1u; k--) {
+        storageBarrier();
+        for (var n = lid; n < rec(k - 1u, R_NODES); n += GROUP_THREADS) {
+            prolong_at(k - 1u, n);
+        }
+    }
+    storageBarrier();
+    var sums = vec4<f32>(0.0);
+    for (var i = lid; i < params.mass_count; i += GROUP_THREADS) {
+        sums += fine_up_at(i);
+    }
+    return group_reduce(lid, sums, false);
+}
+
+@compute @workgroup_size(GROUP_THREADS)
+fn mg_implicit_step(@builtin(local_invocation_index) lid: u32) {
+    step_in_group(lid);
 }

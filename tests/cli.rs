@@ -353,7 +353,8 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     // system's whole step in one workgroup's dispatch, a larger one's a dispatch per pass, two per
     // CG iteration and, from 4 096 masses, a multigrid cycle over the coarse levels (cloth-64's
     // four: 1 024, 256, 64 and 16 nodes) before each cg_apply.
-    let cycle = "[cycle: mg_restrict × 4 → mg_solve_coarsest → mg_prolong × 3 → mg_fine_up]";
+    let cycle =
+        "[cycle: mg_fine_down → mg_restrict × 4 → mg_solve_coarsest → mg_prolong × 3 → mg_fine_up]";
     let cloth_64 = format!(
         "implicit_begin → solver_begin → [Newton: implicit_iterate → forces_and_rhs → cg_begin → \
          [levels: mg_linearise → mg_invert] × 4 → mg_factor → {cycle} → cg_apply → \

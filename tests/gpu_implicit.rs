@@ -393,3 +393,62 @@ fn gpu_multigrid_meets_the_cpu_and_cuts_cg_iterations() {
     let peer = "bench/scenes/peer-cloth-64-60hz.toml";
     parity(Integrator::Bdf2, peer, 10, (Passes, None, Multigrid));
 }
+
+/// The one-workgroup step (small systems) runs the same cycle (`mg_implicit_step`: each of the
+/// cycle's passes a loop of the workgroup's threads over a level's nodes, a barrier where the
+/// per-pass path ends a dispatch) and meets the CPU's multigrid to the parity tolerance: the
+/// jello on the ground (contacts in the levels' blocks) with at most a third of block Jacobi's CG
+/// iterations, the cloth onto its sphere with a GPU's 64 threads, the struck jello with BDF2,
+/// and hair of 10-mass strands, whose solver vectors sit in workgroup memory beside the coarsest
+/// level's elimination.
+#[test]
+fn gpu_multigrid_in_one_workgroup_meets_the_cpu() {
+    if !have_adapter() {
+        return;
+    }
+    use hooke::gpu::ImplicitPath::InGroup;
+    use hooke::physics::Preconditioner::{BlockJacobi, Multigrid};
+    let multigrid = parity(
+        Integrator::Implicit,
+        "jello",
+        20,
+        (InGroup, None, Multigrid),
+    );
+    let jacobi = parity(
+        Integrator::Implicit,
+        "jello",
+        20,
+        (InGroup, None, BlockJacobi),
+    );
+    println!(
+        "jello implicit, 20 steps in one workgroup: CG iterations {jacobi} (block Jacobi), {multigrid} (multigrid)"
+    );
+    assert!(3.0 * multigrid <= jacobi, "{multigrid} against {jacobi}");
+    parity(
+        Integrator::Implicit,
+        "cloth",
+        20,
+        (InGroup, Some(64), Multigrid),
+    );
+    parity(
+        Integrator::Bdf2,
+        "jello-sphere",
+        20,
+        (InGroup, None, Multigrid),
+    );
+
+    let hair = std::fs::read_to_string("examples/scenes/hair.toml")
+        .unwrap_or_else(|e| panic!("examples/scenes/hair.toml: {e}"))
+        .replace("grid = [20]", "grid = [10]")
+        .replace("substeps = 20", "substeps = 1");
+    let file = common::temp_dir("multigrid-in-group").join("short-hair.toml");
+    std::fs::write(&file, hair).unwrap_or_else(|e| panic!("{e}"));
+    let name = file.to_string_lossy();
+    let (model, _) = scene_model(&name);
+    let lavapipe = 32 * 1024 - hooke::gpu::MULTIGRID_FACTOR_WORKGROUP_BYTES;
+    assert!(matches!(
+        hooke::gpu::SolverHome::of(&model, InGroup, (8, lavapipe)),
+        hooke::gpu::SolverHome::Workgroup { .. }
+    ));
+    parity(Integrator::Implicit, &name, 30, (InGroup, None, Multigrid));
+}

@@ -174,6 +174,12 @@ mg)
     f=0.016666666666666666
     timeout 120 /tmp/preconditioners bench/scenes/cloth-256-60hz.toml $f 30 2 both implicit gpu
     timeout 120 /tmp/preconditioners /tmp/peer-cloth-256-60hz.toml $f 60 2 both bdf2 gpu
+    # The one-workgroup step with each preconditioner (issue 31, eighth session: the cycle in
+    # one workgroup, mg_implicit_step), the small scenes at one step per frame.
+    for s in jello cloth hair jello-sphere; do
+      timeout 60 /tmp/preconditioners $s $f 60 3 both implicit gpu group
+    done
+    timeout 60 /tmp/preconditioners jello $f 60 3 both bdf2 gpu group
   fi
   ;;
 bisect)

@@ -125,9 +125,7 @@ impl GpuBackend {
             (Some(_), _) => ExplicitPath::Fused,
         };
         let multigrid = implicit
-            .then(|| {
-                MultigridLayout::for_run(&model, (path, tuning.preconditioner), storage_buffers)
-            })
+            .then(|| MultigridLayout::for_run(&model, tuning.preconditioner, storage_buffers))
             .flatten();
         let needed = Needed {
             implicit: implicit.then_some(path),

@@ -42,10 +42,13 @@ pub enum Needs {
     Always,
     /// The implicit integrator, a dispatch per pass (larger systems).
     ImplicitPasses,
-    /// The implicit integrator, the whole step in one workgroup (small systems).
+    /// The implicit integrator, the whole step in one workgroup (small systems), its CG
+    /// preconditioned by block Jacobi.
     ImplicitInGroup,
     /// The implicit integrator a dispatch per pass, its CG preconditioned by multigrid.
     ImplicitMultigrid,
+    /// The implicit integrator in one workgroup, its CG preconditioned by multigrid.
+    ImplicitInGroupMultigrid,
     /// Plasticity or tearing.
     SpringsChange,
     /// Mass–mass contact.
@@ -351,6 +354,10 @@ macro_rules! kernel_table {
                 group: Multigrid, threads: OneGroup, needs: ImplicitMultigrid,
                 cpu: "the coarsest level's dense inverse in f32; the CPU factors it by Cholesky in f64 (Multigrid::factor_coarsest)",
             }
+            MgFineDown = mg_fine_down in Multigrid {
+                group: Multigrid, threads: SolverGrid, needs: ImplicitMultigrid,
+                cpu: "the masses' sweep from zero and the residual after it, the start of the CPU's Multigrid::cycle (smooth_from_zero, apply, residual)",
+            }
             MgRestrict = mg_restrict in Multigrid {
                 group: Multigrid, threads: Level, needs: ImplicitMultigrid,
                 cpu: "the finer level's residual after its sweep, summed into a level's b, and the level's sweep: the CPU's hand_down and coarse_cycle in turn",
@@ -366,6 +373,12 @@ macro_rules! kernel_table {
             MgFineUp = mg_fine_up in Multigrid {
                 group: Multigrid, threads: SolverGrid, needs: ImplicitMultigrid,
                 cpu: "the first level's correction and the last sweep on the masses, the end of the CPU's Multigrid::cycle, with cg_advance's partials",
+            }
+            // The whole step in one workgroup (small systems), the cycle's passes as loops over
+            // a level's nodes with barriers between them.
+            MgImplicitStep = mg_implicit_step in Multigrid {
+                group: Multigrid, threads: OneGroup, needs: ImplicitInGroupMultigrid,
+                cpu: "implicit_step's body (implicit_group.wgsl) with the V-cycle making the CG's z: the CPU's implicit_step with its Multigrid",
             }
 
             // ---- fused.wgsl: the explicit steps with every per-mass pass fused into the force gather ----

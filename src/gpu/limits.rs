@@ -119,8 +119,7 @@ fn multigrid_unbound(
     integrator: Integrator,
     storage_buffers: u32,
 ) -> Option<String> {
-    // A system that large takes the per-pass path, whose CG the cycle serves
-    // (implicit/plan.rs holds the two thresholds in that order).
+    // Both paths run the cycle with the same bindings (multigrid.wgsl).
     let wanted = integrator.newton()
         && crate::physics::Preconditioner::for_masses(model.mass_count())
             == crate::physics::Preconditioner::Multigrid;

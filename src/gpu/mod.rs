@@ -58,6 +58,7 @@ pub use implicit::{Path as ImplicitPath, SolverHome, path as implicit_path};
 pub use inspect::GridReadBack;
 pub use layout::NEIGHBOUR_SLOTS;
 pub use limits::adapter_report;
+pub use multigrid::FACTOR_WORKGROUP_BYTES as MULTIGRID_FACTOR_WORKGROUP_BYTES;
 pub use plan::ONE_GROUP_BUILD_MASSES;
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path, step_passes};
 pub use shaders::{missing, program_groups, programs, unmet};

@@ -6,7 +6,6 @@ use super::bindings::{bind_group, buffers};
 use super::buffers::Alloc;
 use super::dispatch::Dispatch;
 use super::kernels::Kernel::{self, *};
-use super::kernels::Path;
 use super::layout::MgLevel;
 use super::limits::MULTIGRID_STORAGE_BUFFERS_NEEDED;
 use super::shaders::groups_for;
@@ -37,6 +36,13 @@ const MG_SOLVED: usize = 3;
 
 /// The coarsest level's inverse: 3 unknowns a node, row-major, four to a vec4, after a flag.
 const DENSE_VEC4S: usize = 1 + (3 * COARSEST_NODES) * (3 * COARSEST_NODES) / 4;
+
+/// Workgroup memory of the coarsest level's elimination (`dense_sh`, `pivot_row_sh` and
+/// `pivot_col_sh` in WGSL, f32).
+pub const FACTOR_WORKGROUP_BYTES: u32 = {
+    let n = 3 * COARSEST_NODES as u32;
+    4 * (n * n + 2 * n)
+};
 
 /// The hierarchy as the kernels read it: `topology` (records, then rows) and the length of the
 /// values buffer in vec4s.
@@ -83,17 +89,17 @@ fn spring_entries(model: &Model) -> Vec<u32> {
 }
 
 impl Layout {
-    /// The levels of an implicit run of `model` on `path` whose CG `preconditioner` is asked
-    /// for, on an adapter binding `storage_buffers` a stage: `None` (block Jacobi) unless it is
-    /// multigrid on the per-pass path, the model has coarse levels and the adapter binds the
-    /// cycle's buffers.
+    /// The levels of an implicit run of `model` whose CG `preconditioner` is asked for, on an
+    /// adapter binding `storage_buffers` a stage: `None` (block Jacobi) unless it is
+    /// multigrid, the model has coarse levels and the adapter binds the cycle's buffers. Both
+    /// paths run the cycle: the per-pass path a dispatch per level and pass, the one-workgroup
+    /// step as loops over a level's nodes (`mg_implicit_step`).
     pub fn for_run(
         model: &Model,
-        (path, preconditioner): (Path, Preconditioner),
+        preconditioner: Preconditioner,
         storage_buffers: u32,
     ) -> Option<Self> {
-        let wanted = path == Path::Passes
-            && preconditioner == Preconditioner::Multigrid
+        let wanted = preconditioner == Preconditioner::Multigrid
             && storage_buffers >= MULTIGRID_STORAGE_BUFFERS_NEEDED;
         wanted
             .then(|| Hierarchy::new(model))
@@ -236,11 +242,12 @@ pub fn linearise(levels: u32) -> Vec<Dispatch> {
         .collect()
 }
 
-/// A cycle over `levels` coarse levels: down the levels, the coarsest's solve, up the levels,
-/// and the masses' end.
+/// A cycle over `levels` coarse levels: the masses' start, down the levels, the coarsest's
+/// solve, up the levels, and the masses' end.
 pub fn cycle(levels: u32) -> Vec<Dispatch> {
-    (1..=levels)
-        .map(|k| on(MgRestrict, k))
+    [on(MgFineDown, 1)]
+        .into_iter()
+        .chain((1..=levels).map(|k| on(MgRestrict, k)))
         .chain([on(MgSolveCoarsest, levels)])
         .chain((1..levels).rev().map(|k| on(MgProlong, k)))
         .chain([on(MgFineUp, 1)])
@@ -251,6 +258,7 @@ pub fn cycle(levels: u32) -> Vec<Dispatch> {
 pub fn cycle_text(levels: u32) -> String {
     let name = |k: Kernel| k.name();
     let mut parts = vec![
+        name(MgFineDown).to_owned(),
         format!("{} × {levels}", name(MgRestrict)),
         name(MgSolveCoarsest).to_owned(),
     ];

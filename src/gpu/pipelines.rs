@@ -89,7 +89,7 @@ impl Layouts {
 pub struct Needed {
     /// Implicit Euler, and how its step runs.
     pub implicit: Option<Path>,
-    /// Its CG preconditioned by multigrid (the per-pass path only).
+    /// Its CG preconditioned by multigrid (on either path).
     pub multigrid: bool,
     pub springs_change: bool,
     pub mass_contact: bool,
@@ -106,8 +106,11 @@ impl Needed {
         match needs {
             Needs::Always => true,
             Needs::ImplicitPasses => self.implicit == Some(Path::Passes),
-            Needs::ImplicitInGroup => self.implicit == Some(Path::InGroup),
-            Needs::ImplicitMultigrid => self.multigrid,
+            Needs::ImplicitInGroup => self.implicit == Some(Path::InGroup) && !self.multigrid,
+            Needs::ImplicitMultigrid => self.multigrid && self.implicit == Some(Path::Passes),
+            Needs::ImplicitInGroupMultigrid => {
+                self.multigrid && self.implicit == Some(Path::InGroup)
+            }
             Needs::SpringsChange => self.springs_change,
             Needs::MassContact => self.mass_contact,
             Needs::Xpbd => self.xpbd,

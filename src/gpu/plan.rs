@@ -271,11 +271,9 @@ pub fn step_passes(
 ) -> (Vec<String>, Option<String>, Vec<&'static str>) {
     let mut passes = if integrator.newton() {
         let path = implicit::path(model);
-        let levels = match (path, Preconditioner::for_masses(model.mass_count())) {
-            (implicit::Path::Passes, Preconditioner::Multigrid) => {
-                Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32)
-            }
-            _ => 0,
+        let levels = match Preconditioner::for_masses(model.mass_count()) {
+            Preconditioner::Multigrid => Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32),
+            Preconditioner::BlockJacobi => 0,
         };
         vec![implicit::passes(path, levels)]
     } else {

@@ -8,7 +8,7 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 12] = [
+const LIBRARIES: [(&str, &str); 13] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
@@ -44,6 +44,10 @@ const LIBRARIES: [(&str, &str); 12] = [
     (
         "solver_sums",
         include_str!("../../shaders/solver_sums.wgsl"),
+    ),
+    (
+        "implicit_group",
+        include_str!("../../shaders/implicit_group.wgsl"),
     ),
 ];
 

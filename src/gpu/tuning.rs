@@ -33,8 +33,8 @@ pub struct Tuning {
     pub vbd_in_group: Option<bool>,
     /// The threads VBD shares a mass's springs among (by default `vbd_lanes`).
     pub vbd_lanes: Option<u32>,
-    /// What preconditions implicit Euler's CG on the per-pass path (by default
-    /// `Preconditioner::for_masses`, as on the CPU; the one-workgroup step keeps block Jacobi).
+    /// What preconditions implicit Euler's CG, on either path (by default
+    /// `Preconditioner::for_masses`, as on the CPU).
     pub preconditioner: Preconditioner,
 }
 
@@ -108,8 +108,13 @@ pub(super) fn specialise(
         .filter(|_| explicit == ExplicitPath::InGroup);
     let home = match implicit {
         Some(path) => {
+            // The cycle's coarsest inverse takes its share first (mg_implicit_step).
+            let cycle = match resources.multigrid {
+                Some(_) => super::multigrid::FACTOR_WORKGROUP_BYTES,
+                None => 0,
+            };
             let bytes = limits.max_compute_workgroup_storage_size;
-            SolverHome::of(model, path, (group_threads, bytes))
+            SolverHome::of(model, path, (group_threads, bytes.saturating_sub(cycle)))
         }
         None => SolverHome::Buffers,
     };

@@ -14,10 +14,6 @@ use crate::model::Model;
 /// pass spreads the masses over the device.
 pub const IN_GROUP_MAX_MASSES: usize = 2048;
 
-// Every system multigrid preconditions takes the per-pass path, which alone runs the cycle
-// (limits.rs's `multigrid_unbound` counts on it).
-const _: () = assert!(crate::physics::MULTIGRID_MIN_MASSES > IN_GROUP_MAX_MASSES);
-
 /// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL) for `mass_count` masses. On a
 /// CPU adapter (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and
 /// each further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
@@ -119,6 +115,12 @@ const fn at(k: Kernel) -> Dispatch {
 }
 
 pub const IN_GROUP: [Dispatch; 1] = [at(ImplicitStep)];
+/// The whole step with the multigrid cycle: it binds the first level's group, whose record
+/// 0 describes all the levels.
+pub const IN_GROUP_MULTIGRID: [Dispatch; 1] = [Dispatch {
+    level: 1,
+    ..at(MgImplicitStep)
+}];
 pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
 /// The Newton iterate, its forces and right-hand side, and the first half of the solve's first
 /// CG iteration (`cg_apply` with p = z).
@@ -144,6 +146,16 @@ pub fn passes(path: Path, levels: u32) -> String {
             .join(" → ")
     };
     match path {
+        Path::InGroup if levels > 0 => format!(
+            "{} (one workgroup, the whole step: [Newton: iterate → forces → levels × {levels} → \
+             [CG: product → update → [cycle: fine down → restrict × {levels} → coarsest{} → fine up]]])",
+            names(&IN_GROUP_MULTIGRID),
+            if levels > 1 {
+                format!(" → prolong × {}", levels - 1)
+            } else {
+                String::new()
+            }
+        ),
         Path::InGroup => format!(
             "{} (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
             names(&IN_GROUP)

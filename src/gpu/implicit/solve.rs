@@ -113,8 +113,9 @@ pub struct ImplicitStep<'a> {
     pub solver: &'a SolverBuffers,
     /// The passes every integrator runs after its step (plasticity, tearing).
     pub post: &'a [Dispatch],
-    /// The multigrid cycle, when it preconditions the per-pass path's CG: a Newton iteration's
-    /// passes after cg_begin (the levels' blocks), and a cycle's (`gpu/multigrid.rs`).
+    /// The multigrid cycle, when it preconditions the CG: on the per-pass path, a Newton
+    /// iteration's passes after cg_begin (the levels' blocks) and a cycle's
+    /// (`gpu/multigrid.rs`); the one-workgroup step runs its own (`mg_implicit_step`).
     pub multigrid: Option<(&'a [Dispatch], &'a [Dispatch])>,
 }
 
@@ -136,7 +137,11 @@ impl ImplicitStep<'_> {
         in_pass(&mut enc, label, |pass| {
             (0..steps).try_for_each(|k| {
                 let slot = SLOTS_PER_STEP * k + 3;
-                self.kernels.dispatch_all(pass, &IN_GROUP, slot)?;
+                let step = match self.multigrid {
+                    Some(_) => &IN_GROUP_MULTIGRID,
+                    None => &IN_GROUP,
+                };
+                self.kernels.dispatch_all(pass, step, slot)?;
                 self.post_step(pass, slot)
             })
         })?;

@@ -7,8 +7,10 @@
 // arithmetic per mass is written once (the *_at functions in implicit_terms.wgsl, compiled
 // before this file); two ways run it:
 // - implicit_step: one workgroup loops over the whole step in one dispatch, every sum reduced in
-//   workgroup memory, every stopping rule decided on the device. For small systems
-//   (src/gpu/implicit/plan.rs says which): no host wait, one dispatch per step.
+//   workgroup memory, every stopping rule decided on the device (implicit_group.wgsl's
+//   step_in_group, below with block Jacobi's z; multigrid.wgsl's mg_implicit_step runs it with
+//   the cycle's). For small systems (src/gpu/implicit/plan.rs says which): no host wait, one
+//   dispatch per step.
 // - larger systems: one dispatch per pass over the masses (implicit_begin … newton_end), two per
 //   CG iteration, each dot product summed per workgroup and then, by every workgroup that needs
 //   it, over the workgroups in a fixed order; a kernel whose solve or step has stopped does

@@ -38,6 +38,46 @@ pub enum Integrator {
     Bdf2,
 }
 
+/// From this many masses on, both backends precondition implicit Euler's conjugate gradients
+/// by aggregation multigrid (`cpu/multigrid.rs`, `gpu/multigrid.rs`) unless the run names a
+/// preconditioner. Below it the cycle saves no time on the CPU: on the eleven scenes of 100 to
+/// 1 444 masses at 1/60 s, two cores, it took 3–6× fewer CG iterations and ran 0.75–1.49×
+/// block Jacobi's speed (BENCHMARKS.md, eighth session). Whether it pays in the GPU's
+/// one-workgroup step is for a GPU to measure (`bench/device/session.sh mg`).
+pub const MULTIGRID_MIN_MASSES: usize = 4096;
+
+/// What preconditions implicit Euler's and BDF2's conjugate gradients. Names match
+/// `--preconditioner` and the scene's `solver.preconditioner`; without either, both backends
+/// take [`Preconditioner::for_masses`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preconditioner {
+    /// Each mass's 3 × 3 diagonal block of the system, inverted (both backends).
+    #[default]
+    BlockJacobi,
+    /// A V-cycle of aggregation multigrid over coarser copies of the system
+    /// (`physics::hierarchy`): the CPU's `cpu/multigrid.rs`, the GPU's `gpu/multigrid.rs`.
+    Multigrid,
+}
+
+impl Preconditioner {
+    /// Both backends' choice for a system of `mass_count` masses when the run names none.
+    pub fn for_masses(mass_count: usize) -> Self {
+        if mass_count >= MULTIGRID_MIN_MASSES {
+            Preconditioner::Multigrid
+        } else {
+            Preconditioner::BlockJacobi
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Preconditioner::BlockJacobi => "3×3 block Jacobi",
+            Preconditioner::Multigrid => "aggregation multigrid",
+        }
+    }
+}
+
 /// What an integrator needs beyond its name and step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StepOptions {
@@ -45,6 +85,9 @@ pub struct StepOptions {
     pub xpbd_iterations: u32,
     /// VBD's sweeps over the masses per step (≥ 1; the others ignore it).
     pub vbd_iterations: u32,
+    /// What preconditions implicit Euler's and BDF2's CG on both backends; `None`: each system
+    /// as its size says (`Preconditioner::for_masses`).
+    pub preconditioner: Option<Preconditioner>,
 }
 
 impl Default for StepOptions {
@@ -52,7 +95,18 @@ impl Default for StepOptions {
         Self {
             xpbd_iterations: DEFAULT_XPBD_ITERATIONS,
             vbd_iterations: DEFAULT_VBD_ITERATIONS,
+            preconditioner: None,
         }
+    }
+}
+
+impl StepOptions {
+    /// The preconditioner of a system of `mass_count` masses: the one asked for, else the
+    /// size's. (One without coarse levels takes block Jacobi whatever is asked: `hooke check`
+    /// says so.)
+    pub fn preconditioner_for(&self, mass_count: usize) -> Preconditioner {
+        self.preconditioner
+            .unwrap_or_else(|| Preconditioner::for_masses(mass_count))
     }
 }
 

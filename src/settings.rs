@@ -57,6 +57,7 @@ pub struct Overrides {
     pub duration_secs: Option<f64>,
     pub xpbd_iterations: Option<u32>,
     pub vbd_iterations: Option<u32>,
+    pub preconditioner: Option<crate::integrator::Preconditioner>,
 }
 
 /// How a run steps: `frames` frames of `substeps` steps of `dt_secs`.
@@ -154,8 +155,19 @@ impl Settings {
         if frames == 0 {
             return Err(SettingsError::NoFrames);
         }
+        let integrator = o.integrator.unwrap_or(s.integrator);
+        let preconditioner = o.preconditioner.or(s.preconditioner);
+        if let Some(p) = preconditioner
+            && !integrator.newton()
+        {
+            notes.push(format!(
+                "the preconditioner ({}) serves implicit Euler's and BDF2's solves; {integrator} \
+                 has none and ignores it",
+                p.name()
+            ));
+        }
         Ok(Self {
-            integrator: o.integrator.unwrap_or(s.integrator),
+            integrator,
             frame_rate_hz: fps,
             substeps,
             dt_secs: frame_secs / f64::from(substeps),
@@ -169,6 +181,7 @@ impl Settings {
                     .vbd_iterations
                     .or(s.vbd_iterations)
                     .unwrap_or(DEFAULT_VBD_ITERATIONS),
+                preconditioner,
             },
             notes,
         })

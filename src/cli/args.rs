@@ -288,6 +288,10 @@ pub struct SolverArgs {
     /// With --integrator vbd: sweeps over the masses per step (default 10).
     #[arg(long, allow_negative_numbers = true)]
     pub vbd_iterations: Option<u32>,
+    /// With --integrator implicit or bdf2: what preconditions the conjugate gradients on both
+    /// backends (default: multigrid from 4 096 masses, block Jacobi below).
+    #[arg(long, value_enum)]
+    pub preconditioner: Option<hooke::physics::Preconditioner>,
 }
 
 /// `--dt`: seconds, or `auto`.
@@ -343,6 +347,7 @@ impl SolverArgs {
             duration_secs: self.duration,
             xpbd_iterations: self.xpbd_iterations,
             vbd_iterations: self.vbd_iterations,
+            preconditioner: self.preconditioner,
         }
     }
 }

@@ -44,8 +44,7 @@ pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
     match device.backend {
         BackendKind::Cpu => println!("backend: cpu ({} threads)", rayon::current_num_threads()),
         BackendKind::Gpu => {
-            match hooke::gpu::adapter_report(device.adapter.as_deref(), model, settings.integrator)
-            {
+            match hooke::gpu::adapter_report(device.adapter.as_deref(), model, settings.step()) {
                 Ok(line) => println!("{line}"),
                 Err(e) => println!("warning: {e}"),
             }
@@ -340,15 +339,24 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
     if !settings.integrator.newton() {
         return;
     }
-    let chosen = Preconditioner::for_masses(model.mass_count());
+    let chosen = settings.options.preconditioner_for(model.mass_count());
+    let why = match settings.options.preconditioner {
+        Some(_) => "as asked",
+        None if chosen == Preconditioner::Multigrid => "from 4 096 masses",
+        None => "below 4 096 masses",
+    };
     let hierarchy = (chosen == Preconditioner::Multigrid)
         .then(|| hooke::physics::hierarchy::Hierarchy::new(model))
         .flatten();
+    let gpu = match hooke::gpu::implicit_path(model) {
+        hooke::gpu::ImplicitPath::Passes => "on its per-pass path, a dispatch per level and pass",
+        hooke::gpu::ImplicitPath::InGroup => "in its one-workgroup step, a loop per level and pass",
+    };
     let _ = match hierarchy {
         Some(h) => writeln!(
             s,
-            "  CG preconditioner: {} on both backends (coarse levels of {} nodes, the last {}; \
-             the GPU's on its per-pass path, a dispatch per level and pass)",
+            "  CG preconditioner: {} on both backends, {why} (coarse levels of {} nodes, the last \
+             {}; the GPU's {gpu})",
             chosen.name(),
             h.nodes()
                 .iter()
@@ -361,9 +369,16 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
                 "swept, its coarsening stalled"
             }
         ),
+        None if chosen == Preconditioner::Multigrid => writeln!(
+            s,
+            "  CG preconditioner: {} on both backends: {} was asked for, but the masses do not \
+             coarsen into levels",
+            Preconditioner::BlockJacobi.name(),
+            chosen.name()
+        ),
         None => writeln!(
             s,
-            "  CG preconditioner: {} (both backends)",
+            "  CG preconditioner: {} on both backends, {why}",
             Preconditioner::BlockJacobi.name()
         ),
     };
@@ -371,7 +386,7 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
 
 /// The passes one GPU step runs, and the effects compiled into its kernels.
 fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
-    let (passes, why_unfused, effects) = hooke::gpu::step_passes(model, settings.integrator);
+    let (passes, why_unfused, effects) = hooke::gpu::step_passes(model, settings.step());
     let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
     if passes.iter().any(|p| p == "fused_frame") {
         use hooke::gpu::one_group_step_masses;

@@ -47,7 +47,7 @@ impl Scratch {
             gather: Gather::new(model),
             limits: model.spring_limits(dt_secs),
             implicit: None,
-            preconditioner: Preconditioner::for_masses(n),
+            preconditioner: options.preconditioner_for(n),
             xpbd: None,
             vbd: None,
             options,

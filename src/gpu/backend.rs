@@ -66,7 +66,10 @@ impl GpuBackend {
     /// The GPU backend stepping `model` as `step` says, on the adapter whose name contains
     /// `adapter` (the best one when `None`).
     pub fn new(model: Arc<Model>, step: Step, adapter: Option<&str>) -> Result<Self, BackendError> {
-        let tuning = Tuning::for_model(&model);
+        let tuning = Tuning {
+            preconditioner: step.options.preconditioner_for(model.mass_count()),
+            ..Tuning::for_model(&model)
+        };
         Self::with_tuning(model, step, adapter, tuning)
     }
 
@@ -84,6 +87,7 @@ impl GpuBackend {
         let tuning = Tuning {
             implicit,
             explicit,
+            preconditioner: step.options.preconditioner_for(model.mass_count()),
             ..Tuning::for_model(&model)
         };
         Self::with_tuning(model, step, adapter, tuning)

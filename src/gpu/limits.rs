@@ -4,7 +4,9 @@
 
 use super::context::{AdapterError, GpuContext};
 use super::layout::{MAX_COLLIDERS, SOLVER_VECTORS};
-use crate::integrator::Integrator;
+#[cfg(test)]
+use crate::integrator::StepOptions;
+use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
@@ -114,14 +116,10 @@ pub fn check_fits(
 
 /// Why a run of `model` whose CG multigrid would precondition on the GPU takes block Jacobi
 /// there instead, on an adapter binding `storage_buffers` a stage (`None` when it does not).
-fn multigrid_unbound(
-    model: &Model,
-    integrator: Integrator,
-    storage_buffers: u32,
-) -> Option<String> {
+fn multigrid_unbound(model: &Model, step: Step, storage_buffers: u32) -> Option<String> {
     // Both paths run the cycle with the same bindings (multigrid.wgsl).
-    let wanted = integrator.newton()
-        && crate::physics::Preconditioner::for_masses(model.mass_count())
+    let wanted = step.integrator.newton()
+        && step.options.preconditioner_for(model.mass_count())
             == crate::physics::Preconditioner::Multigrid;
     (wanted && storage_buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED).then(|| {
         format!(
@@ -136,16 +134,15 @@ fn multigrid_unbound(
 pub fn adapter_report(
     name: Option<&str>,
     model: &Model,
-    integrator: Integrator,
+    step: Step,
 ) -> Result<String, AdapterError> {
     let ctx = GpuContext::open(name)?;
     let l = &ctx.limits;
-    let mut fits = match check_fits(&ctx, model, integrator) {
+    let mut fits = match check_fits(&ctx, model, step.integrator) {
         Ok(()) => "the scene fits".to_owned(),
         Err(e) => e.to_string(),
     };
-    if let Some(why) = multigrid_unbound(model, integrator, l.max_storage_buffers_per_shader_stage)
-    {
+    if let Some(why) = multigrid_unbound(model, step, l.max_storage_buffers_per_shader_stage) {
         fits.push_str("; ");
         fits.push_str(&why);
     }
@@ -169,19 +166,27 @@ mod tests {
     use super::*;
 
     /// `check` says when an adapter cannot bind the multigrid cycle and the GPU's CG falls back
-    /// to block Jacobi: only for a large implicit system, and only below the cycle's buffers.
+    /// to block Jacobi: only for an implicit system multigrid would precondition (a large one,
+    /// or a small one asked to), and only below the cycle's buffers.
     #[test]
     fn check_says_when_the_gpu_cannot_take_multigrid() {
+        use crate::physics::Preconditioner;
+        let at = |integrator| Step::new(integrator, 1.0 / 60.0);
         let crate::prepare::Planned { model, .. } =
             crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let needed = MULTIGRID_STORAGE_BUFFERS_NEEDED;
-        let why = multigrid_unbound(&model, Integrator::Implicit, needed - 1);
+        let why = multigrid_unbound(&model, at(Integrator::Implicit), needed - 1);
         assert!(why.is_some_and(|w| w.contains("block Jacobi")));
-        assert!(multigrid_unbound(&model, Integrator::Bdf2, needed - 1).is_some());
-        assert!(multigrid_unbound(&model, Integrator::Implicit, needed).is_none());
-        assert!(multigrid_unbound(&model, Integrator::SemiImplicit, needed - 1).is_none());
+        assert!(multigrid_unbound(&model, at(Integrator::Bdf2), needed - 1).is_some());
+        assert!(multigrid_unbound(&model, at(Integrator::Implicit), needed).is_none());
+        assert!(multigrid_unbound(&model, at(Integrator::SemiImplicit), needed - 1).is_none());
         let crate::prepare::Planned { model, .. } =
             crate::prepare::planned("jello").expect("the built-in jello is planned");
-        assert!(multigrid_unbound(&model, Integrator::Implicit, needed - 1).is_none());
+        assert!(multigrid_unbound(&model, at(Integrator::Implicit), needed - 1).is_none());
+        let asked = at(Integrator::Implicit).with_options(StepOptions {
+            preconditioner: Some(Preconditioner::Multigrid),
+            ..StepOptions::default()
+        });
+        assert!(multigrid_unbound(&model, asked, needed - 1).is_some());
     }
 }

@@ -8,7 +8,7 @@ use super::implicit;
 use super::kernels::Kernel;
 use super::multigrid;
 use super::shaders::effect_constants;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Step};
 use crate::model::{Effects, Model};
 use crate::physics::Preconditioner;
 use crate::physics::hierarchy::Hierarchy;
@@ -265,13 +265,11 @@ pub fn fused_links(
 /// For `hooke check`: the kernels one GPU step dispatches, in order, on an adapter with enough
 /// storage buffers for the fused steps (and why a run does not take them), and the effects
 /// compiled into them (absent effects are specialised away and cost nothing).
-pub fn step_passes(
-    model: &Model,
-    integrator: Integrator,
-) -> (Vec<String>, Option<String>, Vec<&'static str>) {
+pub fn step_passes(model: &Model, step: Step) -> (Vec<String>, Option<String>, Vec<&'static str>) {
+    let integrator = step.integrator;
     let mut passes = if integrator.newton() {
         let path = implicit::path(model);
-        let levels = match Preconditioner::for_masses(model.mass_count()) {
+        let levels = match step.options.preconditioner_for(model.mass_count()) {
             Preconditioner::Multigrid => Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32),
             Preconditioner::BlockJacobi => 0,
         };

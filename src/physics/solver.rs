@@ -108,38 +108,6 @@ impl BackwardStep {
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;
 
-/// From this many masses on, both backends precondition implicit Euler's conjugate gradients
-/// by aggregation multigrid (`cpu/multigrid.rs`, `gpu/multigrid.rs`). Below it a cycle costs more than the
-/// iterations it saves: on the 1 024-mass cloth and the 1 000-mass jello at 1/60 s, two cores,
-/// multigrid ran 105–117 and 74–97 steps/s against block Jacobi's 220–253 and 72–148.
-pub const MULTIGRID_MIN_MASSES: usize = 4096;
-
-/// What preconditions implicit Euler's conjugate gradients.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Preconditioner {
-    /// Each mass's 3 × 3 diagonal block of the system, inverted (both backends).
-    #[default]
-    BlockJacobi,
-    /// A V-cycle of aggregation multigrid over coarser copies of the system (`hierarchy`): the
-    /// CPU's `cpu/multigrid.rs`, the GPU's per-pass path's `gpu/multigrid.rs`.
-    Multigrid,
-}
-
-impl Preconditioner {
-    /// Both backends' choice for a system of `mass_count` masses (the GPU's one-workgroup step,
-    /// up to 2 048 masses, keeps block Jacobi).
-    pub fn for_masses(mass_count: usize) -> Self {
-        if mass_count >= MULTIGRID_MIN_MASSES {
-            Preconditioner::Multigrid
-        } else {
-            Preconditioner::BlockJacobi
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Preconditioner::BlockJacobi => "3×3 block Jacobi",
-            Preconditioner::Multigrid => "aggregation multigrid",
-        }
-    }
-}
+// The preconditioner is a run's choice (`integrator::StepOptions`), kept beside the integrators
+// and seen from here too.
+pub use crate::integrator::{MULTIGRID_MIN_MASSES, Preconditioner};

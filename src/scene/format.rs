@@ -66,6 +66,10 @@ pub struct Solver {
     /// VBD's sweeps over the masses per step (`integrator = "vbd"`); 10 when absent.
     #[serde(default)]
     pub vbd_iterations: Option<u32>,
+    /// What preconditions implicit Euler's and BDF2's CG (`"block-jacobi"` or `"multigrid"`);
+    /// by the system's size when absent (multigrid from 4 096 masses).
+    #[serde(default)]
+    pub preconditioner: Option<crate::integrator::Preconditioner>,
 }
 
 fn default_frame_rate() -> f64 {
@@ -83,6 +87,7 @@ impl Default for Solver {
             frames: None,
             xpbd_iterations: None,
             vbd_iterations: None,
+            preconditioner: None,
         }
     }
 }

@@ -147,3 +147,32 @@ fn both_backends_take_the_preconditioner_a_scene_asks_for() {
         );
     }
 }
+
+/// `bench throughput` takes the choice too and says which preconditioner a row ran with
+/// (none for VBD, whose sweeps solve no linear system).
+#[test]
+fn bench_throughput_reports_the_preconditioner_it_ran() {
+    let row = |rest: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "bench",
+            "throughput",
+            "bench/scenes/jello-60hz.toml",
+            "--backend",
+            "cpu",
+            "--steps",
+            "2",
+            "--json",
+        ];
+        args.extend_from_slice(rest);
+        let out = hooke(&args);
+        assert!(out.status.success(), "{rest:?}: {}", text(&out.stderr));
+        let line = text(&out.stdout);
+        serde_json::from_str(line.lines().next().unwrap_or(""))
+            .unwrap_or_else(|e| panic!("{e}: {line}"))
+    };
+    let implicit = ["--integrator", "implicit"];
+    assert_eq!(row(&implicit)["preconditioner"], "3×3 block Jacobi");
+    let asked = [&implicit[..], &["--preconditioner", "multigrid"]].concat();
+    assert_eq!(row(&asked)["preconditioner"], "aggregation multigrid");
+    assert!(row(&["--integrator", "vbd"])["preconditioner"].is_null());
+}

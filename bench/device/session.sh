@@ -169,6 +169,16 @@ mg)
   done
   peer60 64
   peer60 256
+  # Issue 31's jello goal (>= 600 steps/s converged) with each preconditioner in the
+  # one-workgroup step, two rounds interleaved.
+  for r in 1 2; do
+    for p in block-jacobi multigrid; do
+      for s in jello cloth hair; do
+        row "31-group-$p" $H bench/scenes/$s-60hz.toml --integrator implicit --preconditioner $p --steps 120 --batch 1
+      done
+      row "31-group-$p" $H bench/scenes/jello-60hz.toml --integrator bdf2 --preconditioner $p --steps 120 --batch 1
+    done
+  done
   if [ -f .gpu/ex/preconditioners.xz ]; then
     xz -dc .gpu/ex/preconditioners.xz >/tmp/preconditioners && chmod +x /tmp/preconditioners
     f=0.016666666666666666

@@ -25,6 +25,8 @@ pub struct ThroughputOptions {
     pub batch: u32,
     /// Timed runs of `steps` steps each, after one warm-up.
     pub repeat: u32,
+    /// Implicit Euler's and BDF2's CG preconditioner; the scene's, else its size's, when `None`.
+    pub preconditioner: Option<crate::integrator::Preconditioner>,
 }
 
 #[derive(Debug, Clone)]
@@ -59,6 +61,8 @@ pub struct Throughput {
     /// (each a full build: how often depends on how the masses move, so one scene's steps/s
     /// moves with its trajectory).
     pub neighbour_builds: Option<u64>,
+    /// What preconditioned implicit Euler's or BDF2's CG (`None` for the other integrators).
+    pub preconditioner: Option<crate::integrator::Preconditioner>,
 }
 
 impl Throughput {
@@ -89,6 +93,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         scene,
         overrides: Overrides {
             integrator: opts.integrator,
+            preconditioner: opts.preconditioner,
             ..Overrides::default()
         },
         dt: prepare::DtChoice::AsGiven,
@@ -154,6 +159,10 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         end_time_secs: end.time_secs,
         end_mean_position_m,
         neighbour_builds,
+        preconditioner: settings
+            .integrator
+            .newton()
+            .then(|| settings.options.preconditioner_for(model.mass_count())),
     })
 }
 
@@ -222,6 +231,9 @@ pub fn format_throughput(t: &Throughput) -> String {
         t.wall_secs,
         t.backend
     );
+    if let Some(p) = t.preconditioner {
+        let _ = write!(s, "\n    CG preconditioner: {}", p.name());
+    }
     if t.runs_secs.len() > 1 {
         let (slow, fast) = t.steps_per_sec_spread();
         let _ = write!(
@@ -335,6 +347,7 @@ pub fn throughput_json(t: &Throughput) -> String {
             "replayed": replayed,
         })),
         "neighbour_builds": t.neighbour_builds,
+        "preconditioner": t.preconditioner.map(|p| p.name()),
         "end_time_secs": t.end_time_secs,
         "end_mean_position_m": t.end_mean_position_m,
         "kernels_ms": t.kernels_ms.as_ref().map(|k| {

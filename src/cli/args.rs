@@ -245,6 +245,10 @@ pub enum BenchCommand {
         /// Print one JSON object per line for each scene instead of text (for scripts).
         #[arg(long, conflicts_with = "effects")]
         json: bool,
+        /// Implicit Euler's and BDF2's CG preconditioner (default: the scene's, else
+        /// multigrid from 4 096 masses).
+        #[arg(long, value_enum)]
+        preconditioner: Option<hooke::physics::Preconditioner>,
     },
 }
 

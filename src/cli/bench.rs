@@ -116,6 +116,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             effects,
             repeat,
             json,
+            preconditioner,
         } => {
             let opts = bench::ThroughputOptions {
                 device: device.device(),
@@ -123,6 +124,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                 steps,
                 batch,
                 repeat,
+                preconditioner,
             };
             throughput(scenes, &opts, (effects, json))?;
         }

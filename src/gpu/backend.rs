@@ -129,7 +129,7 @@ impl GpuBackend {
             (Some(_), _) => ExplicitPath::Fused,
         };
         let multigrid = implicit
-            .then(|| MultigridLayout::for_run(&model, tuning.preconditioner, storage_buffers))
+            .then(|| MultigridLayout::for_run(&model, tuning.preconditioner, &ctx.limits))
             .flatten();
         let needed = Needed {
             implicit: implicit.then_some(path),

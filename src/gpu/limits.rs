@@ -20,6 +20,48 @@ const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 /// with fewer preconditions the CG by block Jacobi.
 pub const MULTIGRID_STORAGE_BUFFERS_NEEDED: u32 = 17;
 
+/// The most masses implicit Euler's one-workgroup step takes (`implicit::path`): 32 per thread.
+/// Beyond that, a dispatch per pass spreads the masses over the device.
+pub const IN_GROUP_MAX_MASSES: usize = 2048;
+
+/// Workgroup memory of the coarsest level's elimination (`dense_sh`, `pivot_row_sh` and
+/// `pivot_col_sh` in multigrid.wgsl, f32).
+pub const MULTIGRID_FACTOR_WORKGROUP_BYTES: u32 = {
+    let n = 3 * crate::physics::hierarchy::COARSEST_NODES as u32;
+    4 * (n * n + 2 * n)
+};
+
+/// The one-workgroup step's workgroup memory with the cycle, at its widest (512 threads): the
+/// elimination and the sums (`implicit::plan`'s `sum_scratch_bytes`, which asserts the bound).
+/// The per-pass path's `mg_factor` takes the elimination and 64 slots of sums: within WebGPU's
+/// least limit (16 KiB), so it always fits.
+pub const MULTIGRID_IN_GROUP_WORKGROUP_BYTES: u32 =
+    MULTIGRID_FACTOR_WORKGROUP_BYTES + 16 * 512 + 560;
+const _: () = assert!(MULTIGRID_FACTOR_WORKGROUP_BYTES + 16 * 64 + 560 <= 16 * 1024);
+
+/// Why an adapter with `limits` cannot run the multigrid cycle on `model`'s implicit steps
+/// (its CG then takes block Jacobi), or `None`: the one decision both `GpuBackend::new`
+/// (`multigrid::Layout::for_run`) and `hooke check` take.
+pub fn multigrid_unbound_by(model: &Model, limits: &wgpu::Limits) -> Option<String> {
+    let buffers = limits.max_storage_buffers_per_shader_stage;
+    let bytes = limits.max_compute_workgroup_storage_size;
+    if buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED {
+        Some(format!(
+            "the cycle binds {MULTIGRID_STORAGE_BUFFERS_NEEDED} storage buffers a stage, the \
+             adapter {buffers}"
+        ))
+    } else if model.mass_count() <= IN_GROUP_MAX_MASSES
+        && bytes < MULTIGRID_IN_GROUP_WORKGROUP_BYTES
+    {
+        Some(format!(
+            "the one-workgroup step's cycle takes up to {MULTIGRID_IN_GROUP_WORKGROUP_BYTES} bytes \
+             of workgroup memory, the adapter {bytes}"
+        ))
+    } else {
+        None
+    }
+}
+
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
     // VBD keeps each mass's velocity at the last step's start in [i] (RK4 and Verlet use three);
@@ -116,18 +158,19 @@ pub fn check_fits(
 
 /// Why a run of `model` whose CG multigrid would precondition on the GPU takes block Jacobi
 /// there instead, on an adapter binding `storage_buffers` a stage (`None` when it does not).
-fn multigrid_unbound(model: &Model, step: Step, storage_buffers: u32) -> Option<String> {
-    // Both paths run the cycle with the same bindings (multigrid.wgsl).
+fn multigrid_unbound(model: &Model, step: Step, limits: &wgpu::Limits) -> Option<String> {
     let wanted = step.integrator.newton()
         && step.options.preconditioner_for(model.mass_count())
             == crate::physics::Preconditioner::Multigrid;
-    (wanted && storage_buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED).then(|| {
-        format!(
-            "its CG takes block Jacobi on this adapter, not multigrid as on the CPU (the cycle \
-             binds {MULTIGRID_STORAGE_BUFFERS_NEEDED} storage buffers a stage, the adapter \
-             {storage_buffers}): the backends agree to the solver's tolerance"
-        )
-    })
+    wanted
+        .then(|| multigrid_unbound_by(model, limits))
+        .flatten()
+        .map(|why| {
+            format!(
+                "its CG takes block Jacobi on this adapter, not multigrid as on the CPU ({why}): \
+                 the backends agree to the solver's tolerance"
+            )
+        })
 }
 
 /// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
@@ -142,7 +185,7 @@ pub fn adapter_report(
         Ok(()) => "the scene fits".to_owned(),
         Err(e) => e.to_string(),
     };
-    if let Some(why) = multigrid_unbound(model, step, l.max_storage_buffers_per_shader_stage) {
+    if let Some(why) = multigrid_unbound(model, step, l) {
         fits.push_str("; ");
         fits.push_str(&why);
     }
@@ -165,28 +208,43 @@ pub fn adapter_report(
 mod tests {
     use super::*;
 
-    /// `check` says when an adapter cannot bind the multigrid cycle and the GPU's CG falls back
+    /// `check` says when an adapter cannot run the multigrid cycle and the GPU's CG falls back
     /// to block Jacobi: only for an implicit system multigrid would precondition (a large one,
-    /// or a small one asked to), and only below the cycle's buffers.
+    /// or a small one asked to), and only below the cycle's buffers or, in the one-workgroup
+    /// step, its workgroup memory.
     #[test]
     fn check_says_when_the_gpu_cannot_take_multigrid() {
         use crate::physics::Preconditioner;
         let at = |integrator| Step::new(integrator, 1.0 / 60.0);
+        let adapter = |buffers, bytes| wgpu::Limits {
+            max_storage_buffers_per_shader_stage: buffers,
+            max_compute_workgroup_storage_size: bytes,
+            ..wgpu::Limits::default()
+        };
+        let (needed, roomy) = (MULTIGRID_STORAGE_BUFFERS_NEEDED, 32 * 1024);
+        let short = adapter(needed - 1, roomy);
         let crate::prepare::Planned { model, .. } =
             crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
-        let needed = MULTIGRID_STORAGE_BUFFERS_NEEDED;
-        let why = multigrid_unbound(&model, at(Integrator::Implicit), needed - 1);
-        assert!(why.is_some_and(|w| w.contains("block Jacobi")));
-        assert!(multigrid_unbound(&model, at(Integrator::Bdf2), needed - 1).is_some());
-        assert!(multigrid_unbound(&model, at(Integrator::Implicit), needed).is_none());
-        assert!(multigrid_unbound(&model, at(Integrator::SemiImplicit), needed - 1).is_none());
+        let why = multigrid_unbound(&model, at(Integrator::Implicit), &short);
+        assert!(why.is_some_and(|w| w.contains("block Jacobi") && w.contains("storage buffers")));
+        assert!(multigrid_unbound(&model, at(Integrator::Bdf2), &short).is_some());
+        assert!(
+            multigrid_unbound(&model, at(Integrator::Implicit), &adapter(needed, roomy)).is_none()
+        );
+        assert!(multigrid_unbound(&model, at(Integrator::SemiImplicit), &short).is_none());
+        // The per-pass path fits WebGPU's least workgroup memory.
+        let least = adapter(needed, 16 * 1024);
+        assert!(multigrid_unbound(&model, at(Integrator::Implicit), &least).is_none());
         let crate::prepare::Planned { model, .. } =
             crate::prepare::planned("jello").expect("the built-in jello is planned");
-        assert!(multigrid_unbound(&model, at(Integrator::Implicit), needed - 1).is_none());
+        assert!(multigrid_unbound(&model, at(Integrator::Implicit), &short).is_none());
         let asked = at(Integrator::Implicit).with_options(StepOptions {
             preconditioner: Some(Preconditioner::Multigrid),
             ..StepOptions::default()
         });
-        assert!(multigrid_unbound(&model, asked, needed - 1).is_some());
+        assert!(multigrid_unbound(&model, asked, &short).is_some());
+        assert!(multigrid_unbound(&model, asked, &adapter(needed, roomy)).is_none());
+        let why = multigrid_unbound(&model, asked, &least);
+        assert!(why.is_some_and(|w| w.contains("workgroup memory")));
     }
 }

@@ -7,7 +7,7 @@ use super::buffers::Alloc;
 use super::dispatch::Dispatch;
 use super::kernels::Kernel::{self, *};
 use super::layout::MgLevel;
-use super::limits::MULTIGRID_STORAGE_BUFFERS_NEEDED;
+use super::limits::multigrid_unbound_by;
 use super::shaders::groups_for;
 use crate::model::Model;
 use crate::physics::Preconditioner;
@@ -36,13 +36,6 @@ const MG_SOLVED: usize = 3;
 
 /// The coarsest level's inverse: 3 unknowns a node, row-major, four to a vec4, after a flag.
 const DENSE_VEC4S: usize = 1 + (3 * COARSEST_NODES) * (3 * COARSEST_NODES) / 4;
-
-/// Workgroup memory of the coarsest level's elimination (`dense_sh`, `pivot_row_sh` and
-/// `pivot_col_sh` in WGSL, f32).
-pub const FACTOR_WORKGROUP_BYTES: u32 = {
-    let n = 3 * COARSEST_NODES as u32;
-    4 * (n * n + 2 * n)
-};
 
 /// The hierarchy as the kernels read it: `topology` (records, then rows) and the length of the
 /// values buffer in vec4s.
@@ -90,17 +83,17 @@ fn spring_entries(model: &Model) -> Vec<u32> {
 
 impl Layout {
     /// The levels of an implicit run of `model` whose CG `preconditioner` is asked for, on an
-    /// adapter binding `storage_buffers` a stage: `None` (block Jacobi) unless it is
-    /// multigrid, the model has coarse levels and the adapter binds the cycle's buffers. Both
-    /// paths run the cycle: the per-pass path a dispatch per level and pass, the one-workgroup
-    /// step as loops over a level's nodes (`mg_implicit_step`).
+    /// adapter with `limits`: `None` (block Jacobi) unless it is multigrid, the model has coarse
+    /// levels and the adapter can run the cycle (`limits::multigrid_unbound_by`, which `hooke
+    /// check` reports). Both paths run it: the per-pass path a dispatch per level and pass, the
+    /// one-workgroup step as loops over a level's nodes (`mg_implicit_step`).
     pub fn for_run(
         model: &Model,
         preconditioner: Preconditioner,
-        storage_buffers: u32,
+        limits: &wgpu::Limits,
     ) -> Option<Self> {
         let wanted = preconditioner == Preconditioner::Multigrid
-            && storage_buffers >= MULTIGRID_STORAGE_BUFFERS_NEEDED;
+            && multigrid_unbound_by(model, limits).is_none();
         wanted
             .then(|| Hierarchy::new(model))
             .flatten()

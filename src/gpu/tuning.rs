@@ -110,7 +110,7 @@ pub(super) fn specialise(
         Some(path) => {
             // The cycle's coarsest inverse takes its share first (mg_implicit_step).
             let cycle = match resources.multigrid {
-                Some(_) => super::multigrid::FACTOR_WORKGROUP_BYTES,
+                Some(_) => super::limits::MULTIGRID_FACTOR_WORKGROUP_BYTES,
                 None => 0,
             };
             let bytes = limits.max_compute_workgroup_storage_size;

@@ -10,9 +10,9 @@ use super::super::kernels::Path;
 use super::super::layout::SOLVER_VECTORS;
 use crate::model::Model;
 
-/// The most masses the one-workgroup step takes: 32 per thread. Beyond that, a dispatch per
-/// pass spreads the masses over the device.
-pub const IN_GROUP_MAX_MASSES: usize = 2048;
+use super::super::limits::{
+    IN_GROUP_MAX_MASSES, MULTIGRID_FACTOR_WORKGROUP_BYTES, MULTIGRID_IN_GROUP_WORKGROUP_BYTES,
+};
 
 /// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL) for `mass_count` masses. On a
 /// CPU adapter (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and
@@ -32,9 +32,16 @@ pub fn group_threads(device: wgpu::DeviceType, mass_count: usize) -> u32 {
 /// Workgroup memory the one-workgroup step's sums take with `threads` threads (`sum_sh`, at
 /// least the per-pass kernels' 64 slots, `part_sh`, `total_sh`, `flag_sh` in
 /// shaders/implicit.wgsl) and mass_force's unused word of `state_sh`, rounded up.
-fn sum_scratch_bytes(threads: u32) -> u64 {
-    16 * u64::from(threads.max(64)) + 32 * 16 + 16 + 16 + 16
+const fn sum_scratch_bytes(threads: u32) -> u64 {
+    let slots = if threads > 64 { threads } else { 64 };
+    16 * slots as u64 + 32 * 16 + 16 + 16 + 16
 }
+
+// The cycle's bound on the one-workgroup step's workgroup memory holds at its widest.
+const _: () = assert!(
+    sum_scratch_bytes(512) + MULTIGRID_FACTOR_WORKGROUP_BYTES as u64
+        <= MULTIGRID_IN_GROUP_WORKGROUP_BYTES as u64
+);
 
 /// Where the one-workgroup step keeps the solver's per-mass vectors and each CSR entry's
 /// spring terms (`SOLVER_IN_WORKGROUP` in WGSL): in workgroup memory when both fit beside the

@@ -156,8 +156,8 @@ pub fn check_fits(
     Ok(())
 }
 
-/// Why a run of `model` whose CG multigrid would precondition on the GPU takes block Jacobi
-/// there instead, on an adapter binding `storage_buffers` a stage (`None` when it does not).
+/// Why a run of `model` as `step` says, whose CG multigrid would precondition, takes block
+/// Jacobi on the GPU instead, on an adapter with `limits` (`None` when it does not).
 fn multigrid_unbound(model: &Model, step: Step, limits: &wgpu::Limits) -> Option<String> {
     let wanted = step.integrator.newton()
         && step.options.preconditioner_for(model.mass_count())

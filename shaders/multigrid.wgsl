@@ -1,18 +1,20 @@
-// Aggregation multigrid for implicit Euler's conjugate gradients on the per-pass path: the V-cycle
-// of src/cpu/multigrid.rs over the coarse levels of src/physics/hierarchy.rs (shared by both backends),
-// a dispatch per level and pass. `level` names the dispatch's level (1 the first coarse one; the
-// host binds a window per level), `mg_topology` holds each level's record and rows
+// Aggregation multigrid for implicit Euler's conjugate gradients: the V-cycle of
+// src/cpu/multigrid.rs over the coarse levels of src/physics/hierarchy.rs (shared by both
+// backends). On the per-pass path a dispatch per level and pass: `level` names the dispatch's
+// level (1 the first coarse one; the host binds a window per level). In the one-workgroup step
+// (mg_implicit_step, at the end) a loop of the workgroup's threads per level and pass, through
+// the same per-node functions (*_at). `mg_topology` holds each level's record and rows
 // (src/gpu/multigrid.rs lays them out), `mg_values` each level's blocks and vectors.
 //
 // Per Newton iteration, after cg_begin: mg_linearise and mg_invert for each level, finest first
 // (a level's blocks are sums of the finer level's: the Galerkin product Pᵀ A P without a
 // subtraction), then mg_factor inverts the coarsest level's dense system in one workgroup.
 // Per CG iteration, after cg_advance (which left r and B⁻¹r, the block-Jacobi z): mg_fine_down
-// on the masses (the sweep from zero and the residual after it), mg_restrict down the levels (a level's b from the finer level's residual after one damped block-Jacobi
-// sweep from zero, and its own sweep), mg_solve_coarsest, mg_prolong up the levels (the coarser
-// correction, then a sweep), and mg_fine_up on the masses (the first level's correction, a
-// sweep, and the partial sums (r·z, r·r) that cg_apply reads, as cg_advance's would be).
-// Every kernel of a stopped solve returns at once.
+// on the masses (the sweep from zero and the residual after it), mg_restrict down the levels
+// (a level's b from the finer level's residual, and its own sweep from zero), mg_solve_coarsest,
+// mg_prolong up the levels (the coarser correction, then a sweep), and mg_fine_up on the masses
+// (the first level's correction, a sweep, and the partial sums (r·z, r·r) that cg_apply reads,
+// as cg_advance's would be). Every kernel of a stopped solve returns at once.
 // #import mass_force spring_records state_check system_blocks implicit_terms stage_pose solver_sums implicit_group
 
 // A level's record: words at mg_topology[MG_RECORD_WORDS * level + field] (record 0 describes

@@ -366,7 +366,16 @@ fn a_long_run_stays_finite_and_bounded() {
 /// gains energy, settles where statics says, and each linear solve converges.
 #[test]
 fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
-    hold_stiff_chain(5.0e4, Integrator::Implicit, 1e-6);
+    hold_stiff_chain(5.0e4, Integrator::Implicit, 1e-6, None);
+}
+
+/// The same with the CG preconditioned by multigrid when asked (`--preconditioner multigrid`):
+/// the chain's one coarse level of 10 nodes is solved directly, in f32 on the GPU, however
+/// stiff the springs.
+#[test]
+fn implicit_euler_with_multigrid_holds_very_stiff_springs_at_one_step_per_frame() {
+    let multigrid = Some(hooke::physics::Preconditioner::Multigrid);
+    hold_stiff_chain(5.0e4, Integrator::Implicit, 1e-6, multigrid);
 }
 
 /// BDF2, which has no numerical damping to absorb what an inexact Newton step leaves, on the
@@ -377,14 +386,20 @@ fn implicit_euler_holds_very_stiff_springs_at_one_step_per_frame() {
 /// its start): the bound says half its start, and the README says to take implicit Euler there.
 #[test]
 fn bdf2_holds_stiff_springs_and_stays_bounded_on_very_stiff_ones() {
-    hold_stiff_chain(2.0e4, Integrator::Bdf2, 1e-6);
-    hold_stiff_chain(5.0e4, Integrator::Bdf2, 0.5);
+    hold_stiff_chain(2.0e4, Integrator::Bdf2, 1e-6, None);
+    hold_stiff_chain(5.0e4, Integrator::Bdf2, 0.5, None);
 }
 
-/// A chain of stiffness `k` swinging at one step per frame under `integrator`, on every backend:
-/// finite, its energy never more than `gain` of its start above it, each solve converged, and at
-/// rest after 10 s where statics says.
-fn hold_stiff_chain(k: f32, integrator: Integrator, gain: f64) {
+/// A chain of stiffness `k` swinging at one step per frame under `integrator` (its CG
+/// preconditioned by `preconditioner`, else as its size says), on every backend: finite, its
+/// energy never more than `gain` of its start above it, each solve converged, and at rest after
+/// 10 s where statics says.
+fn hold_stiff_chain(
+    k: f32,
+    integrator: Integrator,
+    gain: f64,
+    preconditioner: Option<hooke::physics::Preconditioner>,
+) {
     let (n, m, spacing) = (20u32, 1.0e-3f32, 0.05f32);
     let mut mb = ModelBuilder::new();
     for i in 0..n {
@@ -406,6 +421,11 @@ fn hold_stiff_chain(k: f32, integrator: Integrator, gain: f64) {
         ..Effects::default()
     });
     let model = Arc::new(mb.build());
+    if preconditioner == Some(hooke::physics::Preconditioner::Multigrid) {
+        // The 19 free masses pair into one coarse level, solved directly.
+        let levels = hooke::physics::hierarchy::Hierarchy::new(&model).map(|h| h.nodes());
+        assert_eq!(levels, Some(vec![10]));
+    }
     let dt = 1.0 / 60.0;
     let explicit_limit = hooke::stability::stable_dts(&model)
         .into_iter()
@@ -417,10 +437,14 @@ fn hold_stiff_chain(k: f32, integrator: Integrator, gain: f64) {
         "dt {dt} should be far past the explicit limit {explicit_limit}"
     );
     for kind in backends() {
+        let options = hooke::integrator::StepOptions {
+            preconditioner,
+            ..Default::default()
+        };
         let mut be = ok(hooke::select::create(
             kind,
             model.clone(),
-            Step::new(integrator, dt),
+            Step::new(integrator, dt).with_options(options),
             None,
         ));
         let e0 = ok(be.snapshot(0, Default::default())).energies.total_j();

@@ -38,7 +38,7 @@ fn check_says_which_preconditioner_each_run_takes_and_why() {
     let plain = jello_file("");
     let s = check(&[&plain]);
     assert!(
-        s.contains("CG preconditioner: 3×3 block Jacobi on both backends, below 4 096 masses"),
+        s.contains("CG preconditioner: 3×3 block Jacobi on both backends, below 4096 masses"),
         "{s}"
     );
     assert!(
@@ -74,7 +74,7 @@ fn check_says_which_preconditioner_each_run_takes_and_why() {
     // Large systems take multigrid unasked.
     let s = check(&["cloth-64", "--integrator", "bdf2"]);
     assert!(
-        s.contains("aggregation multigrid on both backends, from 4 096 masses"),
+        s.contains("aggregation multigrid on both backends, from 4096 masses"),
         "{s}"
     );
 }

@@ -340,10 +340,11 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
         return;
     }
     let chosen = settings.options.preconditioner_for(model.mass_count());
+    let least = hooke::physics::MULTIGRID_MIN_MASSES;
     let why = match settings.options.preconditioner {
-        Some(_) => "as asked",
-        None if chosen == Preconditioner::Multigrid => "from 4 096 masses",
-        None => "below 4 096 masses",
+        Some(_) => "as asked".to_owned(),
+        None if chosen == Preconditioner::Multigrid => format!("from {least} masses"),
+        None => format!("below {least} masses"),
     };
     let hierarchy = (chosen == Preconditioner::Multigrid)
         .then(|| hooke::physics::hierarchy::Hierarchy::new(model))

@@ -208,6 +208,18 @@ pub fn adapter_report(
 mod tests {
     use super::*;
 
+    /// The elimination's workgroup arrays in multigrid.wgsl are sized for the coarsest level's
+    /// `COARSEST_NODES`, as `MULTIGRID_FACTOR_WORKGROUP_BYTES` counts them.
+    #[test]
+    fn the_elimination_arrays_hold_the_coarsest_level() {
+        let n = 3 * crate::physics::hierarchy::COARSEST_NODES;
+        let text = include_str!("../../shaders/multigrid.wgsl");
+        assert!(text.contains(&format!("const COARSEST_UNKNOWNS: u32 = {n}u;")));
+        assert!(text.contains(&format!("var<workgroup> dense_sh: array<f32, {}>;", n * n)));
+        assert!(text.contains("var<workgroup> pivot_row_sh: array<f32, COARSEST_UNKNOWNS>;"));
+        assert!(text.contains("var<workgroup> pivot_col_sh: array<f32, COARSEST_UNKNOWNS>;"));
+    }
+
     /// `check` says when an adapter cannot run the multigrid cycle and the GPU's CG falls back
     /// to block Jacobi: only for an implicit system multigrid would precondition (a large one,
     /// or a small one asked to), and only below the cycle's buffers or, in the one-workgroup

@@ -3,6 +3,7 @@
 //! (`FusedStep::serves`), and through the general path (`integrate::step`: forces, update,
 //! projection, spring changes) otherwise.
 
+use super::chunks::in_pool;
 use super::collide::project_contacts;
 use super::fused::{FusedStep, Simd};
 use super::integrate;
@@ -105,17 +106,9 @@ impl CpuBackend {
             ..StepStats::default()
         })
     }
-}
 
-impl Backend for CpuBackend {
-    fn describe(&self) -> String {
-        format!("cpu ({} threads)", rayon::current_num_threads())
-    }
-
-    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
-        if self.fused.is_some() {
-            return self.advance_fused(substeps);
-        }
+    /// `advance` through the integrators' general steps.
+    fn advance_general(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         let start = std::time::Instant::now();
         let mut projections = 0;
         let (mut iterations, mut residual) = (0u32, 0.0f64);
@@ -152,6 +145,22 @@ impl Backend for CpuBackend {
             projections,
             solver_iterations: iterations,
             solver_residual: residual,
+        })
+    }
+}
+
+impl Backend for CpuBackend {
+    fn describe(&self) -> String {
+        format!("cpu ({} threads)", rayon::current_num_threads())
+    }
+
+    fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+        in_pool(|| {
+            if self.fused.is_some() {
+                self.advance_fused(substeps)
+            } else {
+                self.advance_general(substeps)
+            }
         })
     }
 

@@ -27,7 +27,9 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::backward::{History, residual_work};
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, sum_chunks};
+use super::chunks::{
+    CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair, max_chunks, sum_chunks,
+};
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
@@ -185,15 +187,15 @@ fn linearise(
             .for_each(|(t, s)| terms_of(t, s));
     }
     let poses = poses_at(&model.effects.colliders, t);
-    for (i, contacts) in lin.contacts.iter_mut().enumerate() {
+    each_mass(&mut lin.contacts, |i, contacts| {
         contacts.clear();
         if model.inv_mass[i] == 0.0 {
-            continue;
+            return;
         }
         contacts_at(&model.effects, &poses, x[i], model.mass_kg[i], h, |c| {
             contacts.push(c)
         });
-    }
+    });
 }
 
 /// The system linearised at `x` (for the tests of its preconditioners).
@@ -281,11 +283,10 @@ pub fn implicit_iterate(
     h: f32,
     (xk, vk): (&mut [Vec3], &mut [Vec3]),
 ) {
-    let start = x.iter().zip(v).zip(dv_total);
-    for ((xk, vk), ((x, v), dv)) in xk.iter_mut().zip(vk.iter_mut()).zip(start) {
-        *vk = *v + *dv;
-        *xk = *x + h * *vk;
-    }
+    each_mass_pair(xk, vk, |i, xk, vk| {
+        *vk = v[i] + dv_total[i];
+        *xk = x[i] + h * *vk;
+    });
 }
 
 /// Mass `i`'s diagonal block of the system M − h D − h² K at the linearisation: its mass (with
@@ -335,27 +336,30 @@ pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32) -> (f64, f64) {
         };
     });
     // |h f| = |h M a| over the movable masses (a pinned mass's acceleration is zero).
-    let momentum = model
-        .mass_kg
-        .iter()
-        .zip(acc.iter())
-        .map(|(m, a)| f64::from((h * m * *a).length_squared()))
-        .sum::<f64>()
-        .sqrt();
+    let momentum = sum_chunks(acc.len(), |r| {
+        model.mass_kg[r.clone()]
+            .iter()
+            .zip(&acc[r])
+            .map(|(m, a)| f64::from((h * m * *a).length_squared()))
+            .sum()
+    })
+    .sqrt();
     (dot(b, b).sqrt(), momentum)
 }
 
 /// Δv += δ; returns whether Newton has converged: the update is small against Δv (or Δv is
 /// below 1e-7 m/s).
 pub fn newton_update(dv: &[Vec3], dv_total: &mut [Vec3]) -> bool {
-    let step = dv.iter().map(|d| f64::from(d.length())).fold(0.0, f64::max);
-    for (total, d) in dv_total.iter_mut().zip(dv) {
-        *total += *d;
-    }
-    let size = dv_total
-        .iter()
-        .map(|d| f64::from(d.length()))
-        .fold(0.0, f64::max);
+    let largest = |v: &[Vec3]| {
+        max_chunks(v.len(), |r| {
+            v[r].iter()
+                .map(|d| f64::from(d.length()))
+                .fold(0.0, f64::max)
+        })
+    };
+    let step = largest(dv);
+    each_mass(dv_total, |i, total| *total += dv[i]);
+    let size = largest(dv_total);
     step <= NEWTON_TOLERANCE * size || step < 1e-7
 }
 
@@ -381,10 +385,10 @@ pub fn cg_goes_on(residual: f64, iterations: u32) -> bool {
 
 /// The step ends at the last iterate.
 pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
-    for ((x, v), dv) in state.x.iter_mut().zip(state.v.iter_mut()).zip(dv_total) {
-        *v += *dv;
+    each_mass_pair(&mut state.x, &mut state.v, |i, x, v| {
+        *v += dv_total[i];
         *x += h * *v;
-    }
+    });
 }
 
 /// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
@@ -493,8 +497,10 @@ fn cg_update_unpreconditioned(
     (p, ap): (&[Vec3], &[Vec3]),
     (dv, r): (&mut [Vec3], &mut [Vec3]),
 ) {
-    each_mass(dv, |i, d| *d += alpha * p[i]);
-    each_mass(r, |i, r| *r -= alpha * ap[i]);
+    each_mass_pair(dv, r, |i, d, r| {
+        *d += alpha * p[i];
+        *r -= alpha * ap[i];
+    });
 }
 
 /// Mass `i`'s own block: its mass with drag, and its contacts, without its springs

@@ -41,7 +41,10 @@ fn main() -> anyhow::Result<()> {
             .collect::<Result<_, _>>()?,
         None => vec![None],
     };
-    let base = Tuning::for_model(&model);
+    let base = Tuning::for_run(
+        &model,
+        hooke::integrator::Step::new(Integrator::Implicit, dt),
+    );
     let mut plans: Vec<(String, Integrator, Tuning)> = Vec::new();
     if base.implicit == ImplicitPath::InGroup {
         for t in &threads {

@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
             let tuning = Tuning {
                 implicit: path,
                 preconditioner,
-                ..Tuning::for_model(&model)
+                ..Tuning::for_run(&model, step)
             };
             Box::new(GpuBackend::with_tuning(model.clone(), step, None, tuning)?)
         } else {

@@ -38,7 +38,8 @@ pub enum Integrator {
     Bdf2,
 }
 
-/// From this many masses on, both backends precondition implicit Euler's conjugate gradients
+/// From this many masses on, where the system is also stiff against the step
+/// (`MULTIGRID_MIN_STIFFNESS`), both backends precondition implicit Euler's conjugate gradients
 /// by aggregation multigrid (`cpu/multigrid.rs`, `gpu/multigrid.rs`) unless the run names a
 /// preconditioner. Below it the cycle saves no time on the CPU: on the eleven scenes of 100 to
 /// 1 444 masses at 1/60 s, two cores, it took 3–6× fewer CG iterations and ran 0.75–1.49×
@@ -46,9 +47,17 @@ pub enum Integrator {
 /// one-workgroup step is for a GPU to measure (`bench/device/session.sh mg`).
 pub const MULTIGRID_MIN_MASSES: usize = 4096;
 
+/// The system's stiffness against the step (`physics::stiffness_against_step`: the largest
+/// (h² Σk + h Σc) / m over the masses) from which multigrid pays. Below it block Jacobi's CG
+/// takes few iterations, each a fraction of a cycle's cost. On two cores (BENCHMARKS.md, ninth
+/// session) the crossing lay between 280 and 1 140 on cloth-256 (block Jacobi 1.3× multigrid's
+/// speed at 280, 2× at 69, even at 1 140) and between 55 and 210 on the 64 × 64 peer cloth
+/// (multigrid 1.15× at 210, 1.45× at 840; block Jacobi 1.5× at 55).
+pub const MULTIGRID_MIN_STIFFNESS: f64 = 300.0;
+
 /// What preconditions implicit Euler's and BDF2's conjugate gradients. Names match
 /// `--preconditioner` and the scene's `solver.preconditioner`; without either, both backends
-/// take [`Preconditioner::for_masses`].
+/// take [`Preconditioner::for_system`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Preconditioner {
@@ -61,9 +70,10 @@ pub enum Preconditioner {
 }
 
 impl Preconditioner {
-    /// Both backends' choice for a system of `mass_count` masses when the run names none.
-    pub fn for_masses(mass_count: usize) -> Self {
-        if mass_count >= MULTIGRID_MIN_MASSES {
+    /// Both backends' choice for a system of `mass_count` masses, `stiffness` stiff against
+    /// its step (`physics::stiffness_against_step`), when the run names none.
+    pub fn for_system(mass_count: usize, stiffness: f64) -> Self {
+        if mass_count >= MULTIGRID_MIN_MASSES && stiffness >= MULTIGRID_MIN_STIFFNESS {
             Preconditioner::Multigrid
         } else {
             Preconditioner::BlockJacobi
@@ -86,7 +96,7 @@ pub struct StepOptions {
     /// VBD's sweeps over the masses per step (≥ 1; the others ignore it).
     pub vbd_iterations: u32,
     /// What preconditions implicit Euler's and BDF2's CG on both backends; `None`: each system
-    /// as its size says (`Preconditioner::for_masses`).
+    /// as its size and stiffness say (`Preconditioner::for_system`).
     pub preconditioner: Option<Preconditioner>,
 }
 
@@ -101,12 +111,13 @@ impl Default for StepOptions {
 }
 
 impl StepOptions {
-    /// The preconditioner of a system of `mass_count` masses: the one asked for, else the
-    /// size's. (One without coarse levels takes block Jacobi whatever is asked: `hooke check`
-    /// says so.)
-    pub fn preconditioner_for(&self, mass_count: usize) -> Preconditioner {
+    /// The preconditioner of a system of `mass_count` masses, `stiffness` stiff against its
+    /// step: the one asked for, else the system's (`Preconditioner::for_system`). (One without
+    /// coarse levels takes block Jacobi whatever is asked: `hooke check` says so.) A model's
+    /// run asks `physics::preconditioner_of`, which measures the stiffness.
+    pub fn preconditioner_for(&self, mass_count: usize, stiffness: f64) -> Preconditioner {
         self.preconditioner
-            .unwrap_or_else(|| Preconditioner::for_masses(mass_count))
+            .unwrap_or_else(|| Preconditioner::for_system(mass_count, stiffness))
     }
 }
 

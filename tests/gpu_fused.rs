@@ -53,7 +53,7 @@ fn run_with(
         implicit: ImplicitPath::Passes,
         explicit: path,
         frame_state: home,
-        ..hooke::gpu::Tuning::for_model(model)
+        ..hooke::gpu::Tuning::for_run(model, Step::new(integrator, dt))
     };
     let mut gpu = ok(GpuBackend::with_tuning(
         model.clone(),

@@ -249,7 +249,8 @@ fn implicit_parity_with(
     threads: Option<u32>,
 ) {
     let (model, _) = scene_model(name);
-    let preconditioner = hooke::physics::Preconditioner::for_masses(model.mass_count());
+    let preconditioner =
+        hooke::physics::preconditioner_of(&model, Step::new(integrator, 1.0 / 60.0));
     parity(integrator, name, frames, (path, threads, preconditioner));
 }
 
@@ -274,7 +275,7 @@ fn parity(
         explicit: hooke::gpu::ExplicitPath::Fused,
         solver_threads: threads,
         preconditioner,
-        ..hooke::gpu::Tuning::for_model(&model)
+        ..hooke::gpu::Tuning::for_run(&model, Step::new(integrator, dt))
     };
     let mut gpu = ok(GpuBackend::with_tuning(
         model.clone(),

@@ -205,7 +205,7 @@ fn gpu_vbd_sweeps_in_one_workgroup_match_a_dispatch_per_colour() {
                 let tuning = Tuning {
                     vbd_in_group: Some(vbd_in_group),
                     vbd_lanes: Some(lanes),
-                    ..Tuning::for_model(&model)
+                    ..Tuning::for_run(&model, step)
                 };
                 let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
                 assert_eq!(gpu.sweeps_in_group(), vbd_in_group, "{name}");

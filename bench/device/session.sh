@@ -169,6 +169,14 @@ mg)
   done
   peer60 64
   peer60 256
+  # Issue 31: the implicit CPU path from 1 to 16 threads on cloth-256 (goal >= 6x), at its own
+  # step and at one step per frame (multigrid by size; the ninth session's loops on the pool).
+  for t in 1 16; do
+    export RAYON_NUM_THREADS=$t
+    row "31-cpu-t$t" $H cloth-256 --integrator implicit --backend cpu --steps 40 --batch 20
+    row "31-cpu-t$t" $H bench/scenes/cloth-256-60hz.toml --backend cpu --steps 6 --batch 1
+    unset RAYON_NUM_THREADS
+  done
   # Issue 31's jello goal (>= 600 steps/s converged) with each preconditioner in the
   # one-workgroup step, two rounds interleaved.
   for r in 1 2; do

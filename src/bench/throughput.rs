@@ -162,7 +162,7 @@ pub(super) fn throughput_of(scene: SceneSource, opts: &ThroughputOptions) -> Res
         preconditioner: settings
             .integrator
             .newton()
-            .then(|| settings.options.preconditioner_for(model.mass_count())),
+            .then(|| crate::physics::preconditioner_of(&model, settings.step())),
     })
 }
 

@@ -339,12 +339,23 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
     if !settings.integrator.newton() {
         return;
     }
-    let chosen = settings.options.preconditioner_for(model.mass_count());
+    let stiffness = hooke::physics::stiffness_against_step(model, settings.step());
+    let chosen = settings
+        .options
+        .preconditioner_for(model.mass_count(), stiffness);
     let least = hooke::physics::MULTIGRID_MIN_MASSES;
+    let stiff = hooke::physics::MULTIGRID_MIN_STIFFNESS;
     let why = match settings.options.preconditioner {
         Some(_) => "as asked".to_owned(),
-        None if chosen == Preconditioner::Multigrid => format!("from {least} masses"),
-        None => format!("below {least} masses"),
+        None if chosen == Preconditioner::Multigrid => format!(
+            "from {least} masses where the springs are stiff against the step ((h² Σk + h Σc) / m \
+             up to {stiffness:.1}, multigrid from {stiff:.0})"
+        ),
+        None if model.mass_count() < least => format!("below {least} masses"),
+        None => format!(
+            "the springs are not stiff enough against the step for multigrid to pay ((h² Σk + h Σc) \
+             / m up to {stiffness:.1}, multigrid from {stiff:.0})"
+        ),
     };
     let hierarchy = (chosen == Preconditioner::Multigrid)
         .then(|| hooke::physics::hierarchy::Hierarchy::new(model))

@@ -32,14 +32,14 @@ impl CpuBackend {
         let Step {
             integrator,
             dt_secs,
-            options,
+            ..
         } = step;
         let fused = FusedStep::serves(&model, integrator)
             .then(|| FusedStep::new(&model, integrator, Simd::Best));
         Self {
             fused,
             state: model.initial.clone(),
-            scratch: integrate::Scratch::new(&model, dt_secs, options),
+            scratch: integrate::Scratch::new(&model, step),
             pending: std::collections::VecDeque::new(),
             spare: Vec::new(),
             model,

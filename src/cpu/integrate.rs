@@ -10,7 +10,7 @@ use super::implicit::{ImplicitWork, SolveStats, implicit_step};
 use super::springs::update_springs;
 use super::vbd::{VbdWork, vbd_step};
 use super::xpbd::XpbdWork;
-use crate::integrator::{Integrator, StepOptions};
+use crate::integrator::{Integrator, Step, StepOptions};
 use crate::model::Model;
 use crate::physics::Preconditioner;
 use crate::state::{Power, State};
@@ -41,13 +41,16 @@ pub struct Scratch {
 }
 
 impl Scratch {
-    pub fn new(model: &Model, dt_secs: f64, options: StepOptions) -> Self {
+    pub fn new(model: &Model, step: Step) -> Self {
+        let Step {
+            dt_secs, options, ..
+        } = step;
         let n = model.mass_count();
         Self {
             gather: Gather::new(model),
             limits: model.spring_limits(dt_secs),
             implicit: None,
-            preconditioner: options.preconditioner_for(n),
+            preconditioner: crate::physics::preconditioner_of(model, step),
             xpbd: None,
             vbd: None,
             options,

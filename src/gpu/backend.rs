@@ -66,10 +66,7 @@ impl GpuBackend {
     /// The GPU backend stepping `model` as `step` says, on the adapter whose name contains
     /// `adapter` (the best one when `None`).
     pub fn new(model: Arc<Model>, step: Step, adapter: Option<&str>) -> Result<Self, BackendError> {
-        let tuning = Tuning {
-            preconditioner: step.options.preconditioner_for(model.mass_count()),
-            ..Tuning::for_model(&model)
-        };
+        let tuning = Tuning::for_run(&model, step);
         Self::with_tuning(model, step, adapter, tuning)
     }
 
@@ -87,8 +84,7 @@ impl GpuBackend {
         let tuning = Tuning {
             implicit,
             explicit,
-            preconditioner: step.options.preconditioner_for(model.mass_count()),
-            ..Tuning::for_model(&model)
+            ..Tuning::for_run(&model, step)
         };
         Self::with_tuning(model, step, adapter, tuning)
     }

@@ -160,7 +160,7 @@ pub fn check_fits(
 /// Jacobi on the GPU instead, on an adapter with `limits` (`None` when it does not).
 fn multigrid_unbound(model: &Model, step: Step, limits: &wgpu::Limits) -> Option<String> {
     let wanted = step.integrator.newton()
-        && step.options.preconditioner_for(model.mass_count())
+        && crate::physics::preconditioner_of(model, step)
             == crate::physics::Preconditioner::Multigrid;
     wanted
         .then(|| multigrid_unbound_by(model, limits))

@@ -269,7 +269,7 @@ pub fn step_passes(model: &Model, step: Step) -> (Vec<String>, Option<String>, V
     let integrator = step.integrator;
     let mut passes = if integrator.newton() {
         let path = implicit::path(model);
-        let levels = match step.options.preconditioner_for(model.mass_count()) {
+        let levels = match crate::physics::preconditioner_of(model, step) {
             Preconditioner::Multigrid => Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32),
             Preconditioner::BlockJacobi => 0,
         };

@@ -34,13 +34,13 @@ pub struct Tuning {
     /// The threads VBD shares a mass's springs among (by default `vbd_lanes`).
     pub vbd_lanes: Option<u32>,
     /// What preconditions implicit Euler's CG, on either path (by default
-    /// `Preconditioner::for_masses`, as on the CPU).
+    /// `physics::preconditioner_of` the run, as on the CPU).
     pub preconditioner: Preconditioner,
 }
 
 impl Tuning {
-    /// What a run of `model` chooses for itself.
-    pub fn for_model(model: &Model) -> Self {
+    /// What a run of `model` as `step` chooses for itself.
+    pub fn for_run(model: &Model, step: Step) -> Self {
         Self {
             implicit: implicit::path(model),
             explicit: ExplicitPath::InGroup,
@@ -48,7 +48,7 @@ impl Tuning {
             solver_threads: None,
             vbd_in_group: None,
             vbd_lanes: None,
-            preconditioner: Preconditioner::for_masses(model.mass_count()),
+            preconditioner: crate::physics::preconditioner_of(model, step),
         }
     }
 }

@@ -17,8 +17,9 @@ pub use mass_contact::{
     NEIGHBOUR_SKIN_SHARE, PAIR_STICK_SHARE, neighbour_moved_limit_m, neighbour_reach_m,
 };
 pub use solver::{
-    BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, MULTIGRID_MIN_MASSES, NEWTON_FLOOR,
-    NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL,
+    BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, MULTIGRID_MIN_MASSES, MULTIGRID_MIN_STIFFNESS,
+    NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_RESIDUAL, NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL,
     NEWTON_TOLERANCE, NEWTON_WORK_SHARE, Preconditioner, newton_floor, newton_residual,
+    preconditioner_of, stiffness_against_step,
 };
 pub use xpbd::{XpbdSpring, xpbd_constants};

@@ -110,4 +110,85 @@ pub const CG_MAX_ITERATIONS: u32 = 200;
 
 // The preconditioner is a run's choice (`integrator::StepOptions`), kept beside the integrators
 // and seen from here too.
-pub use crate::integrator::{MULTIGRID_MIN_MASSES, Preconditioner};
+pub use crate::integrator::{MULTIGRID_MIN_MASSES, MULTIGRID_MIN_STIFFNESS, Preconditioner};
+
+/// How stiff `model`'s system is against a solve of `step`: the largest (h² Σk + h Σc) / m over
+/// its free masses, Σ over each mass's springs, h the step the system is solved over (two
+/// thirds of dt for BDF2). Gershgorin's bound on h² M⁻¹K + h M⁻¹D: near zero the system is its
+/// masses', and block Jacobi's CG converges in a few iterations; large, corrections have to
+/// cross the body, one spring an iteration, and multigrid carries them.
+pub fn stiffness_against_step(model: &crate::model::Model, step: crate::integrator::Step) -> f64 {
+    let h = f64::from(BackwardStep::of(step.integrator, step.dt_secs as f32, 1).solve_secs);
+    let mut sums = vec![(0.0f64, 0.0f64); model.mass_count()];
+    for s in &model.springs {
+        for end in [s.a, s.b] {
+            let sum = &mut sums[end as usize];
+            sum.0 += f64::from(s.stiffness_n_per_m);
+            sum.1 += f64::from(s.damping_n_s_per_m);
+        }
+    }
+    sums.iter()
+        .zip(&model.mass_kg)
+        .zip(&model.inv_mass)
+        .filter(|(_, w)| **w != 0.0)
+        .map(|((&(k, c), &m), _)| (h * h * k + h * c) / f64::from(m))
+        .fold(0.0, f64::max)
+}
+
+/// The preconditioner a run of `model` as `step` takes for implicit Euler's and BDF2's CG: the
+/// one it asks for, else the one its size and stiffness against the step call for.
+pub fn preconditioner_of(
+    model: &crate::model::Model,
+    step: crate::integrator::Step,
+) -> Preconditioner {
+    step.options
+        .preconditioner_for(model.mass_count(), stiffness_against_step(model, step))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::{Integrator, Step};
+    use crate::model::ModelBuilder;
+    use glam::Vec3;
+
+    /// A chain pinned at one end, 2 kg then 1 kg, springs of 100 and 300 N/m with 2 and 4 N·s/m:
+    /// the middle mass feels both springs ((h² 400 + h 6) / 2), the last one the second
+    /// ((h² 300 + h 4) / 1), the pinned one none. BDF2 solves over two thirds of the step.
+    #[test]
+    fn stiffness_against_the_step_is_the_stiffest_free_row() {
+        let mut mb = ModelBuilder::new();
+        let pin = mb.mass(Vec3::ZERO, Vec3::ZERO, 1e-3, true);
+        let a = mb.mass(Vec3::X, Vec3::ZERO, 2.0, false);
+        let b = mb.mass(2.0 * Vec3::X, Vec3::ZERO, 1.0, false);
+        mb.spring(pin, a, 100.0, 2.0);
+        mb.spring(a, b, 300.0, 4.0);
+        let model = mb.build();
+        let row = |h: f64| ((h * h * 400.0 + h * 6.0) / 2.0).max(h * h * 300.0 + h * 4.0);
+        for (integrator, h) in [
+            (Integrator::Implicit, 0.1),
+            (Integrator::Bdf2, 0.1 * 2.0 / 3.0),
+        ] {
+            let s = stiffness_against_step(&model, Step::new(integrator, 0.1));
+            assert!(
+                (s / row(h) - 1.0).abs() < 1e-6,
+                "{integrator}: {s} against {}",
+                row(h)
+            );
+        }
+        // Three masses are below MULTIGRID_MIN_MASSES whatever the step.
+        let stiff = Step::new(Integrator::Implicit, 10.0);
+        assert_eq!(
+            preconditioner_of(&model, stiff),
+            Preconditioner::BlockJacobi
+        );
+        assert_eq!(
+            Preconditioner::for_system(MULTIGRID_MIN_MASSES, MULTIGRID_MIN_STIFFNESS),
+            Preconditioner::Multigrid
+        );
+        assert_eq!(
+            Preconditioner::for_system(MULTIGRID_MIN_MASSES, 0.99 * MULTIGRID_MIN_STIFFNESS),
+            Preconditioner::BlockJacobi
+        );
+    }
+}

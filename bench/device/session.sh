@@ -169,6 +169,16 @@ mg)
   done
   peer60 64
   peer60 256
+  # The preconditioner's crossing in stiffness against the step (MULTIGRID_MIN_STIFFNESS, set
+  # from two CPU cores): cloth-256 at 4 and 16 steps a frame ((h² Σk + h Σc) / m 1 138 and 76)
+  # with each preconditioner on the GPU, and at its own step (0.6, block Jacobi by default now).
+  for s in 4 16; do
+    sed "s/substeps = 1/substeps = $s/" bench/scenes/cloth-256-60hz.toml >/tmp/c256-s$s.toml
+    for p in block-jacobi multigrid; do
+      row "31-stiff-$p" $H /tmp/c256-s$s.toml --preconditioner $p --steps $((4 * s)) --batch $s
+    done
+  done
+  row "31-own" $H cloth-256 --integrator implicit --steps 400 --batch 20
   # Issue 31: the implicit CPU path from 1 to 16 threads on cloth-256 (goal >= 6x), at its own
   # step and at one step per frame (multigrid by size; the ninth session's loops on the pool).
   for t in 1 16; do

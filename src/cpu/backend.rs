@@ -164,12 +164,8 @@ impl Backend for CpuBackend {
             }
         };
         // Below PARALLEL_MIN_MASSES every loop runs on this thread, and the trip to the pool
-        // would cost an advance of one hair step 10–25%.
-        if parallel {
-            in_pool(go)
-        } else {
-            go()
-        }
+        // would cost an advance of one hair step 20–35% (BENCHMARKS.md, ninth session).
+        if parallel { in_pool(go) } else { go() }
     }
 
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {

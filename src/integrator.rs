@@ -50,11 +50,11 @@ pub const MULTIGRID_MIN_MASSES: usize = 4096;
 /// The system's stiffness against the step (`physics::stiffness_against_step`: the largest
 /// (h² Σk + h Σc) / m over the masses) from which multigrid pays. Below it block Jacobi's CG
 /// takes few iterations, each a fraction of a cycle's cost. On two cores (BENCHMARKS.md, "The
-/// CPU's loops on the pool, and the preconditioner by stiffness against the step") the crossing lay between 1 140 and 4 470 on
-/// cloth-256 (block Jacobi 1.9× multigrid's speed at 0.6, 1.5× at 280, 1.2× at 1 140; multigrid
-/// 1.15× at 4 470, 4× at 17 900) and between 55 and 210 on the 64 × 64 peer cloth (multigrid
-/// 1.3× at 210, 1.5× at 840; block Jacobi 1.9× at 55): no one figure serves both, and 300 loses
-/// at most 1.3× on either.
+/// CPU's loops on the pool, and the preconditioner by stiffness against the step") the
+/// crossing lay between 1 140 and 4 470 on cloth-256 (block Jacobi 1.9× multigrid's speed at
+/// 0.6, 1.5× at 280, 1.2× at 1 140; multigrid 1.15× at 4 470, 4× at 17 900) and between 55 and
+/// 210 on the 64 × 64 peer cloth (multigrid 1.3× at 210, 1.5× at 840; block Jacobi 1.9× at 55):
+/// no one figure serves both, and 300 loses at most 1.3× on either.
 pub const MULTIGRID_MIN_STIFFNESS: f64 = 300.0;
 
 /// What preconditions implicit Euler's and BDF2's conjugate gradients. Names match

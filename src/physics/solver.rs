@@ -136,11 +136,15 @@ pub fn stiffness_against_step(model: &crate::model::Model, step: crate::integrat
 }
 
 /// The preconditioner a run of `model` as `step` takes for implicit Euler's and BDF2's CG: the
-/// one it asks for, else the one its size and stiffness against the step call for.
+/// one it asks for, else the one its size and stiffness against the step call for. (An
+/// integrator without a solve measures nothing: block Jacobi, unused.)
 pub fn preconditioner_of(
     model: &crate::model::Model,
     step: crate::integrator::Step,
 ) -> Preconditioner {
+    if !step.integrator.newton() {
+        return step.options.preconditioner.unwrap_or_default();
+    }
     step.options
         .preconditioner_for(model.mass_count(), stiffness_against_step(model, step))
 }

@@ -58,7 +58,7 @@ impl CpuBackend {
     }
 
     /// Precondition implicit Euler's conjugate gradients with `p` from the next step on (by
-    /// default `Preconditioner::for_masses`): for the tests and benchmarks that compare them.
+    /// default `physics::preconditioner_of`): for the tests and benchmarks that compare them.
     pub fn set_preconditioner(&mut self, p: Preconditioner) {
         self.scratch.set_preconditioner(p);
     }

@@ -173,7 +173,8 @@ mg)
   # from two CPU cores): cloth-256 at 4 and 16 steps a frame ((h² Σk + h Σc) / m 1 138 and 76)
   # with each preconditioner on the GPU, and at its own step (0.6, block Jacobi by default now).
   for s in 4 16; do
-    sed "s/substeps = 1/substeps = $s/" bench/scenes/cloth-256-60hz.toml >/tmp/c256-s$s.toml
+    sed "s/substeps = 1/substeps = $s/; 0,/^name = .*/s//name = \"cloth-256-s$s\"/" \
+      bench/scenes/cloth-256-60hz.toml >/tmp/c256-s$s.toml
     for p in block-jacobi multigrid; do
       row "31-stiff-$p" $H /tmp/c256-s$s.toml --preconditioner $p --steps $((4 * s)) --batch $s
     done

@@ -1,5 +1,6 @@
-//! How the CPU backend splits work over masses: fixed chunks, so that per-chunk partial sums
-//! (and hence the energy ledger) are bit-identical whatever the thread count.
+//! How the CPU backend splits work over masses: sums over fixed chunks, so that per-chunk
+//! partial sums (and hence the energy ledger) are bit-identical whatever the thread count;
+//! element-wise loops in pieces sized to the pool, which no result depends on.
 
 /// Masses per work item.
 pub const CHUNK: usize = 1024;

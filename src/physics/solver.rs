@@ -116,22 +116,24 @@ pub use crate::integrator::{MULTIGRID_MIN_MASSES, MULTIGRID_MIN_STIFFNESS, Preco
 /// its free masses, Σ over each mass's springs, h the step the system is solved over (two
 /// thirds of dt for BDF2). Gershgorin's bound on h² M⁻¹K + h M⁻¹D: near zero the system is its
 /// masses', and block Jacobi's CG converges in a few iterations; large, corrections have to
-/// cross the body, one spring an iteration, and multigrid carries them.
+/// cross the body, one spring an iteration, and multigrid carries them. Contacts are left out,
+/// unlike `stability::Modes`' bound: each is a mass's own block, which block Jacobi inverts
+/// whole.
 pub fn stiffness_against_step(model: &crate::model::Model, step: crate::integrator::Step) -> f64 {
+    // Step 1 of the run: BDF2's solve step from its second step on.
     let h = f64::from(BackwardStep::of(step.integrator, step.dt_secs as f32, 1).solve_secs);
-    let mut sums = vec![(0.0f64, 0.0f64); model.mass_count()];
-    for s in &model.springs {
-        for end in [s.a, s.b] {
-            let sum = &mut sums[end as usize];
-            sum.0 += f64::from(s.stiffness_n_per_m);
-            sum.1 += f64::from(s.damping_n_s_per_m);
-        }
-    }
-    sums.iter()
-        .zip(&model.mass_kg)
-        .zip(&model.inv_mass)
-        .filter(|(_, w)| **w != 0.0)
-        .map(|((&(k, c), &m), _)| (h * h * k + h * c) / f64::from(m))
+    (0..model.mass_count())
+        .filter(|&i| model.inv_mass[i] != 0.0)
+        .map(|i| {
+            let (k, c) = model.adjacency.of(i).iter().fold((0.0, 0.0), |(k, c), nb| {
+                let s = &model.springs[nb.spring as usize];
+                (
+                    k + f64::from(s.stiffness_n_per_m),
+                    c + f64::from(s.damping_n_s_per_m),
+                )
+            });
+            (h * h * k + h * c) / f64::from(model.mass_kg[i])
+        })
         .fold(0.0, f64::max)
 }
 

@@ -81,6 +81,7 @@ fn main() -> anyhow::Result<()> {
             StepOptions::default(),
             (
                 be.explicit_path(),
+                be.implicit_path(),
                 be.sweeps_in_group(),
                 be.multigrid_levels(),
             ),

@@ -15,7 +15,8 @@
 //   CG iteration, each dot product summed per workgroup and then, by every workgroup that needs
 //   it, over the workgroups in a fixed order; a kernel whose solve or step has stopped does
 //   nothing, and the host reads the frame's outcome once (the section below says how).
-// Both keep the frame's largest CG count and residual per step in counters[2] and [3], which the
+// Both keep the frame's largest CG count and residual per step in counters[2] and [3], and how each
+// step's Newton went in [4] to [6] (implicit_terms.wgsl's book_step), which the
 // snapshot reads back once per frame. Sums run in a fixed order, so a run is repeatable.
 
 // Bindings: `Solve` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
@@ -139,6 +140,7 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
         sv.newton_pending = 0u;
         sv.converged = 1u;
         scratch.solver = sv;
+        book_step(sv.newton, relative(b_norm, sv.scale), true);
         return;
     }
     sv.last_residual = b_norm;
@@ -283,6 +285,11 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
     sv.newton_pending = 0u;
     sv.max_residual = max(sv.max_residual, sv.residual);
     sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
+    // The step ends here: its update was too small to matter, or its iterations ran out short of
+    // the rule (sv.last_residual: the last iterate's, before this update).
+    if (sv.converged != 0u || sv.newton >= NEWTON_MAX_ITERATIONS) {
+        book_step(sv.newton, relative(sv.last_residual, sv.scale), sv.converged != 0u);
+    }
     if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {
         scratch.frame.overran |= NEWTON_OVERRAN;
         sv.converged = 1u;

@@ -79,6 +79,9 @@ fn step_in_group(lid: u32) {
     var last_residual = F32_MAX;
     var iterations = 0u;
     var max_residual = 0.0;
+    var newtons = 0u;
+    var met = false;
+    var step_residual = 0.0;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
         for (var i = lid; i < n; i += GROUP_THREADS) {
             implicit_iterate_at(i);
@@ -95,10 +98,13 @@ fn step_in_group(lid: u32) {
             // The step's momentum change |h f| at its first iterate.
             scale = sqrt(t.z);
         }
+        step_residual = relative(b_norm, scale);
         if ((newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) && newton_may_end(t.w)) {
+            met = true;
             break;
         }
         last_residual = b_norm;
+        newtons += 1u;
         let solved = solve_in_group(lid, t.x, b_norm);
         iterations += u32(solved.x);
         max_residual = max(max_residual, solved.y);
@@ -108,6 +114,7 @@ fn step_in_group(lid: u32) {
         }
         let m = group_reduce(lid, norms, true);
         if (newton_converged(m.x, m.y)) {
+            met = true;
             break;
         }
     }
@@ -116,5 +123,6 @@ fn step_in_group(lid: u32) {
     }
     if (lid == 0u) {
         book_solve(iterations, max_residual);
+        book_step(newtons, step_residual, met);
     }
 }

@@ -91,6 +91,24 @@ fn book_solve(iterations: u32, residual: f32) {
     atomicMax(&counters[3], bitcast<u32>(residual));
 }
 
+// `residual` as a share of the step's momentum change `scale`, 0 where nothing moves
+// (src/physics/solver.rs's relative).
+fn relative(residual: f32, scale: f32) -> f32 {
+    return select(0.0, residual / scale, scale > 0.0);
+}
+
+// How a finished step's Newton went, kept for the frame's snapshot: its iterations, its residual
+// |h f − M Δv| / |h f| at its last iterate evaluated, and whether it met its rule (the
+// tolerance, the floor of f32 forces or an update too small to matter) or ran out of iterations
+// (counted; a replayed frame restores the counters with the state).
+fn book_step(newton: u32, step_residual: f32, met: bool) {
+    atomicMax(&counters[4], newton);
+    if (!met) {
+        atomicAdd(&counters[5], 1u);
+    }
+    atomicMax(&counters[6], bitcast<u32>(max(step_residual, 0.0)));
+}
+
 // ---- the system, per mass ----
 
 fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {

@@ -3,7 +3,7 @@
 //! they stop with, and what every backend shares (the divergence check). Which backend a run
 //! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
 
-use crate::divergence::{Divergence, Fault, StrainedSpring};
+use crate::divergence::{Divergence, Fault, StrainedSpring, Unconverged};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::stability::{Modes, stable_step};
@@ -15,6 +15,10 @@ pub enum BackendError {
     /// The state went bad; every frame before it was delivered.
     #[error(transparent)]
     Diverged(Box<Divergence>),
+    /// The solver stopped short of its rule for too many frames in a row; every frame before
+    /// the last was delivered.
+    #[error(transparent)]
+    Unconverged(Box<Unconverged>),
     /// The device failed or refused the run (lost, out of memory, no adapter, scene beyond its
     /// limits): the backend's own typed error, kept whole (the GPU's `gpu::AdapterError` or
     /// `gpu::DeviceError`, which this layer below the backends cannot name).
@@ -105,19 +109,20 @@ pub trait Backend: Send {
 
 /// A backend whose snapshots pass through `then` as they are collected, on the thread that
 /// collects them (the simulation thread): `--realtime` holds each until its time, the recorder's
-/// digest stage reduces its strains. Everything else goes straight to `inner`.
+/// digest stage reduces its strains, the solver watch may stop the run. Everything else goes
+/// straight to `inner`.
 pub struct Then<F> {
     inner: Box<dyn Backend>,
     then: F,
 }
 
-impl<F: FnMut(&mut Snapshot) + Send> Then<F> {
+impl<F: FnMut(&mut Snapshot) -> Result<(), BackendError> + Send> Then<F> {
     pub fn new(inner: Box<dyn Backend>, then: F) -> Self {
         Self { inner, then }
     }
 }
 
-impl<F: FnMut(&mut Snapshot) + Send> Backend for Then<F> {
+impl<F: FnMut(&mut Snapshot) -> Result<(), BackendError> + Send> Backend for Then<F> {
     fn describe(&self) -> String {
         self.inner.describe()
     }
@@ -130,7 +135,7 @@ impl<F: FnMut(&mut Snapshot) + Send> Backend for Then<F> {
     fn collect_snapshot(&mut self) -> Result<Option<Snapshot>, BackendError> {
         let mut snap = self.inner.collect_snapshot()?;
         if let Some(s) = &mut snap {
-            (self.then)(s);
+            (self.then)(s)?;
         }
         Ok(snap)
     }

@@ -18,6 +18,7 @@ use crate::progress::Progress;
 use crate::record::{CompareLayout, CompareRecorder, EntryTally};
 use crate::run::{RunOptions, Threads, end_recording};
 use crate::sim::{self, ComparedFrame};
+use crate::solver_watch::{SolverWatch, watching};
 
 /// How one entry's run went.
 #[derive(Debug)]
@@ -98,17 +99,24 @@ pub fn run_comparison(
     let settings: Vec<_> = entries.iter().map(|e| e.settings.clone()).collect();
     let substeps: Vec<u32> = settings.iter().map(|s| s.substeps).collect();
     let which: Vec<CompareEntry> = entries.iter().map(|e| e.entry).collect();
+    let watches: Vec<SolverWatch> = entries
+        .iter()
+        .map(|e| SolverWatch::new(&model, &e.settings))
+        .collect();
     let mut recorder = CompareRecorder::new(rec.clone(), model, opts.record, &names, layout);
     recorder
         .log_static(&loaded.scene.name, &loaded.text, &settings, &backend_name)
         .map_err(|e| Error::Rerun(e.into()))?;
     let mut backends: Vec<Box<dyn Backend>> = entries
         .into_iter()
-        .map(|e| -> Box<dyn Backend> {
+        .zip(watches)
+        .map(|(e, watch)| -> Box<dyn Backend> {
+            // Each entry's solver is watched on its own: one stuck entry stops alone.
+            let watched = watching(e.backend, watch);
             if opts.realtime {
-                paced(e.backend, Pacer::start(frame_rate_hz))
+                paced(watched, Pacer::start(frame_rate_hz))
             } else {
-                e.backend
+                watched
             }
         })
         .collect();
@@ -124,6 +132,7 @@ pub fn run_comparison(
             // Said in full once, at the end; here only that it happened.
             let what = match &e {
                 BackendError::Diverged(_) => "diverged",
+                BackendError::Unconverged(_) => "did not converge",
                 BackendError::Device(_) => "its device failed",
                 BackendError::Internal(_) => "hit an internal error",
             };
@@ -134,6 +143,11 @@ pub fn run_comparison(
                 )
             });
             stopped[i] = Some((f.frame, e));
+        }
+        for (name, snap) in names.iter().zip(&f.snapshots) {
+            for note in snap.iter().flat_map(|s| &s.notes) {
+                progress.suspend(|| eprintln!("entry {name}: {note}"));
+            }
         }
         let snaps: Vec<_> = f.snapshots.iter().map(Option::as_ref).collect();
         recorder.log_frame(&snaps)?;

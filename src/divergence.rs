@@ -170,3 +170,24 @@ impl Divergence {
         }
     }
 }
+
+/// A run's solver stopped short of its own acceptance rule frame after frame: its results are
+/// not the scheme's, so the run stops as it does for a divergence (`solver_watch`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "{solver}'s steps ended short of their acceptance rule for {frames} frames in a row, to frame \
+     {frame}: backward Euler's residual |h f − M Δv| was left at {residual:.3} of the step's \
+     momentum change |h f|, where the rule asks for at most {tolerance:.3}. The results are not \
+     {solver}'s. Try a smaller step (--dt, or more substeps), {instead}, or --backend cpu \
+     (and report the adapter if the CPU converges)"
+)]
+pub struct Unconverged {
+    /// The integrator's name.
+    pub solver: &'static str,
+    pub frame: u64,
+    pub frames: u32,
+    pub residual: f64,
+    pub tolerance: f64,
+    /// What else to try for this solver.
+    pub instead: &'static str,
+}

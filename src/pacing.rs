@@ -49,7 +49,8 @@ impl Pacer {
 /// thread waits on each snapshot).
 pub fn paced(inner: Box<dyn Backend>, pacer: Pacer) -> Box<dyn Backend> {
     Box::new(Then::new(inner, move |s: &mut Snapshot| {
-        pacer.wait_for(s.frame)
+        pacer.wait_for(s.frame);
+        Ok(())
     }))
 }
 

@@ -77,6 +77,7 @@ fn sample_frame(model: &Model, frame: u64, strain_range: f32, spacing: f32) -> S
             .map(|c| c.path.pose_at(frame as f64 / 60.0).position_m)
             .collect(),
         digest: None,
+        notes: Vec::new(),
     }
 }
 

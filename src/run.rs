@@ -14,6 +14,7 @@ use crate::progress::{Progress, ProgressMode};
 use crate::record::{RecordError, RecordOptions, Recorder, digesting};
 use crate::rrd_file::RrdFile;
 use crate::sim::{self, Delivery};
+use crate::solver_watch::{SolverWatch, watching};
 use crate::state::Snapshot;
 use crate::viewer::{LinkState, ViewerLink};
 
@@ -85,6 +86,7 @@ pub fn run(
     } = prepared;
     let settings = &settings;
     let backend_name = be.describe();
+    let watch = SolverWatch::new(&model, settings);
     let mut recorder = Recorder::new(rec.clone(), model, opts.record);
     recorder
         .log_static(&loaded.scene.name, &loaded.text, settings, &backend_name)
@@ -95,6 +97,8 @@ pub fn run(
     // Each snapshot's reductions over every spring are made on the simulation thread, before
     // --realtime holds it (so that its release is not delayed by them).
     let be = digesting(be, recorder.digester());
+    // A solver stuck short of its rule stops the run; what the watch notes rides on the frame.
+    let be = watching(be, watch);
     let be: Box<dyn Backend> = if opts.realtime {
         paced(be, Pacer::start(settings.frame_rate_hz))
     } else {
@@ -115,7 +119,10 @@ pub fn run(
             Some(&back_rx),
         )
     };
-    let log = |snap: Snapshot, _: &mut Progress| {
+    let log = |snap: Snapshot, progress: &mut Progress| {
+        for note in &snap.notes {
+            progress.suspend(|| eprintln!("{note}"));
+        }
         recorder.log_snapshot(&snap)?;
         let frame = snap.frame;
         // Back to the simulation for reuse; if its queue is full, just drop it.

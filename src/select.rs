@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use crate::backend::{Backend, BackendError};
+use crate::conformance::Verify;
 use crate::integrator::Step;
 use crate::model::Model;
 
@@ -18,11 +19,13 @@ pub enum BackendKind {
     Cpu,
 }
 
-/// The backend a command asked for: its kind and, for the GPU, (part of) the adapter's name.
+/// The backend a command asked for: its kind and, for the GPU, (part of) the adapter's name and
+/// when to probe whether the adapter computes what the CPU does (`conformance`).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Device {
     pub kind: BackendKind,
     pub adapter: Option<String>,
+    pub verify: Verify,
 }
 
 impl Device {
@@ -31,11 +34,17 @@ impl Device {
         Self {
             kind: BackendKind::Cpu,
             adapter: None,
+            verify: Verify::Never,
         }
     }
 
     /// A backend of this kind stepping `model` as `step` says.
     pub fn create(&self, model: Arc<Model>, step: Step) -> Result<Box<dyn Backend>, BackendError> {
+        if self.kind == BackendKind::Gpu {
+            let gpu = crate::gpu::GpuBackend::new(model, step, self.adapter.as_deref())?;
+            crate::conformance::verify(&gpu, self.verify).map_err(|e| BackendError::Device(e))?;
+            return Ok(Box::new(gpu));
+        }
         create(self.kind, model, step, self.adapter.as_deref())
     }
 }

@@ -329,7 +329,7 @@ pub fn simulate_all<'a>(
         let mut interrupted = false;
         for (i, s) in stepped {
             match s {
-                Stepped::Frame(snap) => this.snapshots[i] = Some(snap),
+                Stepped::Frame(snap) => this.snapshots[i] = Some(*snap),
                 // Stopped mid-frame: this frame is abandoned, the ones before it delivered.
                 Stepped::Interrupted => interrupted = true,
                 Stepped::Failed(e) => {
@@ -349,7 +349,7 @@ pub fn simulate_all<'a>(
 
 /// How one entry's frame went.
 enum Stepped {
-    Frame(Snapshot),
+    Frame(Box<Snapshot>),
     /// A stop came mid-frame.
     Interrupted,
     Failed(BackendError),
@@ -377,7 +377,7 @@ fn step_entry(
         chunker.observe(substeps, start.elapsed());
     }
     match collected {
-        Ok(Some(snap)) => Stepped::Frame(snap),
+        Ok(Some(snap)) => Stepped::Frame(Box::new(snap)),
         // A backend hands back every snapshot it was asked for.
         Ok(None) => Stepped::Failed(BackendError::Internal(
             crate::backend::Internal::SnapshotMissing,

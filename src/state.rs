@@ -112,6 +112,16 @@ pub struct StepStats {
     /// relative to the Newton residual it started from (at most `CG_FORCING` when they
     /// converged). VBD on the CPU: its largest step residual |h f − M Δv| / |h f|.
     pub solver_residual: f64,
+    /// Implicit Euler and BDF2: most Newton iterations a step of this frame took.
+    pub newton_iterations: u32,
+    /// Implicit Euler, BDF2 and VBD: the largest residual of backward Euler's equations a step
+    /// of this frame ended with, |h f − M Δv| / |h f| at its last iterate evaluated (Newton's
+    /// before its last update, where that update ended it).
+    pub step_residual: f64,
+    /// Steps of this frame that ended without meeting their solver's acceptance rule
+    /// (`physics::solver`): Newton out of iterations short of its tolerance, VBD's sweeps
+    /// short of `physics::VBD_RESIDUAL`.
+    pub unmet_steps: u32,
 }
 
 impl StepStats {
@@ -124,6 +134,9 @@ impl StepStats {
             projections: self.projections + later.projections,
             solver_iterations: self.solver_iterations.max(later.solver_iterations),
             solver_residual: self.solver_residual.max(later.solver_residual),
+            newton_iterations: self.newton_iterations.max(later.newton_iterations),
+            step_residual: self.step_residual.max(later.step_residual),
+            unmet_steps: self.unmet_steps + later.unmet_steps,
         }
     }
 }
@@ -144,6 +157,66 @@ pub struct Snapshot {
     /// What the recorder reads from every spring, when a stage before it (on the simulation
     /// thread) has made it from these strains; `None`: the recorder makes it.
     pub digest: Option<Box<StrainDigest>>,
+    /// What the run's watch says at this frame (`solver_watch`), each said once in a run.
+    pub notes: Vec<FrameNote>,
+}
+
+/// A warning the run's watch attaches to the frame where it first holds: the recorder logs it
+/// on the timeline (`notes`) and the run prints it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrameNote {
+    /// Steps of the frame ended short of their solver's acceptance rule.
+    SolverShort {
+        /// The integrator's name.
+        solver: &'static str,
+        frame: u64,
+        unmet_steps: u32,
+        substeps: u32,
+        /// The largest |h f − M Δv| / |h f| a step ended with, and the rule's most.
+        residual: f64,
+        tolerance: f64,
+    },
+    /// The energy balance rose by more than `share` of the energy that moved since the start:
+    /// energy came from nowhere.
+    EnergyGained {
+        frame: u64,
+        gained_j: f64,
+        moved_j: f64,
+        share: f64,
+    },
+}
+
+impl std::fmt::Display for FrameNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FrameNote::SolverShort {
+                solver,
+                frame,
+                unmet_steps,
+                substeps,
+                residual,
+                tolerance,
+            } => write!(
+                f,
+                "warning: frame {frame}: {unmet_steps} of {substeps} {solver} steps ended short \
+                 of their acceptance rule (residual |h f − M Δv| at {residual:.3} of |h f|, the \
+                 rule asks for at most {tolerance:.3}); the run stops if this lasts, and \
+                 stats/unmet_steps shows each frame's count"
+            ),
+            FrameNote::EnergyGained {
+                frame,
+                gained_j,
+                moved_j,
+                share,
+            } => write!(
+                f,
+                "warning: frame {frame}: the energy balance rose by {gained_j:.4e} J, more than \
+                 {:.0}% of the {moved_j:.4e} J that moved: energy came from nowhere (see \
+                 energy/balance); a smaller step or another integrator holds it",
+                100.0 * share
+            ),
+        }
+    }
 }
 
 /// The reductions over every spring of a frame that the recorder draws from: made beside the

@@ -430,3 +430,150 @@ fn out_of_gpu_memory_says_what_to_do() {
         "{msg}"
     );
 }
+
+/// The driver's loop cap, found by the probe every GPU run opens with (docs/drivers.md): Debian
+/// 12's own lavapipe (Mesa 22.3) ends a shader invocation's loops after 65 535 iterations in all,
+/// Mesa 25's runs them to their end. Where the probe finds a cap, no step runs in one workgroup
+/// (each such kernel loops over a whole step or frame): the default implicit step takes a
+/// dispatch per pass even when a test asks for one workgroup, VBD and XPBD a dispatch per colour,
+/// the explicit steps a dispatch per step; and the run still meets the CPU.
+#[test]
+fn the_loop_probe_finds_the_drivers_cap_and_a_run_keeps_clear_of_it() {
+    use hooke::gpu::{ExplicitPath, ImplicitPath, LoopBudget, Tuning};
+    if !gpu_available() {
+        return;
+    }
+    let ctx = ok(hooke::gpu::GpuContext::open(None));
+    let budget = LoopBudget::measure(&ctx);
+    let mesa_major = ctx
+        .info
+        .driver_info
+        .split_whitespace()
+        .skip_while(|w| *w != "Mesa")
+        .nth(1)
+        .and_then(|v| v.split('.').next()?.parse::<u32>().ok());
+    println!("{} ({}): {budget}", ctx.info.name, ctx.info.driver_info);
+    if ctx.info.driver == "llvmpipe" {
+        match mesa_major {
+            Some(22) => assert_eq!(budget, LoopBudget::Capped { iterations: 65_535 }),
+            Some(25..) => assert_eq!(budget, LoopBudget::Unbounded),
+            _ => {}
+        }
+    }
+    let (model, _) = scene_model("jello");
+    for integrator in [
+        Integrator::Implicit,
+        Integrator::Vbd,
+        Integrator::Xpbd,
+        Integrator::SemiImplicit,
+    ] {
+        let step = Step::new(integrator, 1.0 / 60.0);
+        let tuning = Tuning {
+            implicit: ImplicitPath::InGroup,
+            explicit: ExplicitPath::InGroup,
+            vbd_in_group: Some(true),
+            ..Tuning::for_run(&model, step)
+        };
+        let gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
+        assert_eq!(gpu.loop_budget(), budget);
+        let long = budget.runs_long_loops();
+        let one_group = match integrator {
+            Integrator::Implicit => gpu.implicit_path() == Some(ImplicitPath::InGroup),
+            Integrator::Vbd | Integrator::Xpbd => gpu.sweeps_in_group(),
+            _ => gpu.explicit_path() == ExplicitPath::InGroup,
+        };
+        assert_eq!(
+            one_group, long,
+            "{integrator}: in one workgroup {one_group}, {budget}"
+        );
+    }
+    // The default run of the implicit jello at one step per frame, on whichever path the
+    // adapter allows, falls as the CPU's does (on Mesa 22 without the probe it never fell).
+    let step = Step::new(Integrator::Implicit, 1.0 / 60.0);
+    let mut cpu = CpuBackend::new(model.clone(), step);
+    let mut gpu = ok(GpuBackend::new(model.clone(), step, None));
+    for _ in 0..10 {
+        ok(cpu.advance(1));
+        ok(gpu.advance(1));
+    }
+    let (c, g) = (ok(cpu.state()), ok(gpu.state()));
+    let worst =
+        c.x.iter()
+            .zip(&g.x)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0f32, f32::max);
+    assert!(
+        worst < 5e-4,
+        "the GPU's jello ends {worst} m from the CPU's"
+    );
+    let mean_y = |x: &[glam::Vec3]| x.iter().map(|p| f64::from(p.y)).sum::<f64>() / x.len() as f64;
+    let fell = mean_y(&model.initial.x) - mean_y(&g.x);
+    assert!(fell > 0.05, "the GPU's jello fell only {fell} m");
+}
+
+/// The conformance probe end to end, through the binary: `check --verify` probes the family a
+/// run of hair steps with and keeps an agreeing verdict; a verdict of disagreement (written here
+/// as a driver that computes wrongly would leave it) refuses the run before it records, naming
+/// the adapter, its driver and the family and saying what to do; `check` prints the kept
+/// verdict; `--no-verify` runs anyway.
+#[test]
+fn a_family_found_to_disagree_is_refused_and_no_verify_runs_it() {
+    use common::{hooke_command, temp_dir, text};
+    if !gpu_available() {
+        return;
+    }
+    let dir = temp_dir("conformance");
+    let cache = dir.join("cache");
+    let hooke = |args: &[&str]| {
+        let out = hooke_command(args)
+            .env("HOOKE_CACHE_DIR", &cache)
+            .output()
+            .unwrap_or_else(|e| panic!("{e}"));
+        (out.status.success(), text(&out.stdout), text(&out.stderr))
+    };
+    let (ok, out, err) = hooke(&["check", "hair", "--verify"]);
+    assert!(ok, "{err}");
+    let said = out
+        .lines()
+        .find(|l| l.starts_with("conformance"))
+        .unwrap_or_else(|| panic!("no verdict: {out}"));
+    assert!(
+        said.contains("probed now") && said.contains("agrees with the CPU"),
+        "{said}"
+    );
+    let file = cache.join("conformance.json");
+    let kept = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{e}"));
+    assert!(kept.contains("\"agrees\": true"), "{kept}");
+    std::fs::write(&file, kept.replace("\"agrees\": true", "\"agrees\": false"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let rrd = dir.join("hair.rrd");
+    let save = rrd.to_str().unwrap_or_default();
+    let (ok, _, err) = hooke(&["run", "hair", "--frames", "2", "--save", save]);
+    assert!(!ok, "a disagreeing family ran");
+    assert!(!rrd.exists(), "the refused run recorded");
+    for needed in [
+        "does not compute what the CPU reference computes for semi-implicit",
+        "DISAGREES",
+        "--backend cpu",
+        "update the GPU driver",
+        "--no-verify",
+        "conformance.json",
+    ] {
+        assert!(err.contains(needed), "no '{needed}' in: {err}");
+    }
+    let (ok, out, _) = hooke(&["check", "hair"]);
+    assert!(
+        ok && out.contains("kept from an earlier probe") && out.contains("DISAGREES"),
+        "{out}"
+    );
+    let (ok, _, err) = hooke(&[
+        "run",
+        "hair",
+        "--frames",
+        "2",
+        "--save",
+        save,
+        "--no-verify",
+    ]);
+    assert!(ok && rrd.exists(), "{err}");
+}

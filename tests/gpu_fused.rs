@@ -198,6 +198,16 @@ fn fused_steps_match_the_general_passes_bit_for_bit() {
     // Otherwise the projection folded into the fused steps, or the steps in one workgroup,
     // went untested.
     assert!(projected > 0, "no run projected a mass");
+    // A driver that cuts loops short steps no run in one workgroup (tests/gpu.rs, the loop
+    // probe): there every run above compared the fused steps with the general passes.
+    let budget = hooke::gpu::LoopBudget::measure(&ok(hooke::gpu::GpuContext::open(None)));
+    if !budget.runs_long_loops() {
+        assert_eq!(
+            in_group, 0,
+            "{budget}, yet {in_group} runs stepped in one workgroup"
+        );
+        return;
+    }
     assert!(in_group >= 10, "{in_group} runs stepped in one workgroup");
     assert!(
         homes[0] >= 5 && homes[1] >= 5,

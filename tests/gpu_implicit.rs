@@ -283,6 +283,17 @@ fn parity(
         None,
         tuning,
     ));
+    // A driver that cuts loops short gets no one-workgroup step (tests/gpu.rs, the loop
+    // probe): there the run takes, and this test checks, the per-pass path.
+    let budget = gpu.loop_budget();
+    let path = match budget.runs_long_loops() {
+        true => path,
+        false => {
+            println!("{name}: {budget}; the per-pass path instead of {path:?}");
+            hooke::gpu::ImplicitPath::Passes
+        }
+    };
+    assert_eq!(gpu.implicit_path(), Some(path), "{name}");
     let (mut worst_x, mut worst_v) = (0.0f64, 0.0f64);
     let mut totals = (0.0f64, 0.0f64);
     for frame in 1..=frames {

@@ -521,6 +521,7 @@ fn a_frame_digested_on_the_simulation_thread_records_exactly_as_one_the_recorder
                 stats: Default::default(),
                 collider_positions: Vec::new(),
                 digest: None,
+                notes: Vec::new(),
             }
         })
         .collect();

@@ -121,6 +121,7 @@ fn bench_frames(model: &Model, frame_rate_hz: f64, count: usize) -> Vec<crate::s
                     .map(|p| p.position_m)
                     .collect(),
                 digest: None,
+                notes: Vec::new(),
             }
         })
         .collect()

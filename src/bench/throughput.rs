@@ -198,6 +198,7 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         settings.options,
         (
             gpu.explicit_path(),
+            gpu.implicit_path(),
             gpu.sweeps_in_group(),
             gpu.multigrid_levels(),
         ),

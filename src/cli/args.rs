@@ -3,6 +3,7 @@
 
 use clap::{Args, Parser, Subcommand};
 
+use hooke::conformance::Verify;
 use hooke::integrator::Integrator;
 use hooke::prepare::{DtChoice, Request, SceneSource};
 use hooke::select::{BackendKind, Device};
@@ -261,6 +262,15 @@ pub struct DeviceArgs {
     /// Use the GPU adapter whose name contains this (`hooke check` names the one chosen).
     #[arg(long)]
     pub adapter: Option<String>,
+    /// Probe the adapter's kernels for this run against the CPU reference even where a verdict
+    /// is kept (the first run on an adapter does it once per kernel family; `check --verify`
+    /// prints the verdicts).
+    #[arg(long, conflicts_with = "no_verify")]
+    pub verify: bool,
+    /// Step on the GPU without the conformance probe, even on an adapter never probed or one
+    /// found to disagree with the CPU.
+    #[arg(long)]
+    pub no_verify: bool,
 }
 
 /// Solver settings; each overrides the scene file's value.
@@ -319,6 +329,11 @@ impl DeviceArgs {
         Device {
             kind: self.backend,
             adapter: self.adapter.clone(),
+            verify: match (self.verify, self.no_verify) {
+                (true, _) => Verify::Always,
+                (_, true) => Verify::Never,
+                _ => Verify::Unseen,
+            },
         }
     }
 }

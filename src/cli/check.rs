@@ -48,6 +48,46 @@ pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
                 Ok(line) => println!("{line}"),
                 Err(e) => println!("warning: {e}"),
             }
+            conformance(model, settings, device)?;
+        }
+    }
+    Ok(())
+}
+
+/// The conformance probe's verdict on the kernels a run of this scene steps with: probed now
+/// with `--verify` (an error where the adapter disagrees with the CPU), else as kept.
+fn conformance(
+    model: &std::sync::Arc<Model>,
+    settings: &Settings,
+    device: &DeviceArgs,
+) -> anyhow::Result<()> {
+    use hooke::conformance::{Cache, Verify, verify};
+    let gpu = match hooke::gpu::GpuBackend::new(
+        model.clone(),
+        settings.step(),
+        device.adapter.as_deref(),
+    ) {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            println!("warning: {e}");
+            return Ok(());
+        }
+    };
+    let family = gpu.kernel_family();
+    if device.no_verify {
+        println!("conformance: {family} not probed (--no-verify)");
+    } else if device.verify {
+        let verdict = verify(&gpu, Verify::Always)?;
+        if let Some(v) = verdict {
+            println!("conformance (probed now against the CPU reference): {v}");
+        }
+    } else {
+        match Cache::load(gpu.adapter_info()).get(&family) {
+            Some(v) => println!("conformance (kept from an earlier probe): {v}"),
+            None => println!(
+                "conformance: {family} not probed on this adapter yet (a run probes it first; \
+                 `hooke check --verify` probes it now)"
+            ),
         }
     }
     Ok(())

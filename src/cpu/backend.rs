@@ -111,7 +111,7 @@ impl CpuBackend {
     fn advance_general(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         let start = std::time::Instant::now();
         let mut projections = 0;
-        let (mut iterations, mut residual) = (0u32, 0.0f64);
+        let mut solves = StepStats::default();
         for _ in 0..substeps {
             if let Some(solve) = integrate::step(
                 &self.model,
@@ -120,8 +120,14 @@ impl CpuBackend {
                 &mut self.scratch,
                 self.dt,
             ) {
-                iterations = iterations.max(solve.iterations);
-                residual = residual.max(solve.residual);
+                solves = solves.merged(&StepStats {
+                    solver_iterations: solve.iterations,
+                    solver_residual: solve.residual,
+                    newton_iterations: solve.newton,
+                    step_residual: solve.step_residual,
+                    unmet_steps: u32::from(!solve.met),
+                    ..StepStats::default()
+                });
             }
             // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
             // which cannot know that one happened without a read-back.
@@ -143,8 +149,7 @@ impl CpuBackend {
             dt_secs: f64::from(self.dt),
             step_ms: start.elapsed().as_secs_f64() * 1e3,
             projections,
-            solver_iterations: iterations,
-            solver_residual: residual,
+            ..solves
         })
     }
 }
@@ -180,8 +185,10 @@ impl Backend for CpuBackend {
             stats,
             collider_positions: Vec::new(),
             digest: None,
+            notes: Vec::new(),
         });
         snap.digest = None;
+        snap.notes.clear();
         snap.frame = frame;
         snap.time_secs = t;
         snap.steps = self.state.steps;

@@ -37,7 +37,7 @@ use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
     BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-    NEWTON_TOLERANCE, Preconditioner, newton_floor, newton_residual,
+    NEWTON_TOLERANCE, Preconditioner, newton_floor, newton_residual, relative,
 };
 use crate::state::{Power, State};
 
@@ -52,6 +52,10 @@ pub struct SolveStats {
     /// it started from: at most CG_FORCING when every solve converged, up to 1 when one ran
     /// out of iterations. (VBD: the step's residual |h f − M Δv| relative to |h f|.)
     pub residual: f64,
+    /// |h f − M Δv| / |h f| at the step's last iterate evaluated, and whether the step met its
+    /// rule (Newton: tolerance, floor or a negligible update in its iterations; VBD_RESIDUAL).
+    pub step_residual: f64,
+    pub met: bool,
 }
 
 /// The system linearised at x₀.
@@ -245,10 +249,12 @@ pub fn implicit_step(
             // relative to.
             scale = momentum;
         }
+        stats.step_residual = relative(residual, scale);
         if (newton_done(residual, scale, tolerance)
             || newton_stalled(residual, last_residual, scale, floor))
             && work_ok
         {
+            stats.met = true;
             break;
         }
         last_residual = residual;
@@ -257,6 +263,7 @@ pub fn implicit_step(
         stats.iterations += iterations;
         stats.residual = stats.residual.max(residual);
         if newton_update(&w.dv, &mut w.dv_total) {
+            stats.met = true;
             break;
         }
     }

@@ -27,7 +27,7 @@ use super::forces::{Gather, compute_forces, force_on_mass};
 use super::implicit::SolveStats;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
 use crate::model::{Model, Pose, poses_at};
-use crate::physics::{MassColouring, vbd_colouring};
+use crate::physics::{MassColouring, VBD_RESIDUAL, vbd_colouring};
 use crate::state::State;
 
 /// What a VBD run keeps between steps.
@@ -189,5 +189,7 @@ pub fn vbd_step(
         newton: 0,
         iterations: w.iterations,
         residual,
+        step_residual: residual,
+        met: residual <= VBD_RESIDUAL,
     }
 }

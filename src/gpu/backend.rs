@@ -13,10 +13,11 @@ use super::implicit::{self, Budgets, ImplicitStep, Path};
 use super::kernels::Kernel;
 use super::layout::FrameSolve;
 use super::limits::check_fits;
+use super::loop_budget::LoopBudget;
 use super::multigrid::Layout as MultigridLayout;
 use super::pipelines::{Layouts, Needed, Pipelines};
 use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
-use super::readback::{self, Pending, ReadBack, StagingLayout};
+use super::readback::{self, Pending, ReadBack, SolveRecord, StagingLayout};
 use super::resources::Resources;
 use super::stages::{Clock, StageSlots};
 use super::tuning::{Tuning, specialise};
@@ -50,7 +51,7 @@ pub struct GpuBackend {
     spare: Vec<Snapshot>,
     /// Implicit Euler: how its steps run, and the budgets the next frame is encoded with (the
     /// path of a dispatch per pass).
-    implicit_path: Option<Path>,
+    pub(super) implicit_path: Option<Path>,
     budgets: Budgets,
     /// What the last few frames' steps took (the budgets follow the most of them).
     recent_frames: VecDeque<FrameSolve>,
@@ -60,6 +61,8 @@ pub struct GpuBackend {
     explicit_path: ExplicitPath,
     /// `fused_frame` keeps the state in workgroup memory between a submission's steps.
     frame_state_in_workgroup: bool,
+    /// How long the adapter lets a shader invocation loop, measured as the device opened.
+    pub(super) loop_budget: LoopBudget,
 }
 
 impl GpuBackend {
@@ -98,6 +101,9 @@ impl GpuBackend {
         adapter: Option<&str>,
         tuning: Tuning,
     ) -> Result<Self, BackendError> {
+        let ctx = GpuContext::open(adapter)?;
+        let loop_budget = LoopBudget::measure(&ctx);
+        let tuning = tuning.within(loop_budget);
         let (path, explicit) = (tuning.implicit, tuning.explicit);
         let Step {
             integrator,
@@ -108,7 +114,6 @@ impl GpuBackend {
         integrator
             .supports(&model.effects)
             .map_err(DeviceError::Unsupported)?;
-        let ctx = GpuContext::open(adapter)?;
         check_fits(&ctx, &model, integrator)?;
         let device = &ctx.device;
         let storage_buffers = ctx.limits.max_storage_buffers_per_shader_stage;
@@ -185,6 +190,7 @@ impl GpuBackend {
             replays: 0,
             explicit_path: explicit,
             frame_state_in_workgroup,
+            loop_budget,
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -449,13 +455,16 @@ impl GpuBackend {
         })
     }
 
-    /// Implicit Euler's CG iterations and residual, the largest of any step of the frame, as the
-    /// device booked them; VBD's sweeps (its residual is not reduced on the device).
-    fn with_solve(&self, stats: StepStats, (iterations, residual): (u32, f32)) -> StepStats {
+    /// Implicit Euler's and BDF2's solve figures of the frame as the device booked them; VBD's
+    /// sweeps and its step residual.
+    fn with_solve(&self, stats: StepStats, solve: SolveRecord) -> StepStats {
         match self.integrator {
             Integrator::Implicit | Integrator::Bdf2 => StepStats {
-                solver_iterations: iterations,
-                solver_residual: f64::from(residual),
+                solver_iterations: solve.cg_iterations,
+                solver_residual: f64::from(solve.cg_residual),
+                newton_iterations: solve.newton_iterations,
+                step_residual: f64::from(solve.step_residual),
+                unmet_steps: solve.unmet_steps,
                 ..stats
             },
             Integrator::Vbd => StepStats {
@@ -496,6 +505,7 @@ impl GpuBackend {
             },
             collider_positions,
             digest: None,
+            notes: Vec::new(),
         }
     }
 }

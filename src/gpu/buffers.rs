@@ -140,7 +140,7 @@ impl Bufs {
             deriv: a.zeros("deriv", deriv_bytes(model, integrator) as usize),
             sums: a.zeros("sums", scratch_bytes(model, integrator) as usize),
             ledger: a.zeros("ledger", 16 * n),
-            counters: a.zeros("counters", 16),
+            counters: a.zeros("counters", layout::COUNTERS_BYTES as usize),
             strain: a.zeros("strain", 4 * ns),
             partials: a.zeros("partials", 48 * partial_count as usize),
         }

@@ -106,6 +106,8 @@ pub enum ReadBackOf {
     Timestamps,
     /// The hash grid (a test hook).
     Grid,
+    /// The adapter's probes (`loop_budget`).
+    Probe,
 }
 
 impl std::fmt::Display for ReadBackOf {
@@ -115,6 +117,7 @@ impl std::fmt::Display for ReadBackOf {
             ReadBackOf::SolverStatus => "the solver status",
             ReadBackOf::Timestamps => "timestamps",
             ReadBackOf::Grid => "the grid",
+            ReadBackOf::Probe => "a probe's result",
         })
     }
 }

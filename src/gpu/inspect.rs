@@ -5,7 +5,10 @@ use super::backend::GpuBackend;
 use super::context::ReadBackOf;
 use super::dispatch::StateIn;
 use super::encode::in_pass;
+use super::implicit::Path;
+use super::loop_budget::LoopBudget;
 use super::plan::neighbour_update;
+use super::tuning::KernelFamily;
 use crate::backend::BackendError;
 
 /// The GPU's hash grid as read back for tests: bucket b holds
@@ -18,6 +21,33 @@ pub struct GridReadBack {
 }
 
 impl GpuBackend {
+    /// What the adapter's loops allowed this run: on a driver that cuts loops short, no step
+    /// runs in one workgroup (`Tuning::within`).
+    pub fn loop_budget(&self) -> LoopBudget {
+        self.loop_budget
+    }
+
+    /// The path implicit Euler's or BDF2's steps take (`None` for the other integrators).
+    pub fn implicit_path(&self) -> Option<Path> {
+        self.implicit_path
+    }
+
+    /// The adapter the run steps on, as wgpu names it (its driver and version included).
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.ctx.info
+    }
+
+    /// The kernels this run steps with, for the conformance probe.
+    pub fn kernel_family(&self) -> KernelFamily {
+        KernelFamily {
+            integrator: self.integrator,
+            implicit: self.implicit_path,
+            explicit: self.explicit_path(),
+            sweeps_in_group: self.sweeps_in_group(),
+            multigrid: self.multigrid_levels() > 0,
+        }
+    }
+
     /// Lose the device on purpose, as a driver reset would: for tests of what a run does then.
     #[doc(hidden)]
     pub fn lose_device(&self) {

@@ -30,7 +30,7 @@ pub enum Threads {
 
 /// How an implicit step runs (`implicit::path` chooses): the whole step in one workgroup, or a
 /// dispatch per pass. It decides which of the solver's kernels a run compiles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Path {
     InGroup,
     Passes,

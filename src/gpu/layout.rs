@@ -269,3 +269,8 @@ pub const SHARED_STRUCTS: [(&str, usize); 17] = [
     ("Neighbor", std::mem::size_of::<Neighbor>()),
     ("vec4<f32>", 16),
 ];
+
+/// The counters' bytes (`counters` in the kernels' bindings): projections, the first bad step,
+/// then what the implicit steps book (readback.rs's `SolveRecord`: two counts, the CG residual,
+/// two more counts and the step residual, residuals as f32 bits), and a spare word.
+pub const COUNTERS_BYTES: u64 = 32;

@@ -189,6 +189,13 @@ pub fn adapter_report(
         fits.push_str("; ");
         fits.push_str(&why);
     }
+    let budget = super::loop_budget::LoopBudget::measure(&ctx);
+    if !budget.runs_long_loops() {
+        fits.push_str(&format!(
+            "; {budget}: no step runs in one workgroup here, each takes a dispatch per pass, \
+             step or colour"
+        ));
+    }
     Ok(format!(
         "adapter: {} (max storage buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, {} KiB of workgroup memory, timestamps {}); {fits}",
         ctx.describe(),

@@ -17,7 +17,7 @@ use crate::physics::hierarchy::Hierarchy;
 /// folded into its force gathers, the state ping-ponging between A and B), fused with every step
 /// of a submission in one dispatch of one workgroup (`fused_frame.wgsl`: small scenes), or a
 /// pass per stage. Each path is open to the runs of the one after it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ExplicitPath {
     InGroup,
     Fused,
@@ -364,7 +364,8 @@ fn steady_step_plan(
 }
 
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
-/// evaluates a(x₀)), as the plans above record them on `explicit`, with XPBD's or VBD's sweeps
+/// evaluates a(x₀)), as the plans above record them on `explicit` and implicit Euler's
+/// `implicit` path (`GpuBackend::implicit_path`; by the system's size where `None`), with XPBD's or VBD's sweeps
 /// in one workgroup or not (`sweeps_in_group`: the run's, `GpuBackend::sweeps_in_group`) and
 /// implicit Euler's CG preconditioned by a multigrid cycle over `multigrid_levels` coarse levels
 /// (`GpuBackend::multigrid_levels`; 0, block Jacobi).
@@ -372,7 +373,12 @@ pub fn dispatches_per_step(
     model: &Model,
     integrator: Integrator,
     options: crate::integrator::StepOptions,
-    (explicit, sweeps_in_group, multigrid_levels): (ExplicitPath, bool, u32),
+    (explicit, implicit, sweeps_in_group, multigrid_levels): (
+        ExplicitPath,
+        Option<implicit::Path>,
+        bool,
+        u32,
+    ),
 ) -> DispatchCount {
     use implicit::*;
     let count = |n: usize| n as u32;
@@ -383,7 +389,7 @@ pub fn dispatches_per_step(
         0 => (0, 0),
         l => (multigrid::linearise(l).len(), multigrid::cycle(l).len()),
     };
-    match (integrator.newton(), path(model)) {
+    match (integrator.newton(), implicit.unwrap_or_else(|| path(model))) {
         (true, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,
             ..DispatchCount::default()

@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::dispatch::{Dispatch, StateIn};
 use super::encode::Dispatcher;
 use super::kernels::Kernel;
+use super::layout::COUNTERS_BYTES;
 use super::plan::{ListBuild, neighbour_update};
 use super::resources::Resources;
 use crate::backend::BackendError;
@@ -39,9 +40,21 @@ pub struct ReadBack {
     pub projections: u32,
     /// Index, within the last submission of steps, of the first step whose state went bad.
     pub first_bad_step: Option<u32>,
-    /// Implicit Euler: the most CG iterations of a step since the last read-back, and the
-    /// largest residual.
-    pub solve: (u32, f32),
+    /// Implicit Euler and BDF2: what their steps since the last read-back booked.
+    pub solve: SolveRecord,
+}
+
+/// What the implicit steps since the last read-back booked in the counters (implicit_terms.wgsl's
+/// book_solve and book_step): the most CG iterations of a step and the largest CG residual, the
+/// most Newton iterations, the steps that ended short of Newton's rule, and the largest residual
+/// |h f − M Δv| / |h f| a step ended with.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolveRecord {
+    pub cg_iterations: u32,
+    pub cg_residual: f32,
+    pub newton_iterations: u32,
+    pub unmet_steps: u32,
+    pub step_residual: f32,
 }
 
 /// Where each part of a snapshot lies in a staging buffer, in bytes.
@@ -121,7 +134,7 @@ pub fn copy_to_staging(
         at.partials(),
         48 * at.partial_count,
     );
-    enc.copy_buffer_to_buffer(&r.counters, 0, staging, at.counters(), 16);
+    enc.copy_buffer_to_buffer(&r.counters, 0, staging, at.counters(), COUNTERS_BYTES);
     enc.clear_buffer(&r.ledger, 0, None);
     enc.clear_buffer(&r.counters, 0, None);
 }
@@ -162,7 +175,8 @@ pub fn decode(
     };
     let (sum, max_speed, bad, released) = sum_partials(f32s(at.partials(), 12 * at.partial_count));
     let counters_off = at.counters() as usize;
-    let counters: &[u32] = bytemuck::cast_slice(&data[counters_off..counters_off + 16]);
+    let counters: &[u32] =
+        bytemuck::cast_slice(&data[counters_off..counters_off + COUNTERS_BYTES as usize]);
     positions.clear();
     positions.extend(vec3s(StagingLayout::X));
     strain.clear();
@@ -187,6 +201,12 @@ pub fn decode(
         non_finite: bad > 0.0 || !max_speed.is_finite(),
         projections: counters[0],
         first_bad_step: (counters[1] != 0).then(|| u32::MAX - counters[1]),
-        solve: (counters[2], f32::from_bits(counters[3])),
+        solve: SolveRecord {
+            cg_iterations: counters[2],
+            cg_residual: f32::from_bits(counters[3]),
+            newton_iterations: counters[4],
+            unmet_steps: counters[5],
+            step_residual: f32::from_bits(counters[6]),
+        },
     }
 }

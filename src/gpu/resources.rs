@@ -7,7 +7,9 @@ use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup};
 use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
 use super::kernels::{Path, Sizes, Threads};
-use super::layout::{FrameSolve, MassContact, NEIGHBOUR_HEAD, NEIGHBOUR_SLOTS, neighbour_bytes};
+use super::layout::{
+    COUNTERS_BYTES, FrameSolve, MassContact, NEIGHBOUR_HEAD, NEIGHBOUR_SLOTS, neighbour_bytes,
+};
 use super::links::Links;
 use super::multigrid::{Layout as MultigridLayout, MultigridGroups};
 use super::pipelines::Layouts;
@@ -352,8 +354,9 @@ impl Resources {
             workgroups.scan_blocks = groups_for(grid.block_count * WORKGROUP, max_dim);
             grid
         });
-        let staging_size =
-            (16 * n + 16 * n + 4 * ns.max(1)) as u64 + 48 * workgroups.partial_count() + 16;
+        let staging_size = (16 * n + 16 * n + 4 * ns.max(1)) as u64
+            + 48 * workgroups.partial_count()
+            + COUNTERS_BYTES;
         let staging = [0, 1].map(|_| a.read_back("staging", staging_size));
         let states = [(&b.x, &b.v), (&b.xt, &b.vt), (&b.x, &b.vt)]
             .map(|(x_in, v_in)| bind_group(device, &layouts.state, &buffers::State { x_in, v_in }));

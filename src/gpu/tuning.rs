@@ -7,6 +7,7 @@ use super::context::GpuContext;
 use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_lanes, vbd_threads};
 use super::implicit::{self, Path, SolverHome};
 use super::links::Links;
+use super::loop_budget::LoopBudget;
 use super::plan::ExplicitPath;
 use super::resources::Resources;
 use super::shaders::constants;
@@ -31,6 +32,9 @@ pub struct Tuning {
     /// colour and sweep (`Some(false)`), or as the scene's size says on the adapter
     /// (`None`: `vbd_in_one_group`).
     pub vbd_in_group: Option<bool>,
+    /// XPBD's sweeps in one workgroup where the scene is small enough (`None`:
+    /// `xpbd_in_one_group`), or a dispatch per colour and sweep (`Some(false)`).
+    pub xpbd_in_group: Option<bool>,
     /// The threads VBD shares a mass's springs among (by default `vbd_lanes`).
     pub vbd_lanes: Option<u32>,
     /// What preconditions implicit Euler's CG, on either path (by default
@@ -47,8 +51,31 @@ impl Tuning {
             frame_state: FrameState::Workgroup,
             solver_threads: None,
             vbd_in_group: None,
+            xpbd_in_group: None,
             vbd_lanes: None,
             preconditioner: crate::physics::preconditioner_of(model, step),
+        }
+    }
+
+    /// `self` on an adapter whose loops run as `budget` says: where the driver cuts a shader
+    /// invocation's loops short, no step runs in one workgroup (each such kernel loops over a
+    /// whole step, frame or sweep), whatever `self` asked for. Implicit Euler and BDF2 take a
+    /// dispatch per pass, the explicit steps a dispatch per step, XPBD's and VBD's sweeps a
+    /// dispatch per colour: each of their loops runs over a mass's springs or a thread's share
+    /// of the masses. `GpuBackend::paths` says which the run took.
+    pub fn within(self, budget: LoopBudget) -> Self {
+        if budget.runs_long_loops() {
+            return self;
+        }
+        Self {
+            implicit: Path::Passes,
+            explicit: match self.explicit {
+                ExplicitPath::InGroup => ExplicitPath::Fused,
+                other => other,
+            },
+            vbd_in_group: Some(false),
+            xpbd_in_group: Some(false),
+            ..self
         }
     }
 }
@@ -90,6 +117,12 @@ pub(super) fn specialise(
     let lanes = tuning.vbd_lanes.unwrap_or_else(|| vbd_lanes(device));
     let mut vbd_threads_wanted = lanes;
     if let Some(colours) = resources.colours.as_mut()
+        && step.integrator == Integrator::Xpbd
+        && let Some(one_group) = tuning.xpbd_in_group
+    {
+        colours.sweeps.one_group &= one_group;
+    }
+    if let Some(colours) = resources.colours.as_mut()
         && step.integrator == Integrator::Vbd
     {
         colours.sweeps.one_group = tuning
@@ -130,4 +163,86 @@ pub(super) fn specialise(
         ),
     );
     (constants, frame_state_masses.is_some())
+}
+
+/// The kernels a GPU run steps with, as far as they decide what it computes: its integrator and
+/// the path each of its steps takes. The conformance probe (`crate::conformance`) keeps one
+/// verdict per family and adapter, and steps its small scenes on the same family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct KernelFamily {
+    pub integrator: Integrator,
+    /// Implicit Euler's and BDF2's path (`None` for the others).
+    pub implicit: Option<Path>,
+    pub explicit: ExplicitPath,
+    /// XPBD's or VBD's sweeps in one workgroup.
+    pub sweeps_in_group: bool,
+    /// Implicit Euler's CG preconditioned by the multigrid cycle.
+    pub multigrid: bool,
+}
+
+impl KernelFamily {
+    /// A run of `model` as `step` on this family (the paths the adapter allows may still differ;
+    /// `GpuBackend::kernel_family` says which it took).
+    pub fn tuning(self, model: &Model, step: Step) -> Tuning {
+        Tuning {
+            implicit: self.implicit.unwrap_or(Path::Passes),
+            explicit: self.explicit,
+            vbd_in_group: Some(self.sweeps_in_group),
+            xpbd_in_group: Some(self.sweeps_in_group),
+            preconditioner: match self.multigrid {
+                true => Preconditioner::Multigrid,
+                false => Preconditioner::BlockJacobi,
+            },
+            ..Tuning::for_run(model, step)
+        }
+    }
+
+    /// A name that stays the same from build to build, for the probe's cache.
+    pub fn key(self) -> String {
+        format!(
+            "{}/{:?}/{:?}/{}/{}",
+            self.integrator.name(),
+            self.implicit,
+            self.explicit,
+            if self.sweeps_in_group {
+                "sweeps-in-group"
+            } else {
+                "sweeps-per-colour"
+            },
+            if self.multigrid {
+                "multigrid"
+            } else {
+                "block-jacobi"
+            },
+        )
+    }
+}
+
+impl std::fmt::Display for KernelFamily {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.integrator.name())?;
+        match self.integrator {
+            Integrator::Implicit | Integrator::Bdf2 => {
+                let path = match self.implicit {
+                    Some(Path::InGroup) => "in one workgroup",
+                    _ => "a dispatch per pass",
+                };
+                let pre = if self.multigrid {
+                    "multigrid"
+                } else {
+                    "block Jacobi"
+                };
+                write!(f, " ({path}, {pre})")
+            }
+            Integrator::Vbd | Integrator::Xpbd => match self.sweeps_in_group {
+                true => f.write_str(" (sweeps in one workgroup)"),
+                false => f.write_str(" (a dispatch per colour)"),
+            },
+            _ => match self.explicit {
+                ExplicitPath::InGroup => f.write_str(" (a submission's steps in one workgroup)"),
+                ExplicitPath::Fused => f.write_str(" (fused, a dispatch per step)"),
+                ExplicitPath::General => f.write_str(" (a pass per stage)"),
+            },
+        }
+    }
 }

@@ -44,6 +44,12 @@ pub fn newton_floor(h_secs: f64, order: u32) -> f64 {
     NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs, order))
 }
 
+/// `residual` as a share of the step's momentum change `scale`, 0 where nothing moves (the
+/// shaders' `relative`, implicit_terms.wgsl).
+pub fn relative(residual: f64, scale: f64) -> f64 {
+    if scale > 0.0 { residual / scale } else { 0.0 }
+}
+
 /// Newton's residual tolerance at step `h_secs` for a scheme of order `order`, relative to
 /// |h f|: `NEWTON_RESIDUAL` at one step per frame, and as (h / (1/60 s))^order below it. The
 /// scheme's own error per step falls as h^(order + 1) and |h f| as h, so the solver's error
@@ -105,6 +111,12 @@ impl BackwardStep {
         }
     }
 }
+/// VBD's fixed sweeps count as having solved a step when they leave backward Euler's residual
+/// |h f − M Δv| at most this share of the step's momentum change |h f| (VBD has no rule of its
+/// own: it stops after its sweeps, converged or not). A step above it is reported as Newton's
+/// steps short of their tolerance are (`StepStats::unmet_steps`).
+pub const VBD_RESIDUAL: f64 = 0.5;
+
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;
 

@@ -59,5 +59,8 @@ impl Recorder {
 
 /// `inner`, its snapshots digested by `digester` as they are collected.
 pub fn digesting(inner: Box<dyn Backend>, digester: Digester) -> Box<dyn Backend> {
-    Box::new(Then::new(inner, move |s: &mut Snapshot| digester.digest(s)))
+    Box::new(Then::new(inner, move |s: &mut Snapshot| {
+        digester.digest(s);
+        Ok(())
+    }))
 }

@@ -93,6 +93,9 @@ pub struct Recorder {
     pub(super) bodies: Vec<BodyRec>,
     /// The implicit integrator's solver statistics are logged too.
     pub(super) implicit: bool,
+    /// The run's solver has an acceptance rule (implicit Euler, BDF2, VBD): its residual and
+    /// its steps short of the rule are logged too.
+    pub(super) solver: bool,
     /// `world/colliders/<kind>_<k>`, k counting colliders of one kind.
     pub(super) collider_paths: Vec<String>,
     /// `--springs` was not given: each body logs its default.
@@ -161,6 +164,7 @@ impl Recorder {
             root,
             bodies,
             implicit: false,
+            solver: false,
             collider_paths,
             default_springs: opts.springs.is_none(),
         }
@@ -172,6 +176,7 @@ impl Recorder {
             When::SpringsChange => self.model.effects.springs_change(),
             When::Tearing => self.model.effects.tearing,
             When::Implicit => self.implicit,
+            When::Solver => self.solver,
         }
     }
 
@@ -208,6 +213,13 @@ impl Recorder {
             self.root.series("stats/record_ms"),
             &rerun::Scalars::single(started.elapsed().as_secs_f64() * 1e3),
         )?;
+        // The run's warnings, on the timeline at the frame where each first held.
+        for note in &snap.notes {
+            self.rec.log(
+                self.root.series("notes"),
+                &rerun::TextLog::new(note.to_string()).with_level(rerun::TextLogLevel::WARN),
+            )?;
+        }
         Ok(())
     }
 

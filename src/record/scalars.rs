@@ -34,6 +34,9 @@ impl Recorder {
                 "stats/broken_springs" => snap.broken_springs() as f64,
                 "stats/cg_iterations" => f64::from(st.solver_iterations),
                 "stats/cg_residual" => st.solver_residual,
+                "stats/newton_iterations" => f64::from(st.newton_iterations),
+                "stats/step_residual" => st.step_residual,
+                "stats/unmet_steps" => f64::from(st.unmet_steps),
                 _ => f64::NAN,
             }
         };

@@ -55,6 +55,8 @@ pub enum When {
     SpringsChange,
     Tearing,
     Implicit,
+    /// A solver with an acceptance rule: implicit Euler, BDF2 or VBD.
+    Solver,
 }
 
 /// Every scalar series, in the order they are logged each frame.
@@ -81,10 +83,13 @@ pub const SERIES: [Series; 17] = [
 
 /// Series beyond [`SERIES`] that only some runs have.
 #[rustfmt::skip]
-pub const MORE_SERIES: [Series; 3] = [
+pub const MORE_SERIES: [Series; 6] = [
     s("stats/broken_springs", "broken springs", Plot::Count, RED, When::Tearing),
     s("stats/cg_iterations", "CG iterations", Plot::Count, CYAN, When::Implicit),
     s("stats/cg_residual", "CG residual", Plot::Unplotted, GREY, When::Implicit),
+    s("stats/newton_iterations", "Newton iterations", Plot::Count, VIOLET, When::Implicit),
+    s("stats/step_residual", "step residual", Plot::Unplotted, GREY, When::Solver),
+    s("stats/unmet_steps", "steps short of the rule", Plot::Count, RED, When::Solver),
 ];
 
 const fn s(path: &'static str, name: &'static str, plot: Plot, color: Rgb, when: When) -> Series {

@@ -23,6 +23,7 @@ impl Recorder {
         backend: &str,
     ) -> RResult {
         self.implicit = settings.integrator.newton();
+        self.solver = self.implicit || settings.integrator == crate::integrator::Integrator::Vbd;
         let rec = &self.rec;
         let root = &self.root;
         if root.is_whole() {

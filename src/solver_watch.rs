@@ -1,0 +1,273 @@
+//! The run's watch on what its solver and its energy ledger say, frame by frame, on the
+//! simulation thread, whichever backend steps: a frame whose implicit Euler, BDF2 or VBD steps
+//! ended short of their acceptance rule is said once (`FrameNote::SolverShort`), and
+//! `STUCK_FRAMES` frames in a row whose steps leave more than `STUCK_RESIDUAL` of backward
+//! Euler's equations unmet stop the run as a divergence does (`divergence::Unconverged`); a
+//! balance that rises beyond `GAIN_SHARE` of the energy that moved is said once
+//! (`FrameNote::EnergyGained`). A driver that computes the wrong thing shows up here even where
+//! no test has run on it.
+//!
+//! Measured on the built-in scenes on the CPU (60 frames each, BENCHMARKS.md, "Solvers report
+//! what they did"): implicit Euler and BDF2 end some steps short of their rule where contacts
+//! start or stop (cloth onto its sphere at 1/60 s: 19 frames of 60, the worst at 0.32 of |h f|
+//! against 0.03), while a frame's typical step meets it; VBD at one step per frame with its
+//! default sweeps leaves 0.89–0.98 of the residual, which `check` and the run's start already
+//! warn of (`stability::sweep_warning`).
+
+use crate::backend::{Backend, BackendError, Then};
+use crate::divergence::Unconverged;
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::physics::{VBD_RESIDUAL, newton_residual};
+use crate::settings::Settings;
+use crate::stability::sweep_shortfall;
+use crate::state::{FrameNote, Snapshot};
+
+/// Frames in a row whose steps end short of their rule before the run stops: half a second at
+/// 60 frames a second. A hard frame or two (an impact, a collider's sudden turn) is said and
+/// passes; a solver that cannot meet its rule at this step on this scene, or a device that
+/// computes it wrongly, does not.
+pub const STUCK_FRAMES: u32 = 30;
+
+/// The residual |h f − M Δv| / |h f| above which a frame counts towards stopping the run: half
+/// the step's momentum change unexplained. Newton's rule asks for 3% at one step per frame, and
+/// the survey above saw no frame of a default Newton run stay above this for two frames running.
+pub const STUCK_RESIDUAL: f64 = 0.5;
+
+/// The share of the energy that moved (the most kinetic energy seen, plus what was dissipated
+/// and what colliders did) by which the balance may rise before the run says energy came from
+/// nowhere. Numerical damping lowers the balance, and is the scheme's known cost (`bench
+/// accuracy` measures it); a rise is never physical.
+pub const GAIN_SHARE: f64 = 0.1;
+
+/// What the watch keeps between frames.
+#[derive(Debug)]
+pub struct SolverWatch {
+    integrator: Integrator,
+    /// The acceptance rule's most |h f − M Δv| / |h f| (`None`: no solver to watch).
+    tolerance: Option<f64>,
+    /// Whether a stuck solver stops the run: not VBD whose sweeps are known to fall short at
+    /// this step (the run has said so as it began).
+    may_stop: bool,
+    short_in_a_row: u32,
+    said_short: bool,
+    start_balance_j: Option<f64>,
+    most_kinetic_j: f64,
+    said_gain: bool,
+}
+
+impl SolverWatch {
+    /// The watch for a run of `model` as `settings` say.
+    pub fn new(model: &Model, settings: &Settings) -> Self {
+        let step = settings.step();
+        let tolerance = match step.integrator {
+            Integrator::Implicit | Integrator::Bdf2 => {
+                Some(newton_residual(step.dt_secs, step.integrator.order()))
+            }
+            Integrator::Vbd => Some(VBD_RESIDUAL),
+            _ => None,
+        };
+        let may_stop =
+            step.integrator != Integrator::Vbd || sweep_shortfall(model, settings).is_none();
+        Self {
+            integrator: step.integrator,
+            tolerance,
+            may_stop,
+            short_in_a_row: 0,
+            said_short: false,
+            start_balance_j: None,
+            most_kinetic_j: 0.0,
+            said_gain: false,
+        }
+    }
+
+    /// Look at one frame: notes go onto it; a solver stuck short of its rule stops the run.
+    pub fn frame(&mut self, snap: &mut Snapshot) -> Result<(), Unconverged> {
+        self.solver(snap)?;
+        self.energy(snap);
+        Ok(())
+    }
+
+    fn solver(&mut self, snap: &mut Snapshot) -> Result<(), Unconverged> {
+        let Some(tolerance) = self.tolerance else {
+            return Ok(());
+        };
+        let s = snap.stats;
+        if s.unmet_steps == 0 {
+            self.short_in_a_row = 0;
+            return Ok(());
+        }
+        if s.step_residual > STUCK_RESIDUAL {
+            self.short_in_a_row += 1;
+        } else {
+            self.short_in_a_row = 0;
+        }
+        if !self.said_short {
+            self.said_short = true;
+            snap.notes.push(FrameNote::SolverShort {
+                solver: self.integrator.name(),
+                frame: snap.frame,
+                unmet_steps: s.unmet_steps,
+                substeps: s.substeps,
+                residual: s.step_residual,
+                tolerance,
+            });
+        }
+        if self.short_in_a_row < STUCK_FRAMES || !self.may_stop {
+            return Ok(());
+        }
+        Err(Unconverged {
+            solver: self.integrator.name(),
+            frame: snap.frame,
+            frames: self.short_in_a_row,
+            residual: s.step_residual,
+            tolerance,
+            instead: match self.integrator {
+                Integrator::Vbd => "more sweeps ([solver] vbd_iterations)",
+                _ => "the other preconditioner (--preconditioner multigrid or block-jacobi)",
+            },
+        })
+    }
+
+    fn energy(&mut self, snap: &mut Snapshot) {
+        let e = &snap.energies;
+        let balance = e.balance_j();
+        let start = *self.start_balance_j.get_or_insert(balance);
+        self.most_kinetic_j = self.most_kinetic_j.max(e.kinetic_j);
+        let moved = self.most_kinetic_j + e.ledger.dissipated_j() + e.ledger.collider_work_j.abs();
+        let gained = balance - start;
+        // A non-finite balance is the divergence check's to report.
+        if self.said_gain || !gained.is_finite() || gained <= GAIN_SHARE * moved || gained <= 0.0 {
+            return;
+        }
+        self.said_gain = true;
+        snap.notes.push(FrameNote::EnergyGained {
+            frame: snap.frame,
+            gained_j: gained,
+            moved_j: moved,
+            share: GAIN_SHARE,
+        });
+    }
+}
+
+/// `inner` with its snapshots watched by `watch` as they are collected.
+pub fn watching(inner: Box<dyn Backend>, mut watch: SolverWatch) -> Box<dyn Backend> {
+    Box::new(Then::new(inner, move |s: &mut Snapshot| {
+        watch
+            .frame(s)
+            .map_err(|u| BackendError::Unconverged(Box::new(u)))
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::{Energies, StepStats};
+
+    /// The watch of a pendulum (one mass on a spring from a pin) run with `integrator` at `dt`.
+    fn watch(integrator: Integrator, dt: f64) -> SolverWatch {
+        let mut mb = crate::model::ModelBuilder::new();
+        let pin = mb.mass(glam::Vec3::ZERO, glam::Vec3::ZERO, 1.0, true);
+        let bob = mb.mass(glam::Vec3::X, glam::Vec3::ZERO, 1.0, false);
+        mb.spring(pin, bob, 100.0, 0.1);
+        let settings = Settings {
+            integrator,
+            frame_rate_hz: 60.0,
+            substeps: 1,
+            dt_secs: dt,
+            frames: 60,
+            options: Default::default(),
+            notes: Vec::new(),
+        };
+        SolverWatch::new(&mb.build(), &settings)
+    }
+
+    fn frame(frame: u64, unmet_steps: u32, kinetic_j: f64) -> Snapshot {
+        Snapshot {
+            frame,
+            time_secs: 0.0,
+            steps: frame,
+            positions: Vec::new(),
+            strain: Vec::new(),
+            energies: Energies {
+                kinetic_j,
+                ..Energies::default()
+            },
+            stats: StepStats {
+                substeps: 2,
+                unmet_steps,
+                step_residual: 0.6,
+                ..StepStats::default()
+            },
+            collider_positions: Vec::new(),
+            digest: None,
+            notes: Vec::new(),
+        }
+    }
+
+    /// A short frame is said once; the run stops at the STUCK_FRAMES-th short frame in a row,
+    /// and a frame that meets the rule starts the count again.
+    #[test]
+    fn a_solver_short_of_its_rule_is_said_once_and_stops_the_run_when_it_lasts() {
+        let mut w = watch(Integrator::Implicit, 1.0 / 60.0);
+        let mut f = frame(1, 1, 0.0);
+        assert!(w.frame(&mut f).is_ok());
+        assert!(matches!(
+            f.notes[..],
+            [FrameNote::SolverShort { frame: 1, .. }]
+        ));
+        let mut g = frame(2, 0, 0.0);
+        assert!(w.frame(&mut g).is_ok() && g.notes.is_empty());
+        for k in 0..STUCK_FRAMES - 1 {
+            let mut f = frame(3 + u64::from(k), 2, 0.0);
+            assert!(w.frame(&mut f).is_ok(), "frame {}", f.frame);
+            assert!(f.notes.is_empty());
+        }
+        let stuck = w.frame(&mut frame(100, 2, 0.0));
+        let Err(e) = stuck else {
+            panic!("not stopped: {stuck:?}");
+        };
+        assert_eq!((e.frame, e.frames), (100, STUCK_FRAMES));
+        let said = e.to_string();
+        assert!(
+            said.contains("implicit") && said.contains("frame 100"),
+            "{said}"
+        );
+        assert!(
+            said.contains("--backend cpu") && said.contains("--dt"),
+            "{said}"
+        );
+        // Explicit integrators have no rule to watch.
+        let mut w = watch(Integrator::SemiImplicit, 1e-4);
+        for k in 0..2 * STUCK_FRAMES {
+            assert!(w.frame(&mut frame(u64::from(k), 1, 0.0)).is_ok());
+        }
+    }
+
+    /// Energy from nowhere is said once, at the frame where the balance first rises past
+    /// GAIN_SHARE of what moved; a fall (numerical damping) is not.
+    #[test]
+    fn a_balance_that_rises_past_its_share_of_what_moved_is_said_once() {
+        let mut w = watch(Integrator::SemiImplicit, 1e-4);
+        // 10 J of kinetic energy from 10 J of potential: balanced.
+        let mut start = frame(0, 0, 0.0);
+        start.energies.gravity_j = 10.0;
+        assert!(w.frame(&mut start).is_ok() && start.notes.is_empty());
+        let mut falling = frame(1, 0, 10.0);
+        assert!(w.frame(&mut falling).is_ok() && falling.notes.is_empty());
+        let mut damped = frame(2, 0, 5.0);
+        assert!(w.frame(&mut damped).is_ok() && damped.notes.is_empty());
+        // 1.5 J more than was ever there (10 J moved).
+        let mut gained = frame(3, 0, 1.5);
+        gained.energies.gravity_j = 10.0;
+        assert!(w.frame(&mut gained).is_ok());
+        assert!(
+            matches!(gained.notes[..], [FrameNote::EnergyGained { frame: 3, .. }]),
+            "{:?}",
+            gained.notes
+        );
+        let mut again = frame(4, 0, 3.0);
+        again.energies.gravity_j = 10.0;
+        assert!(w.frame(&mut again).is_ok() && again.notes.is_empty());
+    }
+}

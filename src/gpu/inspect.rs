@@ -1,4 +1,5 @@
-//! Hooks for tests: the GPU's hash grid and its count of neighbour-list builds read back, and a
+//! What a run took and hooks for tests: its loop budget, paths and kernel family, its adapter;
+//! the GPU's hash grid and its count of neighbour-list builds read back, and a
 //! device lost on purpose.
 
 use super::backend::GpuBackend;

@@ -62,7 +62,7 @@ impl Tuning {
     /// whole step, frame or sweep), whatever `self` asked for. Implicit Euler and BDF2 take a
     /// dispatch per pass, the explicit steps a dispatch per step, XPBD's and VBD's sweeps a
     /// dispatch per colour: each of their loops runs over a mass's springs or a thread's share
-    /// of the masses. `GpuBackend::paths` says which the run took.
+    /// of the masses. `GpuBackend::kernel_family` says which the run took.
     pub fn within(self, budget: LoopBudget) -> Self {
         if budget.runs_long_loops() {
             return self;

@@ -66,14 +66,16 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
     (blueprint, plots)
 }
 
-/// The legend and scene documents, as tabs.
+/// The legend and scene documents, and the run's warnings (each run's `notes`, a comparison's
+/// entries' too), as tabs.
 fn documents() -> rerun::blueprint::ContainerLike {
-    use rerun::blueprint::{Tabs, TextDocumentView};
+    use rerun::blueprint::{Tabs, TextDocumentView, TextLogView};
     Tabs::new([
         TextDocumentView::new("legend")
             .with_origin("/legend")
             .into(),
         TextDocumentView::new("scene").with_origin("/scene").into(),
+        TextLogView::new("warnings").with_origin("/").into(),
     ])
     .into()
 }

@@ -23,8 +23,8 @@ use crate::settings::Settings;
 use crate::stability::sweep_shortfall;
 use crate::state::{FrameNote, Snapshot};
 
-/// Frames in a row whose steps end short of their rule before the run stops: half a second at
-/// 60 frames a second. A hard frame or two (an impact, a collider's sudden turn) is said and
+/// Frames in a row whose steps end short of their rule, leaving more than `STUCK_RESIDUAL`,
+/// before the run stops: half a second at 60 frames a second. A hard frame or two (an impact, a collider's sudden turn) is said and
 /// passes; a solver that cannot meet its rule at this step on this scene, or a device that
 /// computes it wrongly, does not.
 pub const STUCK_FRAMES: u32 = 30;
@@ -123,7 +123,7 @@ impl SolverWatch {
             residual: s.step_residual,
             tolerance,
             instead: match self.integrator {
-                Integrator::Vbd => "more sweeps ([solver] vbd_iterations)",
+                Integrator::Vbd => "more sweeps (--vbd-iterations)",
                 _ => "the other preconditioner (--preconditioner multigrid or block-jacobi)",
             },
         })

@@ -93,11 +93,14 @@ impl SolverWatch {
             return Ok(());
         };
         let s = snap.stats;
-        if s.unmet_steps == 0 {
+        let Some(rule) = s.rule else {
+            return Ok(());
+        };
+        if rule.unmet_steps == 0 {
             self.short_in_a_row = 0;
             return Ok(());
         }
-        if s.step_residual > STUCK_RESIDUAL {
+        if rule.step_residual > STUCK_RESIDUAL {
             self.short_in_a_row += 1;
         } else {
             self.short_in_a_row = 0;
@@ -107,9 +110,9 @@ impl SolverWatch {
             snap.notes.push(FrameNote::SolverShort {
                 solver: self.integrator.name(),
                 frame: snap.frame,
-                unmet_steps: s.unmet_steps,
+                unmet_steps: rule.unmet_steps,
                 substeps: s.substeps,
-                residual: s.step_residual,
+                residual: rule.step_residual,
                 tolerance,
             });
         }
@@ -120,7 +123,7 @@ impl SolverWatch {
             solver: self.integrator.name(),
             frame: snap.frame,
             frames: self.short_in_a_row,
-            residual: s.step_residual,
+            residual: rule.step_residual,
             tolerance,
             instead: match self.integrator {
                 Integrator::Vbd => "more sweeps (--vbd-iterations)",
@@ -195,8 +198,10 @@ mod tests {
             },
             stats: StepStats {
                 substeps: 2,
-                unmet_steps,
-                step_residual: 0.6,
+                rule: Some(crate::state::RuleOutcome {
+                    step_residual: 0.6,
+                    unmet_steps,
+                }),
                 ..StepStats::default()
             },
             collider_positions: Vec::new(),

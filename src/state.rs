@@ -114,14 +114,43 @@ pub struct StepStats {
     pub solver_residual: f64,
     /// Implicit Euler and BDF2: most Newton iterations a step of this frame took.
     pub newton_iterations: u32,
-    /// Implicit Euler, BDF2 and VBD: the largest residual of backward Euler's equations a step
-    /// of this frame ended with, |h f − M Δv| / |h f| at its last iterate evaluated (Newton's
-    /// before its last update, where that update ended it).
+    /// How the frame's steps met their solver's acceptance rule, where the backend judged
+    /// them: implicit Euler and BDF2 on both backends, VBD on the CPU (the GPU does not reduce
+    /// VBD's residual); `None` elsewhere, never a made-up zero.
+    pub rule: Option<RuleOutcome>,
+}
+
+/// How a frame's steps met their solver's acceptance rule (`physics::solver`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RuleOutcome {
+    /// The largest residual of backward Euler's equations a step ended with, |h f − M Δv| /
+    /// |h f| at its last iterate evaluated (Newton's before its last update, where that update
+    /// ended it).
     pub step_residual: f64,
-    /// Steps of this frame that ended without meeting their solver's acceptance rule
-    /// (`physics::solver`): Newton out of iterations short of its tolerance, VBD's sweeps
-    /// short of `physics::VBD_RESIDUAL`.
+    /// Steps that ended without meeting the rule: Newton out of iterations short of its
+    /// tolerance, VBD's sweeps short of `physics::VBD_RESIDUAL`.
     pub unmet_steps: u32,
+}
+
+impl RuleOutcome {
+    /// One step's outcome: its residual, and whether it met the rule.
+    pub fn of_step(step_residual: f64, met: bool) -> Self {
+        Self {
+            step_residual,
+            unmet_steps: u32::from(!met),
+        }
+    }
+
+    /// `a` followed by `b`, either of which may be unjudged.
+    pub fn merged(a: Option<Self>, b: Option<Self>) -> Option<Self> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(Self {
+                step_residual: a.step_residual.max(b.step_residual),
+                unmet_steps: a.unmet_steps + b.unmet_steps,
+            }),
+            (a, b) => a.or(b),
+        }
+    }
 }
 
 impl StepStats {
@@ -135,8 +164,7 @@ impl StepStats {
             solver_iterations: self.solver_iterations.max(later.solver_iterations),
             solver_residual: self.solver_residual.max(later.solver_residual),
             newton_iterations: self.newton_iterations.max(later.newton_iterations),
-            step_residual: self.step_residual.max(later.step_residual),
-            unmet_steps: self.unmet_steps + later.unmet_steps,
+            rule: RuleOutcome::merged(self.rule, later.rule),
         }
     }
 }

@@ -12,7 +12,7 @@ use crate::backend::{Backend, BackendError, Internal, find_divergence};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::physics::Preconditioner;
-use crate::state::{Snapshot, State, StepStats};
+use crate::state::{RuleOutcome, Snapshot, State, StepStats};
 
 pub struct CpuBackend {
     model: std::sync::Arc<Model>,
@@ -124,8 +124,7 @@ impl CpuBackend {
                     solver_iterations: solve.iterations,
                     solver_residual: solve.residual,
                     newton_iterations: solve.newton,
-                    step_residual: solve.step_residual,
-                    unmet_steps: u32::from(!solve.met),
+                    rule: Some(RuleOutcome::of_step(solve.step_residual, solve.met)),
                     ..StepStats::default()
                 });
             }

@@ -456,15 +456,14 @@ impl GpuBackend {
     }
 
     /// Implicit Euler's and BDF2's solve figures of the frame as the device booked them; VBD's
-    /// sweeps and its step residual.
+    /// sweeps (its residual is not reduced on the device: its frames are not judged).
     fn with_solve(&self, stats: StepStats, solve: SolveRecord) -> StepStats {
         match self.integrator {
             Integrator::Implicit | Integrator::Bdf2 => StepStats {
                 solver_iterations: solve.cg_iterations,
                 solver_residual: f64::from(solve.cg_residual),
                 newton_iterations: solve.newton_iterations,
-                step_residual: f64::from(solve.step_residual),
-                unmet_steps: solve.unmet_steps,
+                rule: Some(solve.rule()),
                 ..stats
             },
             Integrator::Vbd => StepStats {

@@ -57,6 +57,16 @@ pub struct SolveRecord {
     pub step_residual: f32,
 }
 
+impl SolveRecord {
+    /// How the booked steps met Newton's rule.
+    pub fn rule(&self) -> crate::state::RuleOutcome {
+        crate::state::RuleOutcome {
+            step_residual: f64::from(self.step_residual),
+            unmet_steps: self.unmet_steps,
+        }
+    }
+}
+
 /// Where each part of a snapshot lies in a staging buffer, in bytes.
 #[derive(Debug, Clone, Copy)]
 pub struct StagingLayout {

@@ -114,7 +114,7 @@ impl BackwardStep {
 /// VBD's fixed sweeps count as having solved a step when they leave backward Euler's residual
 /// |h f − M Δv| at most this share of the step's momentum change |h f| (VBD has no rule of its
 /// own: it stops after its sweeps, converged or not). A step above it is reported as Newton's
-/// steps short of their tolerance are (`StepStats::unmet_steps`).
+/// steps short of their tolerance are (`StepStats::rule`).
 pub const VBD_RESIDUAL: f64 = 0.5;
 
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.

@@ -3,7 +3,7 @@
 
 use super::error::RResult;
 use super::recorder::Recorder;
-use super::series::all_series;
+use super::series::{When, all_series};
 use crate::state::Snapshot;
 
 impl Recorder {
@@ -35,14 +35,16 @@ impl Recorder {
                 "stats/cg_iterations" => f64::from(st.solver_iterations),
                 "stats/cg_residual" => st.solver_residual,
                 "stats/newton_iterations" => f64::from(st.newton_iterations),
-                "stats/step_residual" => st.step_residual,
-                "stats/unmet_steps" => f64::from(st.unmet_steps),
+                "stats/step_residual" => st.rule.map_or(f64::NAN, |r| r.step_residual),
+                "stats/unmet_steps" => st.rule.map_or(f64::NAN, |r| f64::from(r.unmet_steps)),
                 _ => f64::NAN,
             }
         };
         for series in all_series() {
             // stats/record_ms is logged last, to time the whole frame.
-            if self.has(series.when) && series.path != "stats/record_ms" {
+            // The rule's series only where the backend judged the frame (`StepStats::rule`).
+            let judged = series.when != When::Solver || st.rule.is_some();
+            if self.has(series.when) && judged && series.path != "stats/record_ms" {
                 rec.log(
                     self.root.series(series.path),
                     &rerun::Scalars::single(value(series.path)),

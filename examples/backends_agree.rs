@@ -53,23 +53,14 @@ fn main() -> anyhow::Result<()> {
         gpu.advance(substeps)?;
     }
     let (c, g) = (cpu.state()?, gpu.state()?);
-    let worst =
-        c.x.iter()
-            .zip(&g.x)
-            .map(|(a, b)| f64::from(a.distance(*b)))
-            .fold(0.0, f64::max);
+    let apart = hooke::conformance::Apart::of(&c, &g);
     let mean_y = |x: &[glam::Vec3]| x.iter().map(|p| f64::from(p.y)).sum::<f64>() / x.len() as f64;
-    let bits = |s: &hooke::state::State| -> Vec<u32> {
-        s.x.iter()
-            .chain(&s.v)
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect()
-    };
     println!(
-        "mean height: GPU {:.4} m, CPU {:.4} m; the farthest mass is {worst:.3e} m from the CPU's; bit for bit: {}",
+        "mean height: GPU {:.4} m, CPU {:.4} m; the farthest mass is {:.3e} m from the CPU's; bit for bit: {}",
         mean_y(&g.x),
         mean_y(&c.x),
-        if bits(&c) == bits(&g) { "yes" } else { "no" }
+        apart.farthest_m,
+        if apart.same_bits { "yes" } else { "no" }
     );
     Ok(())
 }

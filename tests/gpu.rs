@@ -499,11 +499,7 @@ fn the_loop_probe_finds_the_drivers_cap_and_a_run_keeps_clear_of_it() {
         ok(gpu.advance(1));
     }
     let (c, g) = (ok(cpu.state()), ok(gpu.state()));
-    let worst =
-        c.x.iter()
-            .zip(&g.x)
-            .map(|(a, b)| a.distance(*b))
-            .fold(0.0f32, f32::max);
+    let worst = hooke::conformance::Apart::of(&c, &g).farthest_m;
     assert!(
         worst < 5e-4,
         "the GPU's jello ends {worst} m from the CPU's"

@@ -15,7 +15,7 @@ mod probe;
 mod verdict;
 
 pub use cache::{Cache, cache_path};
-pub use probe::{PROBE_FRAMES, PROBE_SCENES, Probed, probe_family};
+pub use probe::{Apart, PROBE_FRAMES, PROBE_SCENES, probe_family};
 pub use verdict::{TOLERANCE_M, Verdict};
 
 use crate::gpu::GpuBackend;
@@ -58,7 +58,7 @@ pub fn verify(gpu: &GpuBackend, verify: Verify) -> Result<Option<Verdict>, Box<D
     let verdict = match cache.get(&family).filter(|_| verify == Verify::Unseen) {
         Some(v) => v.clone(),
         None => {
-            let v = probe_family(family, &info).verdict;
+            let v = probe_family(family, &info);
             cache.put(v.clone());
             cache.save();
             v

@@ -12,6 +12,7 @@ use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::physics::Preconditioner;
 use crate::settings::{Overrides, Settings};
+use crate::state::State;
 
 /// The probe's scenes: masses on a line, a grid and a 3D grid, a mesh body; contacts with a
 /// sphere and the ground; all small enough for every one-workgroup path.
@@ -19,14 +20,6 @@ pub const PROBE_SCENES: [&str; 4] = ["hair", "cloth", "jello", "flag"];
 
 /// Frames each scene is stepped.
 pub const PROBE_FRAMES: u32 = 3;
-
-/// What probing one family found.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Probed {
-    pub verdict: Verdict,
-    /// The scenes that could take the family, and each one's largest difference in metres.
-    pub scenes: Vec<(&'static str, f64)>,
-}
 
 /// Whether `family` on the adapter `info` names is held to bit for bit: explicit steps on
 /// lavapipe, where the tests hold every explicit scheme's state to the CPU's bits.
@@ -96,25 +89,41 @@ fn probe_scene(name: &str, family: KernelFamily, info: &wgpu::AdapterInfo) -> Op
     let Ok(g) = gpu.state() else {
         return Some((f64::INFINITY, false));
     };
-    let worst =
-        c.x.iter()
-            .zip(&g.x)
-            .map(|(a, b)| f64::from(a.distance(*b)))
-            .fold(
-                0.0,
-                |w: f64, d| if d.is_nan() { f64::INFINITY } else { w.max(d) },
-            );
-    let bits = |s: &crate::state::State| {
-        s.x.iter()
-            .chain(&s.v)
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect::<Vec<_>>()
-    };
-    Some((worst, bits(&c) == bits(&g)))
+    let apart = Apart::of(&c, &g);
+    Some((apart.farthest_m, apart.same_bits))
+}
+
+/// How far one backend's state ends from another's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Apart {
+    /// The largest distance of a mass from its place in the other state (infinite where either
+    /// is not finite).
+    pub farthest_m: f64,
+    /// Every position and velocity the same to the bit.
+    pub same_bits: bool,
+}
+
+impl Apart {
+    pub fn of(a: &State, b: &State) -> Self {
+        let farthest_m = a.x.iter().zip(&b.x).fold(0.0, |w: f64, (p, q)| {
+            let d = f64::from(p.distance(*q));
+            if d.is_nan() { f64::INFINITY } else { w.max(d) }
+        });
+        let bits = |s: &State| {
+            s.x.iter()
+                .chain(&s.v)
+                .flat_map(|p| p.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        Self {
+            farthest_m,
+            same_bits: bits(a) == bits(b),
+        }
+    }
 }
 
 /// Probe `family` on the adapter `info` names, on every probe scene that takes it.
-pub fn probe_family(family: KernelFamily, info: &wgpu::AdapterInfo) -> Probed {
+pub fn probe_family(family: KernelFamily, info: &wgpu::AdapterInfo) -> Verdict {
     let bitwise = bitwise(family, info);
     let mut scenes = Vec::new();
     let mut agrees = true;
@@ -123,24 +132,21 @@ pub fn probe_family(family: KernelFamily, info: &wgpu::AdapterInfo) -> Probed {
         let Some((d, same_bits)) = probe_scene(name, family, info) else {
             continue;
         };
-        scenes.push((name, d));
+        scenes.push(name.to_owned());
         let ok = if bitwise { same_bits } else { d <= TOLERANCE_M };
         if worst.is_none_or(|(_, w)| d > w) || (!ok && agrees) {
             worst = Some((name, d));
         }
         agrees &= ok;
     }
-    Probed {
-        verdict: Verdict {
-            family: family.key(),
-            name: family.to_string(),
-            agrees,
-            bitwise,
-            // JSON has no infinity: a GPU that failed a scene is as far as it gets.
-            worst_m: worst.map_or(0.0, |(_, d)| d.min(f64::MAX)),
-            scene: worst.map(|(n, _)| n.to_owned()),
-            scenes: scenes.iter().map(|(n, _)| (*n).to_owned()).collect(),
-        },
+    Verdict {
+        family: family.key(),
+        name: family.to_string(),
+        agrees,
+        bitwise,
+        // JSON has no infinity: a GPU that failed a scene is as far as it gets.
+        worst_m: worst.map_or(0.0, |(_, d)| d.min(f64::MAX)),
+        scene: worst.map(|(n, _)| n.to_owned()),
         scenes,
     }
 }

@@ -29,6 +29,8 @@ override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
 override CG_FORCING: f32 = 0.1;
+// VBD's sweeps count as having solved a step below this residual (src/physics/solver.rs).
+override VBD_RESIDUAL: f32 = 0.5;
 // The damping of the multigrid cycle's block-Jacobi sweeps (src/physics/hierarchy.rs's SMOOTHING).
 override MG_SMOOTHING: f32 = 0.6666667;
 // Threads of implicit_step's one workgroup (src/gpu/implicit/plan.rs's group_threads), the

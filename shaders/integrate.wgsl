@@ -178,14 +178,80 @@ fn vbd_predict(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     xt[i] = vec4<f32>(x[i].xyz + h * vk, 0.0);
 }
 
+// VBD's step residual (src/cpu/vbd.rs's vbd_residual): each workgroup of vbd_final adds its
+// movable masses' |h f − m Δv|² and |h f|² in thread order into sums[n + g] (g its workgroup;
+// sums holds 3n vec4s, src/gpu/limits.rs's scratch_bytes), then vbd_residual adds those in
+// order and books the step (implicit_terms.wgsl's book_step does for Newton's steps).
+var<workgroup> unmet_sh: array<vec2<f32>, WORKGROUP>;
+
+// Mass i's (|h f − m Δv|², |h f|²) over the step that took its velocity from v0 to vn (zero for
+// a pinned mass), h f from compute_forces at the step's end.
+fn vbd_unmet(i: u32, v0: vec3<f32>, vn: vec3<f32>) -> vec2<f32> {
+    let m = mass[i];
+    if (m.y == 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let hf = stage.dt * m.x * acc(i);
+    let r = hf - m.x * (vn - v0);
+    return vec2<f32>(dot(r, r), dot(hf, hf));
+}
+
 @compute @workgroup_size(64)
-fn vbd_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn vbd_final(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
     let i = thread_index(gid, groups);
-    if (i >= params.mass_count) { return; }
-    sums[i] = v[i];
-    let vn = vt[i].xyz;
-    v[i] = vec4<f32>(vn, 0.0);
-    x[i] = xt[i];
-    ledger[i] += stage.dt * rate(i);
-    check_state(x[i].xyz, vn);
+    var unmet = vec2<f32>(0.0);
+    if (i < params.mass_count) {
+        let v0 = v[i].xyz;
+        sums[i] = v[i];
+        let vn = vt[i].xyz;
+        v[i] = vec4<f32>(vn, 0.0);
+        x[i] = xt[i];
+        ledger[i] += stage.dt * rate(i);
+        check_state(x[i].xyz, vn);
+        unmet = vbd_unmet(i, v0, vn);
+    }
+    unmet_sh[lid] = unmet;
+    workgroupBarrier();
+    let g = wid.x + wid.y * groups.x;
+    if (lid == 0u && g * WORKGROUP < params.mass_count) {
+        var total = vec2<f32>(0.0);
+        for (var k = 0u; k < WORKGROUP; k++) {
+            total += unmet_sh[k];
+        }
+        sums[params.mass_count + g] = vec4<f32>(total, 0.0, 0.0);
+    }
+}
+
+// One workgroup: vbd_final's workgroup sums added (each thread a strided share, then the first
+// thread those, always in the same order), the step's residual, and the step booked: the largest
+// residual in counters[6], a step above VBD_RESIDUAL counted in counters[5].
+@compute @workgroup_size(64)
+fn vbd_residual(@builtin(local_invocation_index) lid: u32) {
+    let n = params.mass_count;
+    let partials = (n + WORKGROUP - 1u) / WORKGROUP;
+    var share = vec2<f32>(0.0);
+    for (var g = lid; g < partials; g += WORKGROUP) {
+        share += sums[n + g].xy;
+    }
+    unmet_sh[lid] = share;
+    workgroupBarrier();
+    if (lid == 0u) {
+        var total = vec2<f32>(0.0);
+        for (var k = 0u; k < WORKGROUP; k++) {
+            total += unmet_sh[k];
+        }
+        var residual = 0.0;
+        if (total.y > 0.0) {
+            residual = sqrt(total.x / total.y);
+        }
+        atomicMax(&counters[6], bitcast<u32>(max(residual, 0.0)));
+        if (!(residual <= VBD_RESIDUAL)) {
+            atomicAdd(&counters[5], 1u);
+        }
+    }
 }

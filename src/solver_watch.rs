@@ -114,6 +114,7 @@ impl SolverWatch {
                 substeps: s.substeps,
                 residual: rule.step_residual,
                 tolerance,
+                stops_if_it_lasts: self.may_stop,
             });
         }
         if self.short_in_a_row < STUCK_FRAMES || !self.may_stop {

@@ -203,6 +203,9 @@ pub enum FrameNote {
         /// The largest |h f − M Δv| / |h f| a step ended with, and the rule's most.
         residual: f64,
         tolerance: f64,
+        /// Whether the run stops if it lasts (`solver_watch::STUCK_FRAMES`); not for VBD's
+        /// sweeps already said to fall short before the run.
+        stops_if_it_lasts: bool,
     },
     /// The energy balance rose by more than `share` of the energy that moved since the start:
     /// energy came from nowhere.
@@ -224,12 +227,17 @@ impl std::fmt::Display for FrameNote {
                 substeps,
                 residual,
                 tolerance,
+                stops_if_it_lasts,
             } => write!(
                 f,
                 "warning: frame {frame}: {unmet_steps} of {substeps} {solver} steps ended short \
                  of their acceptance rule (residual |h f − M Δv| at {residual:.3} of |h f|, the \
-                 rule asks for at most {tolerance:.3}); the run stops if this lasts, and \
-                 stats/unmet_steps shows each frame's count"
+                 rule asks for at most {tolerance:.3}); {}stats/unmet_steps shows each frame's \
+                 count",
+                match stops_if_it_lasts {
+                    true => "the run stops if this lasts, and ",
+                    false => "",
+                }
             ),
             FrameNote::EnergyGained {
                 frame,

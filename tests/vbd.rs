@@ -185,6 +185,61 @@ fn gpu_vbd_matches_the_cpu() {
     }
 }
 
+/// VBD's steps are judged on the GPU as on the CPU (`vbd_residual`: src/cpu/vbd.rs and
+/// integrate.wgsl): each frame's largest residual |h f − M Δv| / |h f| agrees to f32 rounding
+/// (the GPU adds it in f32 by workgroups of 64 masses, the CPU in f64 mass by mass), and the same
+/// steps are counted short of `VBD_RESIDUAL`, on both sweep paths. The small pinned jello of
+/// issue 49 at 40 steps a frame and 200 sweeps meets the rule (residual about 1e-4); jello at
+/// one step per frame with ten sweeps leaves most of each step unmet (0.97 at frame 1). A frame
+/// of the pinned jello a dispatch per colour is 104 000 dispatches, more than one submission may
+/// hold on Mesa 25's lavapipe, which crashed on it (`encode::MOST_DISPATCHES_PER_SUBMISSION`).
+#[test]
+fn gpu_vbd_judges_its_steps_as_the_cpu_does() {
+    use hooke::gpu::{GpuBackend, Tuning};
+    if !gpu_available() {
+        return;
+    }
+    let pinned = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench/scenes/jello-4-pinned.toml"
+    );
+    for (scene, substeps, sweeps, frames, short) in [
+        (pinned, 40u32, 200u32, 2u64, false),
+        ("jello", 1, 10, 3, true),
+    ] {
+        let (model, _) = scene_model(scene);
+        let step =
+            Step::new(Integrator::Vbd, FRAME_DT / f64::from(substeps)).with_options(vbd(sweeps));
+        let mut cpu = CpuBackend::new(model.clone(), step);
+        let cpu_rules: Vec<_> = (0..frames)
+            .map(|_| ok(cpu.advance(substeps)).rule)
+            .collect();
+        for in_group in [true, false] {
+            let tuning = Tuning {
+                vbd_in_group: Some(in_group),
+                ..Tuning::for_run(&model, step)
+            };
+            let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
+            for (frame, c) in (1..=frames).zip(&cpu_rules) {
+                let stats = ok(gpu.advance(substeps));
+                let g = ok(gpu.snapshot(frame, stats)).stats.rule;
+                let (Some(c), Some(g)) = (c, g) else {
+                    panic!("{scene} frame {frame}: a step not judged: cpu {c:?}, gpu {g:?}");
+                };
+                let what = format!("{scene}, one workgroup {in_group}, frame {frame}");
+                assert_eq!(c.unmet_steps, g.unmet_steps, "{what}: {c:?} {g:?}");
+                assert_eq!(c.unmet_steps > 0, short, "{what}: {c:?}");
+                assert!(
+                    (c.step_residual - g.step_residual).abs() <= 1e-4 * c.step_residual + 1e-9,
+                    "{what}: residual {} on the CPU, {} on the GPU",
+                    c.step_residual,
+                    g.step_residual
+                );
+            }
+        }
+    }
+}
+
 /// VBD's sweeps in one workgroup (small scenes, vbd_sweeps.wgsl) against a dispatch per colour
 /// and sweep (vbd.wgsl), with a mass's springs in one lane (a CPU adapter's choice) and shared
 /// among 8 (a GPU's): each mass's arithmetic is the same functions and a colour's masses share no

@@ -82,15 +82,17 @@ pub fn vbd_predict(
     }
 }
 
-/// The step's end: the start's velocity kept for the next guess, and the step's residual
-/// |h f − M Δv| / |h f| over the movable masses, `acc` being the accelerations at the end.
-pub fn vbd_final(
-    model: &Model,
-    (v0, v_last): (&[Vec3], &mut [Vec3]),
-    (v, acc): (&[Vec3], &[Vec3]),
-    h: f32,
-) -> f64 {
+/// The step's end: the start's velocity kept for the next guess.
+pub fn vbd_final(v0: &[Vec3], v_last: &mut [Vec3]) {
     v_last.copy_from_slice(v0);
+}
+
+/// The step's residual: backward Euler's |h f − M Δv| relative to |h f| over the movable masses,
+/// `acc` being the accelerations at the end of the step (0 where nothing moves). VBD's sweeps
+/// stop at their count, not at a rule, so this says how far from solved they left the step. The
+/// GPU's `vbd_residual` (integrate.wgsl) adds the same terms in f32 by workgroups of 64 masses,
+/// where this adds them in f64 in mass order: the two agree to rounding, not to the bit.
+pub fn vbd_residual(model: &Model, (v0, v): (&[Vec3], &[Vec3]), acc: &[Vec3], h: f32) -> f64 {
     let (mut unmet, mut momentum) = (0.0f64, 0.0f64);
     for i in 0..v.len() {
         if model.inv_mass[i] != 0.0 {
@@ -181,7 +183,8 @@ pub fn vbd_step(
         }
     }
     let power = compute_forces(model, gather, &state.x, &state.v, t_end, dt, &mut w.acc);
-    let residual = vbd_final(model, (&w.v0, &mut w.v_last), (&state.v, &w.acc), h);
+    let residual = vbd_residual(model, (&w.v0, &state.v), &w.acc, h);
+    vbd_final(&w.v0, &mut w.v_last);
     state.ledger.accumulate(&power, f64::from(h));
     state.time_secs = t_end;
     state.steps += 1;

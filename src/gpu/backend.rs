@@ -455,8 +455,7 @@ impl GpuBackend {
         })
     }
 
-    /// Implicit Euler's and BDF2's solve figures of the frame as the device booked them; VBD's
-    /// sweeps (its residual is not reduced on the device: its frames are not judged).
+    /// The frame's solve figures as booked on the device: Newton's and CG's, or VBD's residual.
     fn with_solve(&self, stats: StepStats, solve: SolveRecord) -> StepStats {
         match self.integrator {
             Integrator::Implicit | Integrator::Bdf2 => StepStats {
@@ -468,6 +467,8 @@ impl GpuBackend {
             },
             Integrator::Vbd => StepStats {
                 solver_iterations: self.resources.sweeps().iterations,
+                solver_residual: f64::from(solve.step_residual),
+                rule: Some(solve.rule()),
                 ..stats
             },
             _ => stats,
@@ -521,10 +522,10 @@ impl Backend for GpuBackend {
         }
         self.prepare_stages(substeps);
         let plan = self.plan_steps(substeps);
-        let mut enc = self.ctx.encoder("steps");
-        in_pass(&mut enc, "steps", |pass| {
-            self.kernels().dispatch_all(pass, &plan, 0)
-        })?;
+        let enc = self.ctx.encoder("steps");
+        let mut enc = self
+            .kernels()
+            .encode_in_submissions(&self.ctx, enc, "steps", &plan)?;
         self.copy_back(&mut enc, substeps);
         self.ctx.queue.submit([enc.finish()]);
         self.clock.advance(substeps);

@@ -184,8 +184,11 @@ bind_groups! {
         vt: ReadWrite "array<vec4<f32>>",
         /// [2i] acceleration, [2i+1] ledger rates, from the last compute_forces.
         deriv: Read "array<vec4<f32>>",
+        /// (mass, inverse mass; 0 when pinned): VBD's residual weighs by it.
+        mass: Read "array<vec2<f32>>",
         /// Per-mass scratch. RK4 and Verlet: [3i] Σ weighted stage velocities, [3i+1] Σ weighted
-        /// accelerations, [3i+2] Σ weighted rates.
+        /// accelerations, [3i+2] Σ weighted rates. VBD: [i] the velocity at the last step's
+        /// start, [n + g] workgroup g's sums of its residual (vbd_final).
         sums: ReadWrite "array<vec4<f32>>",
         /// Energy that left (damping, drag, contact) or entered (collider work) through each mass.
         ledger: ReadWrite "array<vec4<f32>>",

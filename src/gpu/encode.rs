@@ -2,6 +2,7 @@
 //! count, all as the kernel table says.
 
 use super::bindings::Group;
+use super::context::GpuContext;
 use super::dispatch::{Dispatch, SLOTS_PER_STEP};
 use super::pipelines::Pipelines;
 use super::resources::Resources;
@@ -83,7 +84,37 @@ impl Dispatcher<'_> {
     ) -> Result<(), BackendError> {
         ds.iter().try_for_each(|&d| self.dispatch(pass, d, base))
     }
+
+    /// Record `plan` into `enc` and on, in passes labelled `label`, submitting each encoder on
+    /// `ctx` as it fills with `MOST_DISPATCHES_PER_SUBMISSION` dispatches; returns the encoder
+    /// holding the rest (all of a short plan), which the caller finishes and submits.
+    pub fn encode_in_submissions(
+        &self,
+        ctx: &GpuContext,
+        mut enc: wgpu::CommandEncoder,
+        label: &'static str,
+        plan: &[Dispatch],
+    ) -> Result<wgpu::CommandEncoder, BackendError> {
+        let last = plan.len().saturating_sub(1) / MOST_DISPATCHES_PER_SUBMISSION
+            * MOST_DISPATCHES_PER_SUBMISSION;
+        for chunk in plan[..last].chunks(MOST_DISPATCHES_PER_SUBMISSION) {
+            in_pass(&mut enc, label, |pass| self.dispatch_all(pass, chunk, 0))?;
+            ctx.queue.submit([enc.finish()]);
+            enc = ctx.encoder(label);
+        }
+        in_pass(&mut enc, label, |pass| {
+            self.dispatch_all(pass, &plan[last..], 0)
+        })?;
+        Ok(enc)
+    }
 }
+
+/// The most dispatches one submission of steps records. Mesa 25.0.7's lavapipe crashes (a
+/// segfault in its queue thread) on a command buffer of more than about 65 000 dispatches: VBD on
+/// the small pinned jello of issue 49 (13 colours, a dispatch per colour and sweep, 200 sweeps)
+/// ran 25 steps in one submission (65 100 dispatches) and crashed at 26 (67 704). A frame's steps
+/// beyond this many go in several submissions, in order (docs/drivers.md).
+pub const MOST_DISPATCHES_PER_SUBMISSION: usize = 16_384;
 
 /// Record `body` in one compute pass of `enc`.
 pub fn in_pass<T>(

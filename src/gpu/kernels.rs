@@ -263,8 +263,14 @@ macro_rules! kernel_table {
             }
             VbdFinal = vbd_final in Integrate {
                 group: Integrate, threads: Masses, needs: Vbd, cpu: (vbd),
-                // The iterate and rates read; x, v, sums written; ledger read and written.
-                bytes: |z| z.n * (2 * 16 + 16 + 3 * 16 + 2 * 16 + 16),
+                // The iterate, rates and masses read; x, v, sums written; ledger read and
+                // written; a workgroup's residual sums written.
+                bytes: |z| z.n * (2 * 16 + 16 + 8 + 3 * 16 + 2 * 16 + 16) + z.n.div_ceil(64) * 16,
+            }
+            VbdResidual = vbd_residual in Integrate {
+                group: Integrate, threads: OneGroup, needs: Vbd, cpu: (vbd),
+                // vbd_final's workgroup sums read.
+                bytes: |z| z.n.div_ceil(64) * 16,
             }
 
             // ---- vbd.wgsl: VBD's masses, solved colour by colour ----

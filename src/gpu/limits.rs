@@ -64,7 +64,8 @@ pub fn multigrid_unbound_by(model: &Model, limits: &wgpu::Limits) -> Option<Stri
 
 /// Bytes of the per-mass scratch: RK4's and Verlet's stage sums, or implicit Euler's vectors.
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
-    // VBD keeps each mass's velocity at the last step's start in [i] (RK4 and Verlet use three);
+    // VBD keeps each mass's velocity at the last step's start in [i] and its residual's workgroup
+    // sums after those (RK4 and Verlet use three per mass);
     // BDF2 keeps the last step's start after the solver's vectors (HISTORY_X, HISTORY_V).
     let per_mass = match integrator {
         Integrator::Implicit => 16 * SOLVER_VECTORS,

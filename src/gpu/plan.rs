@@ -199,11 +199,12 @@ pub fn step_plan(
         // Implicit's solve is planned apart.
         Integrator::Implicit | Integrator::Bdf2 => Vec::new(),
         // The guess; the block solves at the step's end (where backward Euler takes its forces
-        // and collider poses); the forces there for the ledger; the new state.
+        // and collider poses); the forces there for the ledger and the residual; the new state;
+        // the step's residual.
         Integrator::Vbd => [at(VbdPredict, 0)]
             .into_iter()
             .chain(sweeps_plan((VbdSolveMass, VbdSweeps), sweeps, 3))
-            .chain([forces(XtVt, 3), at(VbdFinal, 3)])
+            .chain([forces(XtVt, 3), at(VbdFinal, 3), at(VbdResidual, 3)])
             .collect(),
     };
     if effects.has_contact() && !(integrator.newton() || integrator == Integrator::Vbd) {

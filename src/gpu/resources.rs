@@ -137,6 +137,7 @@ impl GroupSet<'_> {
             xt: &b.xt,
             vt: &b.vt,
             deriv: &b.deriv,
+            mass: &b.mass,
             sums: &b.sums,
             ledger: &b.ledger,
             counters: &b.counters,

@@ -172,6 +172,7 @@ pub fn constants(
         ("NEWTON_STALL", NEWTON_STALL),
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
+        ("VBD_RESIDUAL", crate::physics::VBD_RESIDUAL),
         (
             "MG_SMOOTHING",
             f64::from(crate::physics::hierarchy::SMOOTHING),

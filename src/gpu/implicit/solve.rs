@@ -18,7 +18,7 @@
 
 use super::super::context::{GpuContext, ReadBackOf};
 use super::super::dispatch::{Dispatch, SLOTS_PER_STEP};
-use super::super::encode::{Dispatcher, in_pass};
+use super::super::encode::Dispatcher;
 use super::super::layout::FrameSolve;
 use super::super::resources::SolverBuffers;
 use super::plan::*;
@@ -119,6 +119,14 @@ pub struct ImplicitStep<'a> {
     pub multigrid: Option<(&'a [Dispatch], &'a [Dispatch])>,
 }
 
+/// `ds` added to `plan`, each at its own slot counted from stage slot `slot`.
+fn at_slot(plan: &mut Vec<Dispatch>, ds: &[Dispatch], slot: u32) {
+    plan.extend(ds.iter().map(|d| Dispatch {
+        slot: slot + d.slot,
+        ..*d
+    }));
+}
+
 /// How a frame on the per-pass path went: what its steps took (its record), the budgets it ran
 /// through with, and how many times it was replayed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,31 +138,31 @@ pub struct FrameOutcome {
 
 impl ImplicitStep<'_> {
     /// `steps` steps of a small system, one dispatch each (with the post-step passes), in one
-    /// submission; nothing waits. Step k reads stage slot 4k + 3, its end.
+    /// submission (more where they are many, `encode_in_submissions`); nothing waits. Step k
+    /// reads stage slot 4k + 3, its end.
     pub fn run_in_group(&self, steps: u32) -> Result<(), BackendError> {
         let label = "implicit steps";
-        let mut enc = self.ctx.encoder(label);
-        in_pass(&mut enc, label, |pass| {
-            (0..steps).try_for_each(|k| {
-                let slot = SLOTS_PER_STEP * k + 3;
-                let step = match self.multigrid {
-                    Some(_) => &IN_GROUP_MULTIGRID,
-                    None => &IN_GROUP,
-                };
-                self.kernels.dispatch_all(pass, step, slot)?;
-                self.post_step(pass, slot)
-            })
-        })?;
+        let step = match self.multigrid {
+            Some(_) => &IN_GROUP_MULTIGRID[..],
+            None => &IN_GROUP[..],
+        };
+        let mut plan = Vec::new();
+        for k in 0..steps {
+            let slot = SLOTS_PER_STEP * k + 3;
+            at_slot(&mut plan, step, slot);
+            self.post_step(&mut plan, slot);
+        }
+        let enc = self.ctx.encoder(label);
+        let enc = self
+            .kernels
+            .encode_in_submissions(self.ctx, enc, label, &plan)?;
         self.ctx.queue.submit([enc.finish()]);
         Ok(())
     }
 
     /// The passes every integrator runs after its step; they read the step's slot too.
-    fn post_step(&self, pass: &mut wgpu::ComputePass<'_>, slot: u32) -> Result<(), BackendError> {
-        self.post.iter().try_for_each(|d| {
-            self.kernels
-                .dispatch(pass, Dispatch { slot: 0, ..*d }, slot)
-        })
+    fn post_step(&self, plan: &mut Vec<Dispatch>, slot: u32) {
+        plan.extend(self.post.iter().map(|d| Dispatch { slot, ..*d }));
     }
 
     /// `steps` backward Euler steps of a larger system, encoded with `budgets`, replayed with
@@ -171,10 +179,14 @@ impl ImplicitStep<'_> {
         }
         loop {
             self.begin_frame(budgets);
-            in_pass(&mut enc, label, |pass| {
-                (0..steps).try_for_each(|k| self.encode_step(pass, SLOTS_PER_STEP * k + 3, budgets))
-            })?;
-            let took = self.submit_and_read(enc)?;
+            let mut plan = Vec::new();
+            for k in 0..steps {
+                self.plan_step(&mut plan, SLOTS_PER_STEP * k + 3, budgets);
+            }
+            let rest = self
+                .kernels
+                .encode_in_submissions(self.ctx, enc, label, &plan)?;
+            let took = self.submit_and_read(rest)?;
             if took.overran == 0 {
                 return Ok(FrameOutcome {
                     took,
@@ -209,15 +221,10 @@ impl ImplicitStep<'_> {
         );
     }
 
-    /// One step: its Newton iterations, each with its solve's budget of CG iterations.
-    fn encode_step(
-        &self,
-        pass: &mut wgpu::ComputePass<'_>,
-        slot: u32,
-        budgets: Budgets,
-    ) -> Result<(), BackendError> {
-        let k = &self.kernels;
-        k.dispatch_all(pass, &BEGIN, slot)?;
+    /// One step's dispatches, at stage slot `slot`: its Newton iterations, each with its
+    /// solve's budget of CG iterations, then the post-step passes.
+    fn plan_step(&self, plan: &mut Vec<Dispatch>, slot: u32, budgets: Budgets) {
+        at_slot(plan, &BEGIN, slot);
         // With multigrid, each z is the cycle's on the residual cg_advance (or forces_and_rhs)
         // left, made before cg_apply reads it; the cycle's levels are linearised once per
         // Newton iteration.
@@ -225,19 +232,19 @@ impl ImplicitStep<'_> {
         let [newton_begin @ .., first_apply] = NEWTON_BEGIN;
         let [advance, apply] = CG_ITERATION;
         for &cg in &budgets.cg[..budgets.newton as usize] {
-            k.dispatch_all(pass, &newton_begin, slot)?;
-            k.dispatch_all(pass, linearise, slot)?;
-            k.dispatch_all(pass, cycle, slot)?;
-            k.dispatch(pass, first_apply, slot)?;
+            at_slot(plan, &newton_begin, slot);
+            at_slot(plan, linearise, slot);
+            at_slot(plan, cycle, slot);
+            at_slot(plan, &[first_apply], slot);
             for _ in 0..cg {
-                k.dispatch(pass, advance, slot)?;
-                k.dispatch_all(pass, cycle, slot)?;
-                k.dispatch(pass, apply, slot)?;
+                at_slot(plan, &[advance], slot);
+                at_slot(plan, cycle, slot);
+                at_slot(plan, &[apply], slot);
             }
-            k.dispatch_all(pass, &NEWTON_END, slot)?;
+            at_slot(plan, &NEWTON_END, slot);
         }
-        k.dispatch_all(pass, &END, slot)?;
-        self.post_step(pass, slot)
+        at_slot(plan, &END, slot);
+        self.post_step(plan, slot);
     }
 
     /// Submit `enc` with a copy of the frame's record, and wait for it.

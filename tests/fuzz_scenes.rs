@@ -4,6 +4,8 @@
 //! a scene or one clear error, never a panic, and a scene that validates must build its model. The mutator
 //! is a fixed-seed xorshift, so a failure reproduces exactly; CI runs it in a few seconds.
 
+mod common;
+
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use hooke::error::SceneOrigin;
@@ -301,4 +303,70 @@ fn random_and_mutated_meshes_never_panic() {
         accepted > 300 && rejected > 300,
         "accepted {accepted}, rejected {rejected}"
     );
+}
+
+/// The memory a bad input may take on its way to a refusal or a run (issue 46: none may abort or
+/// exceed 2 GB).
+const MEMORY_CAP: u64 = 2 << 30;
+
+/// A scene whose extent is absurd gets no allocation that grows with it: a 64-mass cube at
+/// spacing_m = 1e30 (whose ground grid, a line every 0.25 m, once asked for 103 GB and aborted)
+/// or 1e7, and a mesh at scale 1e30, are refused for a reach f32 cannot hold, naming the field;
+/// at 1e5 m (within reach) the cube runs, its ground grid bounded, and its recording is small.
+#[test]
+fn absurd_extents_are_refused_or_run_in_bounded_memory() {
+    let dir = common::temp_dir("extent");
+    let cube = |spacing: &str| {
+        let path = dir.join(format!("cube-{spacing}.toml"));
+        let text = format!(
+            "name = \"cube\"\n[solver]\nintegrator = \"semi-implicit\"\nsubsteps = 10\n\
+             [effects]\ngravity_m_per_s2 = [0.0, -9.81, 0.0]\n[effects.ground]\nheight_m = 0.0\n\
+             stiffness_n_per_m = 1000.0\n[[bodies]]\nname = \"cube\"\ngrid = [4, 4, 4]\n\
+             spacing_m = {spacing}\nmass_kg = 1.0\norigin_m = [0.0, 1.0, 0.0]\n\
+             [bodies.springs]\nstructural = {{ stiffness_n_per_m = 100.0 }}\n"
+        );
+        std::fs::write(&path, text).unwrap_or_else(|e| panic!("{e}"));
+        path
+    };
+    let refused = |path: &std::path::Path, field: &str| {
+        let out = common::hooke_within_memory(&["check", path.to_str().unwrap_or("")], MEMORY_CAP);
+        let err = common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{}: {err}", path.display());
+        assert!(
+            err.contains(field) && err.contains("beyond the 1e6 m") && !err.contains("panicked"),
+            "{}: {err}",
+            path.display()
+        );
+    };
+    for spacing in ["1e30", "1e7"] {
+        refused(&cube(spacing), "`bodies[0].spacing_m`");
+    }
+    let flag = dir.join("flag-1e30.toml");
+    let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/meshes/flag.obj");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/flag.toml"
+    ))
+    .unwrap_or_else(|e| panic!("{e}"))
+    .replace("\"../meshes/flag.obj\"", &format!("{mesh:?}\nscale = 1e30"));
+    std::fs::write(&flag, text).unwrap_or_else(|e| panic!("{e}"));
+    refused(&flag, "`bodies[0].scale`");
+    let far = cube("1e5");
+    let file = dir.join("far.rrd");
+    let out = common::hooke_within_memory(
+        &[
+            "run",
+            far.to_str().unwrap_or(""),
+            "--backend",
+            "cpu",
+            "--frames",
+            "2",
+            "--save",
+            file.to_str().unwrap_or(""),
+        ],
+        MEMORY_CAP,
+    );
+    assert!(out.status.success(), "{}", common::text(&out.stderr));
+    let bytes = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
+    assert!(bytes > 0 && bytes < 1_000_000, "{bytes} bytes");
 }

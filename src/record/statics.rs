@@ -170,11 +170,34 @@ fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
     )
 }
 
+/// The most ground lines drawn each way, whatever the scene's extent.
+const MOST_GROUND_LINES: f32 = 64.0;
+
+/// The ground grid's spacing across `width` metres: 0.25 m, or where that would draw more than
+/// `MOST_GROUND_LINES` lines, the next of 1, 2 or 5 × 10ⁿ m that draws no more (a body 1e30 m
+/// wide once asked for 4e30 lines, and the allocation aborted the run).
+fn ground_spacing(width: f32) -> f32 {
+    let least = width / MOST_GROUND_LINES;
+    if least <= 0.25 {
+        return 0.25;
+    }
+    let decade = 10f32.powf(least.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|s| *s >= least)
+        .unwrap_or(10.0 * decade)
+}
+
 /// A grid of lines at the ground height, half a metre beyond the bodies' starting extent `x`, so
-/// that the viewer frames the scene rather than the floor.
+/// that the viewer frames the scene rather than the floor; none where that extent is not finite.
 fn log_ground(rec: &RecordingStream, path: &str, g: &GroundCollider, x: &[Vec3]) -> RResult {
     let (lo, hi) = extent(x);
-    let step = 0.25f32;
+    let width = (hi.x - lo.x).max(hi.z - lo.z) + 1.0;
+    if !width.is_finite() {
+        return Ok(());
+    }
+    let step = ground_spacing(width);
     let x0 = ((lo.x - 0.5) / step).floor() as i32;
     let x1 = ((hi.x + 0.5) / step).ceil() as i32;
     let z0 = ((lo.z - 0.5) / step).floor() as i32;
@@ -251,4 +274,22 @@ fn log_collider_shape(rec: &RecordingStream, c: &Collider, path: &str, x: &[Vec3
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ground_grid_draws_a_bounded_number_of_lines_at_any_extent() {
+        assert_eq!(ground_spacing(2.0), 0.25);
+        assert_eq!(ground_spacing(16.0), 0.25);
+        assert_eq!(ground_spacing(17.0), 0.5);
+        assert_eq!(ground_spacing(100.0), 2.0);
+        for width in [1.0f32, 33.0, 1e3, 7.7e6, 1e30, 3e38] {
+            let step = ground_spacing(width);
+            assert!(width / step <= MOST_GROUND_LINES, "{width}: {step}");
+            assert!(step >= 0.25 && step.is_finite(), "{width}: {step}");
+        }
+    }
 }

@@ -6,7 +6,7 @@ use glam::Vec3;
 
 use super::format::{Body, Fill, PinRegion};
 use super::rules::{
-    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite3, positive, springs,
+    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite3, positive, springs, within_reach,
 };
 use crate::mesh::{Edges, Lattice, TriMesh};
 
@@ -148,6 +148,14 @@ pub(super) fn mesh_body(f: &str, b: &Body) -> Check {
         );
     }
     let x = b.placed_vertices();
+    let far = x.iter().map(|p| p.as_dvec3().length()).fold(0.0, f64::max);
+    within_reach(
+        &format!("{f}.scale"),
+        if far.is_nan() { f64::INFINITY } else { far },
+        &format!(
+            "mesh '{file}' at this scale and origin_m is too large; scale it down (is it in millimetres or metres?)"
+        ),
+    )?;
     resolution(f, b, mesh, &x, file)?;
     match b.fill {
         Fill::None => {

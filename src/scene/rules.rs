@@ -109,5 +109,28 @@ pub(super) fn springs(f: &str, b: &Body) -> Check {
 /// the force noise, or (at a few ulps and below) puts both ends on one point.
 pub const MIN_SPRING_ULPS: f64 = 64.0;
 
+/// The farthest from the origin a body may start, in metres. The state is f32: beyond this a
+/// mass's spring lengths squared, its energies (k L², m g h) and its speeds over a step leave
+/// the range and resolution the solvers and the ledger need (a 64-mass cube at spacing_m = 1e30
+/// once went to infinite strain in its first step). Bodies of hair, cloth and jello are metres
+/// across; a kilometre-scale scene fits a thousand times over.
+pub const LARGEST_REACH_M: f64 = 1e6;
+
+/// A body that starts up to `far` metres from the origin, checked against `LARGEST_REACH_M`;
+/// `field` is the value to change.
+pub(super) fn within_reach(field: &str, far: f64, fix: &str) -> Check {
+    if far <= LARGEST_REACH_M {
+        return Ok(());
+    }
+    fail(
+        field.to_owned(),
+        format!(
+            "places the body up to {far:.3e} m from the origin, beyond the {LARGEST_REACH_M:.0e} m \
+             a body may start at (f32 positions, energies and strains lose their range and \
+             resolution there): {fix}"
+        ),
+    )
+}
+
 /// Relative spacing of f32 numbers: one ulp of x is at most |x| · 2⁻²³.
 pub(super) const F32_EPSILON: f64 = 1.0 / 8_388_608.0;

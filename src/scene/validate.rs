@@ -5,7 +5,7 @@ use super::format::{Body, Keyframe, Scene, SelfCollision};
 use super::mesh_checks;
 use super::rules::{
     Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite, finite3, non_negative, positive,
-    springs,
+    springs, within_reach,
 };
 
 /// Colliders per scene: the GPU passes every collider's pose in each stage's uniform slot.
@@ -450,6 +450,11 @@ fn geometry(f: &str, b: &Body, spacing: f32) -> Check {
     let origin = glam::Vec3::from(b.origin_m).as_dvec3().length();
     // The farthest a mass lies from the origin at the start, and one ulp there.
     let far = origin + s * reach;
+    within_reach(
+        &format!("{f}.spacing_m"),
+        far,
+        "use a smaller spacing_m or fewer masses, and an origin_m nearer to [0, 0, 0]",
+    )?;
     let ulp = far * F32_EPSILON;
     let kinds = [
         (

@@ -29,6 +29,20 @@ pub fn hooke(args: &[&str]) -> Output {
         .unwrap_or_else(|e| panic!("cannot run hooke: {e}"))
 }
 
+/// `hooke` with `args`, its address space capped at `bytes` (`ulimit -v`): an allocation that
+/// grows with a bad input fails the run (and the test) instead of the machine.
+pub fn hooke_within_memory(args: &[&str], bytes: u64) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {} && exec \"$0\" \"$@\"", bytes / 1024))
+        .arg(env!("CARGO_BIN_EXE_hooke"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run hooke: {e}"))
+}
+
 /// `hooke run SCENE --backend cpu` followed by `rest`: the arguments of a run on the CPU backend.
 pub fn cpu_run<'a>(scene: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec!["run", scene, "--backend", "cpu"];

@@ -415,6 +415,74 @@ fn each_bad_mesh_is_refused_with_one_clear_error() {
     assert_eq!(m.mass_count(), 125);
 }
 
+/// A one-triangle glTF with its buffer inline: positions (VEC3, FLOAT), indices of component
+/// type `index_type` and count `index_count`, and the scene's `nodes`.
+fn triangle_gltf(index_type: u32, index_count: u32, nodes: &str) -> String {
+    use base64::Engine as _;
+    let mut bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
+    let data = base64::engine::general_purpose::STANDARD.encode(&bin);
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":{nodes},
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":{index_type},"count":{index_count},"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":8}}],
+"buffers":[{{"byteLength":44,"uri":"data:application/octet-stream;base64,{data}"}}]}}"#
+    )
+}
+
+/// What `gltf` 1.4 reads without checking is checked first: a float index accessor (the reader
+/// reached `unreachable!`: a panic and exit 101), a cycle of nodes (the walk grew to 6 GB), an
+/// accessor past its buffer view; each is one error naming the file and what is wrong.
+#[test]
+fn a_gltf_that_would_crash_its_reader_is_refused_with_what_is_wrong() {
+    let dir = temp_dir("mesh-gltf-guard");
+    let write = |name: &str, body: &str| {
+        std::fs::write(dir.join(name), body).unwrap_or_else(|e| panic!("{e}"));
+    };
+    let no_bending = "[bodies.springs]\nstructural = { stiffness_n_per_m = 100.0 }\n";
+    write("good.gltf", &triangle_gltf(5123, 3, r#"[{"mesh":0}]"#));
+    assert_eq!(
+        model(&dir, &scene_text("good.gltf", no_bending)).mass_count(),
+        3
+    );
+    write("float.gltf", &triangle_gltf(5126, 3, r#"[{"mesh":0}]"#));
+    refused(
+        &dir,
+        &scene_text("float.gltf", no_bending),
+        &[
+            "float.gltf",
+            "accessor 1",
+            "components are F32",
+            "indices of one unsigned",
+        ],
+    );
+    write(
+        "cycle.gltf",
+        &triangle_gltf(5123, 3, r#"[{"mesh":0,"children":[1]},{"children":[0]}]"#),
+    );
+    refused(
+        &dir,
+        &scene_text("cycle.gltf", no_bending),
+        &["cycle.gltf", "node 0 is its own ancestor"],
+    );
+    write("long.gltf", &triangle_gltf(5123, 3000, r#"[{"mesh":0}]"#));
+    refused(
+        &dir,
+        &scene_text("long.gltf", no_bending),
+        &[
+            "long.gltf",
+            "accessor 1",
+            "3000 elements reach byte 6000",
+            "8 bytes long",
+        ],
+    );
+}
+
 /// A unit cube, its faces quads.
 const CUBE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
                     f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";

@@ -3,6 +3,7 @@
 //! a body's mesh with [`read`], the model builds springs and masses from it.
 
 mod edges;
+mod guard;
 mod lattice;
 mod order;
 mod read;

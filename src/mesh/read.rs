@@ -6,6 +6,7 @@ use std::collections::HashMap;
 
 use glam::{Mat4, Vec3};
 
+use super::guard::{AccessorProblem, check_accessors, node_cycle, without_panics};
 use super::tri_mesh::TriMesh;
 
 /// The formats read, from a file's extension.
@@ -48,14 +49,22 @@ pub enum MeshError {
         index: usize,
         source: base64::DecodeError,
     },
-    #[error(
-        "its mesh {mesh} reads positions from accessor {accessor}, but it has {count} accessors"
-    )]
-    NoAccessor {
+    #[error("its mesh {mesh} reads accessor {accessor}, but {problem}")]
+    BadAccessor {
         mesh: usize,
         accessor: usize,
-        count: usize,
+        problem: AccessorProblem,
     },
+    #[error(
+        "its node {node} is its own ancestor (or has two parents): glTF's nodes form trees; fix \
+         the `children` lists"
+    )]
+    NodeCycle { node: usize },
+    #[error(
+        "the {reader} reader failed inside (a panic, caught): the file is malformed in a way it \
+         does not check; re-export it"
+    )]
+    ReaderPanicked { reader: &'static str },
     #[error("its buffer {index} is the GLB's binary chunk, but the file has none")]
     NoBinaryChunk { index: usize },
     #[error(
@@ -72,6 +81,14 @@ pub enum MeshError {
 /// what a scene may hold anyway).
 pub const MAX_TRIANGLES: usize = 1 << 20;
 
+fn bad_accessor((mesh, accessor, problem): (usize, usize, AccessorProblem)) -> MeshError {
+    MeshError::BadAccessor {
+        mesh,
+        accessor,
+        problem,
+    }
+}
+
 /// Read `bytes` as `format`; `external` reads a glTF's other files (its buffers) by their URI.
 pub fn read(
     bytes: &[u8],
@@ -79,10 +96,14 @@ pub fn read(
     external: &dyn Fn(&str) -> std::io::Result<Vec<u8>>,
 ) -> Result<TriMesh, MeshError> {
     let mut w = Welder::default();
-    match format {
-        Format::Obj => read_obj(bytes, &mut w)?,
-        Format::Gltf => read_gltf(bytes, external, &mut w)?,
-    }
+    let (reader, read) = match format {
+        Format::Obj => ("tobj", without_panics(|| read_obj(bytes, &mut w))),
+        Format::Gltf => (
+            "gltf",
+            without_panics(|| read_gltf(bytes, external, &mut w)),
+        ),
+    };
+    read.ok_or(MeshError::ReaderPanicked { reader })??;
     w.finish()
 }
 
@@ -235,23 +256,9 @@ fn read_gltf(
     w: &mut Welder,
 ) -> Result<(), MeshError> {
     let raw = gltf::Gltf::from_slice_without_validation(bytes)?;
-    // gltf 1.4's validation indexes the accessors by a primitive's POSITION without a bounds
-    // check (a panic on a corrupt file): that index is checked here first.
-    let accessors = raw.as_json().accessors.len();
-    for (m, mesh) in raw.as_json().meshes.iter().enumerate() {
-        for p in &mesh.primitives {
-            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
-            if let Some(a) = p.attributes.get(&position)
-                && a.value() >= accessors
-            {
-                return Err(MeshError::NoAccessor {
-                    mesh: m,
-                    accessor: a.value(),
-                    count: accessors,
-                });
-            }
-        }
-    }
+    // gltf 1.4's validation indexes the accessors by a primitive's attributes without a bounds
+    // check (a panic on a corrupt file): those indices are checked here first.
+    check_accessors(raw.as_json(), None).map_err(bad_accessor)?;
     let doc = gltf::Gltf {
         blob: raw.blob,
         document: gltf::Document::from_json(raw.document.into_json())?,
@@ -260,10 +267,19 @@ fn read_gltf(
         .buffers()
         .map(|b| buffer_data(&doc, &b, external))
         .collect::<Result<Vec<_>, _>>()?;
+    check_accessors(doc.as_json(), Some(&buffers)).map_err(bad_accessor)?;
     // Nodes of the default scene (or the first) with their world transforms; a file with no
     // scene gives its meshes as they are.
     let mut placed: Vec<(gltf::Node, Mat4)> = Vec::new();
     if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
+        let children: Vec<Vec<usize>> = doc
+            .nodes()
+            .map(|n| n.children().map(|c| c.index()).collect())
+            .collect();
+        let roots: Vec<usize> = scene.nodes().map(|n| n.index()).collect();
+        if let Some(node) = node_cycle(&children, &roots) {
+            return Err(MeshError::NodeCycle { node });
+        }
         let mut stack: Vec<(gltf::Node, Mat4)> =
             scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {

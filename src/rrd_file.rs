@@ -25,10 +25,81 @@ const FRAME_TIMELINE: &str = "frame";
 /// The recording file could not be created (its cause is part of the message, not a separate
 /// source, so that a chain of causes prints it once).
 #[derive(Debug, thiserror::Error)]
-#[error("cannot create the recording {}: {cause}", path.display())]
-pub struct CreateError {
-    pub path: PathBuf,
-    pub cause: std::io::Error,
+pub enum CreateError {
+    #[error("cannot create the recording {}: {cause}", path.display())]
+    Io {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+    /// Another process holds the lock on the file's `.partial` twin.
+    #[error(
+        "{} is being written by another run{}: wait for it to end, or record elsewhere with \
+         --save FILE",
+        path.display(),
+        pid.map_or_else(String::new, |p| format!(" (pid {p})"))
+    )]
+    Busy { path: PathBuf, pid: Option<i32> },
+}
+
+/// Where a recording is written until its run ends: `FILE.partial`, beside `FILE`, renamed to
+/// `FILE` however the run ends (`RrdFile::finish`). A second run on the same `FILE` finds the
+/// partial file locked and is refused, and an older `FILE` stays whole until the new one
+/// replaces it.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+/// A write lock on the whole of `file` for this process (a POSIX record lock, which names its
+/// holder): `Err(Some(pid))` where another process holds it.
+fn lock_whole(file: &File) -> Result<(), Option<i32>> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: `flock` is plain data, zero is a valid value of each field, and the descriptor
+    // stays open for both calls.
+    let mut l: libc::flock = unsafe { std::mem::zeroed() };
+    l.l_type = libc::F_WRLCK as _;
+    l.l_whence = libc::SEEK_SET as _;
+    let fd = file.as_raw_fd();
+    if unsafe { libc::fcntl(fd, libc::F_SETLK, &l) } == 0 {
+        return Ok(());
+    }
+    let asked = unsafe { libc::fcntl(fd, libc::F_GETLK, &mut l) } == 0;
+    Err((asked && i32::from(l.l_type) != libc::F_UNLCK).then_some(l.l_pid))
+}
+
+/// `partial` opened, locked and emptied. A run that finished and renamed it between our open
+/// and our lock leaves us holding its finished file: that is noticed (the path no longer names
+/// what we hold) and the open is tried again.
+fn open_locked(path: &Path, partial: &Path) -> Result<File, CreateError> {
+    use std::os::unix::fs::MetadataExt as _;
+    let io = |cause| CreateError::Io {
+        path: path.to_owned(),
+        cause,
+    };
+    for _ in 0..4 {
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .read(true)
+            .write(true)
+            .open(partial)
+            .map_err(io)?;
+        lock_whole(&file).map_err(|pid| CreateError::Busy {
+            path: path.to_owned(),
+            pid,
+        })?;
+        let held = file.metadata().map_err(io)?;
+        let named = std::fs::metadata(partial).ok();
+        if named.is_some_and(|n| (n.dev(), n.ino()) == (held.dev(), held.ino())) {
+            file.set_len(0).map_err(io)?;
+            return Ok(file);
+        }
+    }
+    Err(CreateError::Busy {
+        path: path.to_owned(),
+        pid: None,
+    })
 }
 
 /// Why the file stopped growing, and how much of the run it holds.
@@ -137,12 +208,16 @@ struct Writer {
     file: Option<File>,
     /// Bytes of whole messages in the file.
     committed: u64,
+    /// Whether the partial file has taken the recording's name.
+    published: bool,
     frames: FrameWatermark,
     failure: Option<WriteFailure>,
 }
 
 struct Shared {
     path: PathBuf,
+    /// Where the bytes go until the run ends (`partial_path`).
+    partial: PathBuf,
     failed: AtomicBool,
     writer: Mutex<Writer>,
 }
@@ -168,6 +243,15 @@ impl Shared {
                 self.fail(&mut w, cause(e), advice, false);
             }
         }
+    }
+
+    /// Give the partial file the recording's name (once): the run has ended, however it ended.
+    fn publish(&self, w: &mut Writer) -> std::io::Result<()> {
+        if w.published {
+            return Ok(());
+        }
+        w.published = true;
+        std::fs::rename(&self.partial, &self.path)
     }
 
     /// Stop writing: cut the file back to its whole messages and remember why.
@@ -249,33 +333,21 @@ pub struct RrdFile {
     shared: Arc<Shared>,
 }
 
-/// Create `path` and write the stream's header. Without `footer`, the file ends with no chunk
-/// index, and no index is kept in memory while it is written (long runs: see BENCHMARKS.md).
+/// Create `path` (written as `partial_path(path)` until the run ends) and write the stream's
+/// header. Without `footer`, the file ends with no chunk index, and no index is kept in memory
+/// while it is written (long runs: see BENCHMARKS.md). A file that cannot be started leaves
+/// nothing behind.
 pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), CreateError> {
-    let create_error = |cause: std::io::Error| CreateError {
-        path: path.to_owned(),
-        cause,
-    };
-    let file = File::create(path).map_err(create_error)?;
-    let twin = file.try_clone().map_err(create_error)?;
-    let mut encoder = Encoder::new_eager(
-        CrateVersion::LOCAL,
-        EncodingOptions::PROTOBUF_COMPRESSED,
-        file,
-    )
-    .map_err(|e| CreateError {
-        path: path.to_owned(),
-        cause: match e {
-            EncodeError::Write(io) => io,
-            other => std::io::Error::other(cause(other)),
-        },
-    })?;
-    if !footer {
-        encoder.do_not_emit_footer();
+    let partial = partial_path(path);
+    let file = open_locked(path, &partial)?;
+    let started = start(path, file, footer);
+    if started.is_err() {
+        let _ = std::fs::remove_file(&partial);
     }
-    let committed = twin.metadata().map_err(create_error)?.len();
+    let (encoder, twin, committed) = started?;
     let shared = Arc::new(Shared {
         path: path.to_owned(),
+        partial,
         failed: AtomicBool::new(false),
         writer: Mutex::new(Writer {
             encoder: Some(encoder),
@@ -290,6 +362,32 @@ pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), Creat
         },
         RrdFile { shared },
     ))
+}
+
+/// The stream's header written to `file`; the encoder, a twin of the file to cut it back, and
+/// the bytes written.
+fn start(path: &Path, file: File, footer: bool) -> Result<(Encoder<File>, File, u64), CreateError> {
+    let create_error = |cause: std::io::Error| CreateError::Io {
+        path: path.to_owned(),
+        cause,
+    };
+    let twin = file.try_clone().map_err(create_error)?;
+    let mut encoder = Encoder::new_eager(
+        CrateVersion::LOCAL,
+        EncodingOptions::PROTOBUF_COMPRESSED,
+        file,
+    )
+    .map_err(|e| {
+        create_error(match e {
+            EncodeError::Write(io) => io,
+            other => std::io::Error::other(cause(other)),
+        })
+    })?;
+    if !footer {
+        encoder.do_not_emit_footer();
+    }
+    let committed = twin.metadata().map_err(create_error)?.len();
+    Ok((encoder, twin, committed))
 }
 
 impl std::fmt::Debug for RrdFile {
@@ -315,9 +413,28 @@ impl RrdFile {
         self.shared.lock().failure.clone()
     }
 
-    /// Write the end of the file (its index, unless left out) and make it durable. Call after
-    /// the recording stream's last flush; later messages are dropped.
+    /// Write the end of the file (its index, unless left out), make it durable and give it its
+    /// name (the partial file is renamed whether or not the end could be written: every whole
+    /// frame in it is readable). Call after the recording stream's last flush; later messages
+    /// are dropped.
     pub fn finish(&self) -> Result<(), WriteFailure> {
+        let ended = self.end();
+        let mut w = self.shared.lock();
+        let published = self.shared.publish(&mut w);
+        match (ended, published) {
+            (Err(f), _) => Err(f),
+            (Ok(()), Ok(())) => Ok(()),
+            (Ok(()), Err(e)) => Err(self.shared.fail(
+                &mut w,
+                cause(EncodeError::Write(e)),
+                "The frames are in the .partial file beside it: rename it",
+                true,
+            )),
+        }
+    }
+
+    /// `finish` before the rename.
+    fn end(&self) -> Result<(), WriteFailure> {
         let mut w = self.shared.lock();
         if let Some(f) = &w.failure {
             return Err(f.clone());
@@ -340,6 +457,20 @@ impl RrdFile {
                 let advice = advice(&e);
                 Err(self.shared.fail(&mut w, cause(e), advice, true))
             }
+        }
+    }
+}
+
+impl Drop for Shared {
+    /// A run that never reached `finish` (a panic unwinding) still leaves its frames at the
+    /// recording's name.
+    fn drop(&mut self) {
+        let w = self.writer.get_mut().unwrap_or_else(|p| p.into_inner());
+        // The encoder, dropped after this, ends the file through its descriptor, renamed or
+        // not.
+        if !w.published {
+            w.published = true;
+            let _ = std::fs::rename(&self.partial, &self.path);
         }
     }
 }

@@ -118,6 +118,76 @@ fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// Two runs saving to one path cannot interleave (they used to, leaving one recording followed
+/// by megabytes of the other's): a run writes `FILE.partial`, locked, and the second run on the
+/// same path is refused naming the first one's pid, with nothing written. The first, stopped,
+/// gives its file its name and leaves no partial file behind. `--save` with `--stdout` or
+/// `--serve` is refused rather than silently dropped.
+#[test]
+fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end() {
+    let dir = temp_dir("one-file");
+    let scene = dir.join("jello-forever.toml");
+    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let path = dir.join("shared.rrd");
+    let partial = dir.join("shared.rrd.partial");
+    let save = path.to_string_lossy().into_owned();
+    let mut first = hooke_command(&cpu_run(&scene.to_string_lossy(), &["--save", &save]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let since = Instant::now();
+    while !partial.exists() {
+        assert!(since.elapsed() < Duration::from_secs(30), "no partial file");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        !path.exists(),
+        "the file took its name before the run ended"
+    );
+    let second = hooke(&cpu_run("hair", &["--frames", "2", "--save", &save]));
+    let err = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!(
+            "{save} is being written by another run (pid {})",
+            first.id()
+        )),
+        "{err}"
+    );
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &first.id().to_string()])
+        .status()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(sent.success());
+    let (status, _) = wait_exit(&mut first, Instant::now());
+    assert_eq!(status.code(), Some(130));
+    assert!(!partial.exists(), "the partial file was left behind");
+    let rec = read_rrd(&path);
+    assert_eq!(
+        rec.complete_frames(),
+        1,
+        "frame 0 is whole at the file's name"
+    );
+    assert!(rec.has_footer);
+    for flag in ["--stdout", "--serve"] {
+        let other = dir.join("other.rrd");
+        let out = hooke(&cpu_run(
+            "hair",
+            &["--frames", "2", "--save", &other.to_string_lossy(), flag],
+        ));
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag}: {err}");
+        assert!(
+            err.contains(&format!("and {flag} both ask for the recording")),
+            "{flag}: {err}"
+        );
+        assert!(!other.exists(), "{flag}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// A backend whose every substep takes a millisecond of wall time (a CPU or GPU on a huge scene).
 struct Slow {
     steps: u64,

@@ -71,7 +71,9 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
             &path.to_string_lossy(),
         ],
     ));
-    wait_for(|| file_size(&path) > 200_000, "frames in the file");
+    // The run writes the partial file, which takes the file's name when the run ends.
+    let partial = dir.join("hair.rrd.partial");
+    wait_for(|| file_size(&partial) > 200_000, "frames in the file");
     viewer.kill().unwrap_or_else(|e| panic!("{e}"));
     let _ = viewer.wait();
     let said = run.expect("went away");
@@ -80,9 +82,9 @@ fn a_viewer_that_goes_away_leaves_the_run_recording_to_the_named_file() {
         "{said}"
     );
     // Still recording: the file keeps growing after the viewer left.
-    let size = file_size(&path);
+    let size = file_size(&partial);
     wait_for(
-        || file_size(&path) > size + 100_000,
+        || file_size(&partial) > size + 100_000,
         "the file to grow after the viewer went away",
     );
     run.signal("-INT");

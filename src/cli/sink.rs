@@ -31,7 +31,8 @@ fn viewer_unavailable() -> Option<String> {
     None
 }
 
-fn explicit(m: &clap::ArgMatches, id: &str) -> bool {
+/// Whether the command line gave `id` itself (not its default).
+pub fn explicit(m: &clap::ArgMatches, id: &str) -> bool {
     m.try_contains_id(id).unwrap_or(false)
         && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
 }
@@ -88,6 +89,26 @@ fn buffered() -> anyhow::Result<rerun::RecordingStream> {
     Ok(rec)
 }
 
+/// A scene's name as a file name in the working folder: characters other than letters, digits,
+/// `-`, `_` and `.` become `_`, and leading dots go (a scene named "../../x" must not write
+/// outside the folder, nor make a hidden file).
+pub fn file_stem_of(name: &str) -> String {
+    let safe: String = name
+        .chars()
+        .map(
+            |c| match c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                true => c,
+                false => '_',
+            },
+        )
+        .collect();
+    let safe = safe.trim_start_matches('.');
+    match safe.is_empty() {
+        true => "recording".to_owned(),
+        false => safe.to_owned(),
+    }
+}
+
 /// A recording stream whose only sink is our `.rrd` writer at `path`.
 fn file_recording(
     path: &std::path::Path,
@@ -113,6 +134,23 @@ pub fn open_sink(
         .then(|| m.get_one::<PathBuf>("save").cloned())
         .flatten();
     let connect = explicit(m, "connect");
+    if let Some(path) = &save {
+        let other = [
+            ("stdout", "`--stdout > FILE` saves it too"),
+            (
+                "serve",
+                "the web viewer serves it from memory: run with --save alone and open the file, or with --serve alone",
+            ),
+        ]
+        .into_iter()
+        .find(|(flag, _)| explicit(m, flag));
+        if let Some((flag, instead)) = other {
+            anyhow::bail!(
+                "--save {} and --{flag} both ask for the recording, and Hooke does not do both: {instead}",
+                path.display()
+            );
+        }
+    }
     if explicit(m, "stdout") {
         let (rec, _no_serving) = rerun_args
             .init(hooke::record::APPLICATION_ID)
@@ -143,7 +181,7 @@ pub fn open_sink(
                 format!("rerun+http://127.0.0.1:{}/proxy", info.port)
             }
             Err(why) => {
-                let path = PathBuf::from(format!("{scene_name}.rrd"));
+                let path = PathBuf::from(format!("{}.rrd", file_stem_of(scene_name)));
                 eprintln!("{why}; recording to {} instead", path.display());
                 let (rec, file) = file_recording(&path, !output.no_rrd_footer)?;
                 return Ok(Sink::stream(rec, Some(path), Some(file)));
@@ -251,4 +289,19 @@ fn percent_encode(s: &str) -> String {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::file_stem_of;
+
+    #[test]
+    fn a_scene_name_becomes_a_file_name_in_the_working_folder() {
+        assert_eq!(file_stem_of("cloth"), "cloth");
+        assert_eq!(file_stem_of("../../pwned"), "_.._pwned");
+        assert_eq!(file_stem_of(".hidden"), "hidden");
+        assert_eq!(file_stem_of("a b/c"), "a_b_c");
+        assert_eq!(file_stem_of("..."), "recording");
+        assert_eq!(file_stem_of(""), "recording");
+    }
 }

@@ -22,5 +22,8 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         ledger[i].z += b.dissipated;
         ledger[i].w += b.work;
         atomicAdd(&counters[0], b.count);
+        if (b.deep > 0u) {
+            atomicAdd(&counters[7], b.deep);
+        }
     }
 }

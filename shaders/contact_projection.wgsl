@@ -12,7 +12,12 @@ struct Body {
     dissipated: f32,
     work: f32,
     count: u32,
+    // Contacts deeper than DEEP_SHARE times their allowed depth (src/cpu/collide.rs's Projected).
+    deep: u32,
 }
+
+// src/cpu/collide.rs's DEEP_SHARE.
+const DEEP_SHARE: f32 = 2.0;
 
 fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: f32, collider_v: vec3<f32>) {
     if (depth <= max_depth) {
@@ -20,6 +25,9 @@ fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: 
     }
     (*b).x += n * (depth - max_depth);
     (*b).count += 1u;
+    if (depth > DEEP_SHARE * max_depth) {
+        (*b).deep += 1u;
+    }
     let vn = dot((*b).v - collider_v, n);
     if (vn >= 0.0) {
         return;
@@ -35,7 +43,7 @@ fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: 
 
 // Mass m at (x, v) pushed out to each contact's allowed depth; count = 0 when nothing moved.
 fn project_body(m: f32, x: vec3<f32>, v: vec3<f32>) -> Body {
-    var b = Body(x, v, 0.0, 0.0, 0u);
+    var b = Body(x, v, 0.0, 0.0, 0u, 0u);
     if (HAS_GROUND) {
         project(&b, m, vec3<f32>(0.0, 1.0, 0.0), params.ground_height - b.x.y, params.ground_max_depth, vec3<f32>(0.0));
     }

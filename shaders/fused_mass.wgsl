@@ -84,6 +84,9 @@ fn end_step(i: u32, x: vec3<f32>, v: vec3<f32>, ledger_i: vec4<f32>, step: u32) 
             l.z += b.dissipated;
             l.w += b.work;
             atomicAdd(&counters[0], b.count);
+            if (b.deep > 0u) {
+                atomicAdd(&counters[7], b.deep);
+            }
         }
     }
     return MassStep(xn, vn, l);

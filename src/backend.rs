@@ -3,7 +3,7 @@
 //! they stop with, and what every backend shares (the divergence check). Which backend a run
 //! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
 
-use crate::divergence::{Divergence, Fault, StrainedSpring, Unconverged};
+use crate::divergence::{Divergence, Fault, StrainedSpring, Unconverged, Unphysical};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::stability::{Modes, stable_step};
@@ -19,6 +19,10 @@ pub enum BackendError {
     /// the last was delivered.
     #[error(transparent)]
     Unconverged(Box<Unconverged>),
+    /// The energy ledger went non-finite or ran away while the state stayed finite; every
+    /// frame before the last was delivered.
+    #[error(transparent)]
+    Unphysical(Box<Unphysical>),
     /// The device failed or refused the run (lost, out of memory, no adapter, scene beyond its
     /// limits): the backend's own typed error, kept whole (the GPU's `gpu::AdapterError` or
     /// `gpu::DeviceError`, which this layer below the backends cannot name).
@@ -174,6 +178,7 @@ pub fn advance_steps(be: &mut dyn Backend, steps: u64, batch: u32) -> Result<(),
 /// Speed beyond which a state counts as runaway: nothing in a mass-spring scene moves at 10 km/s
 /// unless the integration has gone unstable, and stopping there keeps the last frames readable.
 pub const RUNAWAY_SPEED_M_PER_S: f32 = 1.0e4;
+const _: () = assert!(RUNAWAY_SPEED_M_PER_S == crate::scene::MAX_START_SPEED_M_PER_S);
 
 /// The first mass whose state is non-finite or runaway, described for the user: what went
 /// wrong, its most strained spring, and the stability limit its step crossed there.

@@ -133,6 +133,7 @@ pub fn run_comparison(
             let what = match &e {
                 BackendError::Diverged(_) => "diverged",
                 BackendError::Unconverged(_) => "did not converge",
+                BackendError::Unphysical(_) => "broke its energy ledger",
                 BackendError::Device(_) => "its device failed",
                 BackendError::Internal(_) => "hit an internal error",
             };

@@ -191,3 +191,62 @@ pub struct Unconverged {
     /// What else to try for this solver.
     pub instead: &'static str,
 }
+
+/// The run went unphysical while its state stayed finite: an energy term no longer finite
+/// (forces or energies past the range of the numbers that hold them: a gravity of 1e30 m/s²
+/// held the masses on the ground and booked infinite contact work), a balance that rose by more
+/// than all the energy the run held or moved, or an impact too fast for the step, which the
+/// contact safeguard would resolve by flattening the body. The run stops as it does for a
+/// divergence (`solver_watch`); the frame that showed it is not recorded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Unphysical {
+    #[error(
+        "the energy ledger went non-finite at frame {frame}: {term} is {value} while the state \
+         stayed finite. Forces or energies have left the range they are held in: check the \
+         scene's magnitudes (gravity, stiffnesses, masses, start speeds) for one far beyond \
+         the physical"
+    )]
+    NonFinite {
+        frame: u64,
+        /// The recording's name for the term (`energy/...`).
+        term: &'static str,
+        value: f64,
+    },
+    #[error(
+        "the energy balance rose by {gained_j:.4e} J to frame {frame}, more than the \
+         {moved_j:.4e} J the run held or moved, for {frames} frames running: the integrator is \
+         making energy, and the \
+         results are not physics. Try a smaller step (--dt, or more substeps) or a more stable \
+         integrator (implicit, bdf2)"
+    )]
+    EnergyRunaway {
+        frame: u64,
+        frames: u32,
+        gained_j: f64,
+        moved_j: f64,
+    },
+    #[error(
+        "an impact in frame {frame} was too fast for the step: masses sank more than a grid \
+         spacing into a collider within one step of {dt_secs:.3e} s ({masses} times in the \
+         frame's steps){}, and the contact safeguard would flatten the body to put them back. {}",
+        speed_m_per_s.map_or_else(String::new, |v| format!(" (the bodies moved at about {v:.3e} m/s)")),
+        resolving_dt_secs.map_or_else(
+            || "Use a smaller step (--dt), or a lower speed".to_owned(),
+            |dt| format!(
+                "A step of dt ≤ {dt:.3e} s (--dt {dt:.3e}) keeps each step's sink within the \
+                 contact's depth; a body this fast may still be crushed where its springs \
+                 cannot stop it, so a lower speed or stiffer springs may be what the scene needs"
+            )
+        )
+    )]
+    UnresolvedImpact {
+        frame: u64,
+        masses: u32,
+        dt_secs: f64,
+        /// The bodies' RMS speed before the impact, where they moved.
+        speed_m_per_s: Option<f64>,
+        /// The step at which a mass at that speed sinks, in one step, no deeper than the
+        /// contact allows.
+        resolving_dt_secs: Option<f64>,
+    },
+}

@@ -166,6 +166,16 @@ impl Settings {
                 p.name()
             ));
         }
+        for (given, owner, what) in [
+            (o.xpbd_iterations, Integrator::Xpbd, "--xpbd-iterations"),
+            (o.vbd_iterations, Integrator::Vbd, "--vbd-iterations"),
+        ] {
+            if given.is_some() && integrator != owner {
+                notes.push(format!(
+                    "{what} sets {owner}'s sweeps; {integrator} has none and ignores it"
+                ));
+            }
+        }
         Ok(Self {
             integrator,
             frame_rate_hz: fps,

@@ -4,7 +4,8 @@
 //! `STUCK_FRAMES` frames in a row whose steps leave more than `STUCK_RESIDUAL` of backward
 //! Euler's equations unmet stop the run as a divergence does (`divergence::Unconverged`); a
 //! balance that rises beyond `GAIN_SHARE` of the energy that moved is said once
-//! (`FrameNote::EnergyGained`). A driver that computes the wrong thing shows up here even where
+//! (`FrameNote::EnergyGained`), and one that rises past all the energy the run held or moved, or a ledger term that is no
+//! longer finite, stops the run (`divergence::Unphysical`). A driver that computes the wrong thing shows up here even where
 //! no test has run on it.
 //!
 //! Measured on the built-in scenes on the CPU (60 frames each, BENCHMARKS.md, "Solvers report
@@ -15,7 +16,7 @@
 //! warn of (`stability::sweep_warning`).
 
 use crate::backend::{Backend, BackendError, Then};
-use crate::divergence::Unconverged;
+use crate::divergence::{Unconverged, Unphysical};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::physics::{VBD_RESIDUAL, newton_residual};
@@ -40,6 +41,15 @@ pub const STUCK_RESIDUAL: f64 = 0.5;
 /// accuracy` measures it); a rise is never physical.
 pub const GAIN_SHARE: f64 = 0.1;
 
+/// The share of the energy that moved (or that the run held at its start, if more) by which a
+/// rise of the balance stops the run: more energy made than the run ever held or moved is no
+/// longer a scheme's drift.
+pub const RUNAWAY_SHARE: f64 = 1.0;
+
+/// Frames in a row the balance must stay past `RUNAWAY_SHARE` before the run stops: a sixth of
+/// a second at 60 frames a second.
+pub const RUNAWAY_FRAMES: u32 = 10;
+
 /// What the watch keeps between frames.
 #[derive(Debug)]
 pub struct SolverWatch {
@@ -53,7 +63,13 @@ pub struct SolverWatch {
     said_short: bool,
     start_balance_j: Option<f64>,
     most_kinetic_j: f64,
+    /// The movable masses' total, the RMS speed of the last frame, and the least depth a
+    /// contact allows before the safeguard projects (none without contacts).
+    movable_kg: f64,
+    last_speed_m_per_s: f64,
+    allowed_depth_m: Option<f64>,
     said_gain: bool,
+    runaway_in_a_row: u32,
 }
 
 impl SolverWatch {
@@ -77,15 +93,63 @@ impl SolverWatch {
             said_short: false,
             start_balance_j: None,
             most_kinetic_j: 0.0,
+            movable_kg: (0..model.mass_count())
+                .filter(|&i| model.inv_mass[i] != 0.0)
+                .map(|i| f64::from(model.mass_kg[i]))
+                .sum(),
+            last_speed_m_per_s: 0.0,
+            allowed_depth_m: model
+                .effects
+                .ground
+                .iter()
+                .map(|g| g.max_depth_m)
+                .chain(model.effects.colliders.iter().map(|c| c.max_depth_m))
+                .map(f64::from)
+                .reduce(f64::min),
             said_gain: false,
+            runaway_in_a_row: 0,
         }
     }
 
-    /// Look at one frame: notes go onto it; a solver stuck short of its rule stops the run.
-    pub fn frame(&mut self, snap: &mut Snapshot) -> Result<(), Unconverged> {
-        self.solver(snap)?;
-        self.energy(snap);
-        Ok(())
+    /// Look at one frame: notes go onto it; a solver stuck short of its rule, or a ledger gone
+    /// wrong, stops the run.
+    pub fn frame(&mut self, snap: &mut Snapshot) -> Result<(), BackendError> {
+        self.solver(snap)
+            .map_err(|u| BackendError::Unconverged(Box::new(u)))?;
+        // A ledger gone non-finite says more than the impact it may have come with.
+        let watched = self.energy(snap).and_then(|()| self.impact(snap));
+        self.last_speed_m_per_s = self.rms_speed(snap);
+        watched.map_err(|l| BackendError::Unphysical(Box::new(l)))
+    }
+
+    /// The movable masses' RMS speed in `snap`, from its kinetic energy.
+    fn rms_speed(&self, snap: &Snapshot) -> f64 {
+        match self.movable_kg > 0.0 {
+            true => (2.0 * snap.energies.kinetic_j.max(0.0) / self.movable_kg).sqrt(),
+            false => 0.0,
+        }
+    }
+
+    /// A frame where masses sank past a whole grid spacing in one step stops the run: the
+    /// safeguard that puts them back flattens the body (`cpu::Projected::deep`).
+    fn impact(&self, snap: &Snapshot) -> Result<(), Unphysical> {
+        let masses = snap.stats.deep_projections;
+        if masses == 0 {
+            return Ok(());
+        }
+        let speed = self.last_speed_m_per_s.max(self.rms_speed(snap));
+        let speed_m_per_s = (speed > 0.0 && speed.is_finite()).then_some(speed);
+        Err(Unphysical::UnresolvedImpact {
+            frame: snap.frame,
+            masses,
+            dt_secs: snap.stats.dt_secs,
+            speed_m_per_s,
+            // A speed gained within the frame (a huge force) makes no estimate of the step.
+            resolving_dt_secs: speed_m_per_s
+                .zip(self.allowed_depth_m)
+                .map(|(v, d)| d / v)
+                .filter(|&dt| dt < snap.stats.dt_secs),
+        })
     }
 
     fn solver(&mut self, snap: &mut Snapshot) -> Result<(), Unconverged> {
@@ -133,34 +197,60 @@ impl SolverWatch {
         })
     }
 
-    fn energy(&mut self, snap: &mut Snapshot) {
+    fn energy(&mut self, snap: &mut Snapshot) -> Result<(), Unphysical> {
         let e = &snap.energies;
+        // A non-finite state is the divergence check's to report (with the mass and spring);
+        // a ledger that breaks while the state holds is this watch's.
+        let state_finite = snap.positions.iter().all(|p| p.is_finite());
+        if let Some((term, value)) = e.first_non_finite().filter(|_| state_finite) {
+            return Err(Unphysical::NonFinite {
+                frame: snap.frame,
+                term,
+                value,
+            });
+        }
         let balance = e.balance_j();
         let start = *self.start_balance_j.get_or_insert(balance);
         self.most_kinetic_j = self.most_kinetic_j.max(e.kinetic_j);
         let moved = self.most_kinetic_j + e.ledger.dissipated_j() + e.ledger.collider_work_j.abs();
         let gained = balance - start;
-        // A non-finite balance is the divergence check's to report.
-        if self.said_gain || !gained.is_finite() || gained <= GAIN_SHARE * moved || gained <= 0.0 {
-            return;
+        // Against the energy the run held at its start as well, and for RUNAWAY_FRAMES frames in
+        // a row: a symplectic scheme's energy swings about its shadow's (early in a run, before
+        // much has moved, the swing can exceed what moved), while a scheme making energy keeps
+        // gaining; one that grows fast diverges first, and the divergence check names the mass.
+        let runaway = gained.is_finite() && gained > RUNAWAY_SHARE * moved.max(start.abs());
+        self.runaway_in_a_row = if runaway {
+            self.runaway_in_a_row + 1
+        } else {
+            0
+        };
+        if !gained.is_finite() || gained <= GAIN_SHARE * moved || gained <= 0.0 {
+            return Ok(());
         }
-        self.said_gain = true;
-        snap.notes.push(FrameNote::EnergyGained {
-            frame: snap.frame,
-            gained_j: gained,
-            moved_j: moved,
-            share: GAIN_SHARE,
-        });
+        if self.runaway_in_a_row >= RUNAWAY_FRAMES {
+            return Err(Unphysical::EnergyRunaway {
+                frame: snap.frame,
+                frames: self.runaway_in_a_row,
+                gained_j: gained,
+                moved_j: moved.max(start.abs()),
+            });
+        }
+        if !self.said_gain {
+            self.said_gain = true;
+            snap.notes.push(FrameNote::EnergyGained {
+                frame: snap.frame,
+                gained_j: gained,
+                moved_j: moved,
+                share: GAIN_SHARE,
+            });
+        }
+        Ok(())
     }
 }
 
 /// `inner` with its snapshots watched by `watch` as they are collected.
 pub fn watching(inner: Box<dyn Backend>, mut watch: SolverWatch) -> Box<dyn Backend> {
-    Box::new(Then::new(inner, move |s: &mut Snapshot| {
-        watch
-            .frame(s)
-            .map_err(|u| BackendError::Unconverged(Box::new(u)))
-    }))
+    Box::new(Then::new(inner, move |s: &mut Snapshot| watch.frame(s)))
 }
 
 #[cfg(test)]
@@ -230,7 +320,7 @@ mod tests {
             assert!(f.notes.is_empty());
         }
         let stuck = w.frame(&mut frame(100, 2, 0.0));
-        let Err(e) = stuck else {
+        let Err(BackendError::Unconverged(e)) = stuck else {
             panic!("not stopped: {stuck:?}");
         };
         assert_eq!((e.frame, e.frames), (100, STUCK_FRAMES));
@@ -275,5 +365,60 @@ mod tests {
         let mut again = frame(4, 0, 3.0);
         again.energies.gravity_j = 10.0;
         assert!(w.frame(&mut again).is_ok() && again.notes.is_empty());
+    }
+
+    /// A ledger term that is no longer finite while the state is stops the run, naming the
+    /// term; so does a balance that rises by more than all the energy the run held or moved. A non-finite
+    /// state is left to the divergence check, which names the mass.
+    #[test]
+    fn a_broken_ledger_stops_the_run_naming_what_broke() {
+        let mut w = watch(Integrator::SemiImplicit, 1e-4);
+        let mut start = frame(0, 0, 0.0);
+        start.positions = vec![glam::Vec3::ZERO];
+        assert!(w.frame(&mut start).is_ok());
+        let mut inf = frame(1, 0, 1.0);
+        inf.positions = vec![glam::Vec3::ZERO];
+        inf.energies.ledger.contact_j = f64::INFINITY;
+        let Err(BackendError::Unphysical(e)) = w.frame(&mut inf) else {
+            panic!("not stopped");
+        };
+        assert!(
+            matches!(
+                *e,
+                Unphysical::NonFinite {
+                    frame: 1,
+                    term: "energy/dissipated_contact",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        inf.positions = vec![glam::Vec3::NAN];
+        assert!(w.frame(&mut inf).is_ok());
+        // 10 J moved; the balance rises by 5 J (said), then by 30 J held in the springs while
+        // at most 15 J ever moved, for RUNAWAY_FRAMES frames (stopped at the last).
+        let mut w = watch(Integrator::SemiImplicit, 1e-4);
+        let mut start = frame(0, 0, 0.0);
+        start.energies.gravity_j = 10.0;
+        assert!(w.frame(&mut start).is_ok());
+        assert!(w.frame(&mut frame(1, 0, 10.0)).is_ok());
+        let mut said = frame(2, 0, 15.0);
+        assert!(w.frame(&mut said).is_ok() && said.notes.len() == 1);
+        let runaway = |frame_no: u64| {
+            let mut f = frame(frame_no, 0, 5.0);
+            f.energies.elastic_j = 35.0;
+            f
+        };
+        for k in 0..RUNAWAY_FRAMES - 1 {
+            assert!(w.frame(&mut runaway(3 + u64::from(k))).is_ok(), "{k}");
+        }
+        let last = 3 + u64::from(RUNAWAY_FRAMES) - 1;
+        let Err(BackendError::Unphysical(e)) = w.frame(&mut runaway(last)) else {
+            panic!("not stopped");
+        };
+        assert!(
+            matches!(*e, Unphysical::EnergyRunaway { frame, .. } if frame == last),
+            "{e}"
+        );
     }
 }

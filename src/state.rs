@@ -95,6 +95,24 @@ impl Energies {
     pub fn balance_j(&self) -> f64 {
         self.total_j() + self.ledger.dissipated_j() - self.ledger.collider_work_j
     }
+
+    /// The first term, by the recording's name for it, that is not finite.
+    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {
+        let l = &self.ledger;
+        [
+            ("energy/kinetic", self.kinetic_j),
+            ("energy/elastic", self.elastic_j),
+            ("energy/gravity", self.gravity_j),
+            ("energy/contact", self.contact_j),
+            ("energy/dissipated_damping", l.damping_j),
+            ("energy/dissipated_drag", l.drag_j),
+            ("energy/dissipated_contact", l.contact_j),
+            ("energy/dissipated_plastic", l.plastic_j),
+            ("energy/collider_work", l.collider_work_j),
+        ]
+        .into_iter()
+        .find(|(_, v)| !v.is_finite())
+    }
 }
 
 /// Per-frame stepping statistics.
@@ -106,6 +124,9 @@ pub struct StepStats {
     pub step_ms: f64,
     /// Masses the post-step safeguard pushed back out of a collider this frame.
     pub projections: u32,
+    /// Of those, masses that had sunk past a whole grid spacing within a step: an impact the
+    /// step cannot resolve (`cpu::Projected::deep`).
+    pub deep_projections: u32,
     /// Implicit integrator: most conjugate-gradient iterations a step of this frame took.
     pub solver_iterations: u32,
     /// Implicit Euler: the largest final residual of a step's linear solves this frame, each
@@ -161,6 +182,7 @@ impl StepStats {
             dt_secs: later.dt_secs,
             step_ms: self.step_ms + later.step_ms,
             projections: self.projections + later.projections,
+            deep_projections: self.deep_projections + later.deep_projections,
             solver_iterations: self.solver_iterations.max(later.solver_iterations),
             solver_residual: self.solver_residual.max(later.solver_residual),
             newton_iterations: self.newton_iterations.max(later.newton_iterations),

@@ -295,3 +295,115 @@ fn bad_command_line_values_are_clear_errors() {
         );
     }
 }
+
+/// Issue 46's misleading or silent cases: a value past f32's range says so (not "got inf"),
+/// `frames` with `duration_secs` is refused like `substeps` with `dt_secs`, options that do
+/// nothing in context are refused or noted, `--compare` has a cap that says why, `--steps 0`
+/// and an `--out` that is not a folder are errors.
+#[test]
+fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
+    expect_scene_error(
+        "stiffness-1e300",
+        &format!(
+            "{BODY}mass_kg = 1.0\n[bodies.springs]\nstructural = {{ stiffness_n_per_m = 1e300 }}\n"
+        ),
+        "bodies[0].springs.structural.stiffness_n_per_m",
+        "8:",
+        "within f32's range",
+    );
+    expect_scene_error(
+        "frames-and-duration",
+        &with_table("[solver]\nframes = 10\nduration_secs = 1.0\n"),
+        "solver.frames",
+        "3:",
+        "either `frames` or `duration_secs`, not both",
+    );
+    let dir = temp_dir("refused-options");
+    let not_a_folder = dir.join("file");
+    std::fs::write(&not_a_folder, "").unwrap_or_else(|e| panic!("{e}"));
+    let many = vec!["rk4"; 17].join(",");
+    for (args, says) in [
+        (
+            vec![
+                "run",
+                "hair",
+                "--backend",
+                "cpu",
+                "--frames",
+                "1",
+                "--overlay",
+            ],
+            "--overlay shapes a comparison",
+        ),
+        (
+            vec![
+                "run",
+                "hair",
+                "--backend",
+                "cpu",
+                "--frames",
+                "1",
+                "--colour-by",
+                "gap",
+            ],
+            "--colour-by shapes a comparison",
+        ),
+        (
+            vec![
+                "run",
+                "hair",
+                "--backend",
+                "cpu",
+                "--frames",
+                "1",
+                "--compare",
+                &many,
+            ],
+            "a comparison holds at most 16",
+        ),
+        (
+            vec!["bench", "throughput", "hair", "--steps", "0"],
+            "--steps",
+        ),
+        (
+            vec![
+                "bench",
+                "accuracy",
+                "hair",
+                "--out",
+                &not_a_folder.to_string_lossy(),
+            ],
+            "not a folder",
+        ),
+    ] {
+        let out = hooke(&args);
+        let err = text(&out.stderr);
+        assert_ne!(out.status.code(), Some(0), "{args:?}: {err}");
+        assert!(
+            err.contains(says) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
+    let noted = hooke(&[
+        "check",
+        "hair",
+        "--backend",
+        "cpu",
+        "--adapter",
+        "x",
+        "--vbd-iterations",
+        "20",
+    ]);
+    let err = text(&noted.stderr);
+    assert!(noted.status.success(), "{err}");
+    assert!(
+        err.contains("note: --adapter is for the GPU backend; --backend cpu ignores it"),
+        "{err}"
+    );
+    let out = text(&noted.stdout);
+    assert!(
+        format!("{out}{err}").contains("--vbd-iterations sets vbd's sweeps"),
+        "{out}{err}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -370,3 +370,114 @@ fn absurd_extents_are_refused_or_run_in_bounded_memory() {
     let bytes = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
     assert!(bytes > 0 && bytes < 1_000_000, "{bytes} bytes");
 }
+
+/// A gravity of 1e30 m/s² (also 1e25, on both backends) kept the masses finite on the ground
+/// while the ledger booked infinite contact work: the run exited 0 with infinity and NaN in
+/// `energy/...`. The watch stops it at the frame, naming the term, and the recording holds no
+/// NaN or infinity.
+#[test]
+fn a_ledger_that_goes_non_finite_stops_the_run_and_never_reaches_the_recording() {
+    let dir = common::temp_dir("ledger");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/jello.toml"
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut backends = vec!["cpu"];
+    if common::gpu_available() {
+        backends.push("gpu");
+    }
+    for g in ["1e30", "1e25"] {
+        let scene = dir.join(format!("jello-g{g}.toml"));
+        let heavy = text.replace(
+            "gravity_m_per_s2 = [0.0, -9.81, 0.0]",
+            &format!("gravity_m_per_s2 = [0.0, -{g}, 0.0]"),
+        );
+        assert_ne!(heavy, text);
+        std::fs::write(&scene, heavy).unwrap_or_else(|e| panic!("{e}"));
+        for backend in &backends {
+            let file = dir.join(format!("g{g}-{backend}.rrd"));
+            let out = common::hooke_within_memory(
+                &[
+                    "run",
+                    scene.to_str().unwrap_or(""),
+                    "--backend",
+                    backend,
+                    "--frames",
+                    "10",
+                    "--save",
+                    file.to_str().unwrap_or(""),
+                ],
+                // Address space, not memory: lavapipe reserves more than it uses.
+                MEMORY_CAP * 2,
+            );
+            let err = common::text(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{g} {backend}: {err}");
+            assert!(
+                err.contains("energy ledger went non-finite at frame")
+                    && err.contains("energy/dissipated_contact"),
+                "{g} {backend}: {err}"
+            );
+            let bad = common::record::non_finite_components(&file);
+            assert!(bad.is_empty(), "{g} {backend}: {bad:?}");
+        }
+    }
+}
+
+/// A 4 × 4 × 4 jello thrown into the ground at 1 000 m/s (its own step, 1/2400 s, carries it
+/// 0.42 m a step through a 5 cm lattice) used to end flat: every mass put back at the contact's
+/// allowed depth, all in one plane, for the rest of the run, exit 0. The run stops at the
+/// impact, naming the speed and the step that keeps each step's sink within the contact, on
+/// both backends. A start speed past the runaway limit (1e6 m/s) is refused before it steps.
+#[test]
+fn an_impact_too_fast_for_the_step_stops_the_run_instead_of_flattening_the_body() {
+    let dir = common::temp_dir("impact");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/jello.toml"
+    ))
+    .unwrap_or_else(|e| panic!("{e}"))
+    .replace("grid = [10, 10, 10]", "grid = [4, 4, 4]");
+    let thrown = |speed: &str| {
+        let scene = dir.join(format!("jello-{speed}.toml"));
+        let t = text.replace(
+            "mass_kg = 1.0\n",
+            &format!("mass_kg = 1.0\nvelocity_m_per_s = [0.0, -{speed}, 0.0]\n"),
+        );
+        assert_ne!(t, text);
+        std::fs::write(&scene, t).unwrap_or_else(|e| panic!("{e}"));
+        scene.to_string_lossy().into_owned()
+    };
+    let fast = thrown("1000");
+    let mut backends = vec!["cpu"];
+    if common::gpu_available() {
+        backends.push("gpu");
+    }
+    for backend in backends {
+        let out = common::hooke(&[
+            "run",
+            &fast,
+            "--backend",
+            backend,
+            "--frames",
+            "30",
+            "--save",
+            &dir.join(format!("fast-{backend}.rrd")).to_string_lossy(),
+        ]);
+        let err = common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{backend}: {err}");
+        assert!(
+            err.contains("was too fast for the step")
+                && err.contains("moved at about 1.000e3 m/s")
+                && err.contains("--dt 2.500e-5"),
+            "{backend}: {err}"
+        );
+    }
+    let out = common::hooke(&["check", &thrown("1e6")]);
+    let err = common::text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("`bodies[0].velocity_m_per_s`") && err.contains("runaway"),
+        "{err}"
+    );
+}

@@ -81,6 +81,8 @@ pub fn accuracy(
     if !(duration.is_finite() && duration > 0.0) {
         return Err(Error::Settings(SettingsError::Duration(duration)));
     }
+    // Where the tables go is checked before the minutes of stepping, not after.
+    report::check_out_dir(&opts.out_dir)?;
     let frame_dt = Some(1.0 / planned.settings.frame_rate_hz).filter(|_| opts.fast_end);
     let ladder: Vec<f64> = step_ladder(scene_dt, opts, frame_dt)
         .into_iter()

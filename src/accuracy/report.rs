@@ -181,12 +181,27 @@ fn csv(r: &Accuracy) -> String {
     s
 }
 
+/// `dir` can hold the outputs: it is a folder, or can be made one.
+pub(super) fn check_out_dir(dir: &Path) -> Result<()> {
+    let io = |source: std::io::Error| Error::WriteOutput {
+        path: dir.to_owned(),
+        source,
+    };
+    if dir.exists() && !dir.is_dir() {
+        // create_dir_all says only "File exists" about a path that is not a folder.
+        return Err(io(std::io::Error::other(
+            "it exists and is not a folder: --out names a folder",
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(io)
+}
+
 pub(super) fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
     let io = |source: std::io::Error, p: &Path| Error::WriteOutput {
         path: p.to_owned(),
         source,
     };
-    std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
+    check_out_dir(dir)?;
     for (ext, text) in [("md", markdown(r)), ("csv", csv(r)), ("svg", svg(r))] {
         let p = dir.join(format!("accuracy-{}.{ext}", r.scene));
         std::fs::write(&p, text).map_err(|e| io(e, &p))?;

@@ -232,10 +232,10 @@ pub enum BenchCommand {
         #[arg(long, value_enum)]
         integrator: Option<Integrator>,
         /// Timed steps per scene (after a warm-up).
-        #[arg(long, default_value_t = 200)]
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
         steps: u32,
         /// Steps per GPU submission.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
         batch: u32,
         /// Also time each scene without each of its effects in turn: what each effect costs.
         #[arg(long)]
@@ -325,7 +325,18 @@ fn parse_dt(s: &str) -> Result<Dt, String> {
 }
 
 impl DeviceArgs {
+    /// The device these flags name; a GPU flag given with `--backend cpu` is noted as ignored.
     pub fn device(&self) -> Device {
+        if self.backend == BackendKind::Cpu {
+            let gpu_only = [
+                (self.adapter.is_some(), "--adapter"),
+                (self.verify, "--verify"),
+                (self.no_verify, "--no-verify"),
+            ];
+            for (_, flag) in gpu_only.into_iter().filter(|(given, _)| *given) {
+                eprintln!("note: {flag} is for the GPU backend; --backend cpu ignores it");
+            }
+        }
         Device {
             kind: self.backend,
             adapter: self.adapter.clone(),

@@ -110,7 +110,7 @@ impl CpuBackend {
     /// `advance` through the integrators' general steps.
     fn advance_general(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         let start = std::time::Instant::now();
-        let mut projections = 0;
+        let (mut projections, mut deep_projections) = (0, 0);
         let mut solves = StepStats::default();
         for _ in 0..substeps {
             if let Some(solve) = integrate::step(
@@ -130,7 +130,9 @@ impl CpuBackend {
             }
             // Verlet keeps a(x_n) from before a (rare) safeguard projection, as the GPU does,
             // which cannot know that one happened without a read-back.
-            projections += project_contacts(&self.model, &mut self.state);
+            let projected = project_contacts(&self.model, &mut self.state);
+            projections += projected.count;
+            deep_projections += projected.deep;
             if self.model.effects.springs_change() {
                 self.scratch.update_springs(&mut self.state);
             }
@@ -148,6 +150,7 @@ impl CpuBackend {
             dt_secs: f64::from(self.dt),
             step_ms: start.elapsed().as_secs_f64() * 1e3,
             projections,
+            deep_projections,
             ..solves
         })
     }

@@ -8,16 +8,31 @@ use glam::Vec3;
 use crate::model::{Model, poses_at};
 use crate::state::State;
 
-/// Returns the number of masses projected. The impulse is perfectly inelastic in the collider's
+/// What one pass of the safeguard did: the contacts it projected, and of those the ones deeper
+/// than `DEEP_SHARE` times their allowed depth (`Projected::deep`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Projected {
+    pub count: u32,
+    /// Contacts a mass sank past a whole grid spacing (twice the allowed depth, which is half
+    /// the finest spacing) within one step: it passed where the layer beneath it was, and
+    /// putting it back at the allowed depth flattens the body (a 4 × 4 × 4 jello at 1 000 m/s
+    /// ended as one plane). The run stops on these (`solver_watch`).
+    pub deep: u32,
+}
+
+/// How many times its allowed depth a mass may have sunk before its projection counts as deep.
+pub const DEEP_SHARE: f32 = 2.0;
+
+/// Returns what was projected. The impulse is perfectly inelastic in the collider's
 /// frame: ½ m v_n² (relative normal speed) is dissipated into the contact ledger, and the change
 /// of kinetic energy plus that is work done by the collider (zero for a static one).
-pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
+pub fn project_contacts(model: &Model, state: &mut State) -> Projected {
     let e = &model.effects;
     if !e.has_contact() {
-        return 0;
+        return Projected::default();
     }
     let poses = poses_at(&e.colliders, state.time_secs);
-    let mut count = 0;
+    let mut out = Projected::default();
     let (mut dissipated_j, mut work_j) = (0.0f64, 0.0f64);
     for i in 0..state.x.len() {
         if model.inv_mass[i] == 0.0 {
@@ -30,7 +45,8 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
             if let Some((d, w)) = project(x, v, m, Vec3::Y, depth, g.max_depth_m, Vec3::ZERO) {
                 dissipated_j += d;
                 work_j += w;
-                count += 1;
+                out.count += 1;
+                out.deep += u32::from(depth > DEEP_SHARE * g.max_depth_m);
             }
         }
         for (c, pose) in e.colliders.iter().zip(&poses) {
@@ -40,13 +56,14 @@ pub fn project_contacts(model: &Model, state: &mut State) -> u32 {
             {
                 dissipated_j += d;
                 work_j += w;
-                count += 1;
+                out.count += 1;
+                out.deep += u32::from(depth > DEEP_SHARE * c.max_depth_m);
             }
         }
     }
     state.ledger.contact_j += dissipated_j;
     state.ledger.collider_work_j += work_j;
-    count
+    out
 }
 
 /// Move a mass deeper than `max_depth` back to that depth along `n` and remove its approach speed

@@ -501,6 +501,7 @@ impl GpuBackend {
             stats: StepStats {
                 step_ms: p.started.map_or(0.0, |t| t.elapsed().as_secs_f64() * 1e3),
                 projections: rb.projections,
+                deep_projections: rb.deep_projections,
                 ..self.with_solve(p.stats, rb.solve)
             },
             collider_positions,
@@ -533,8 +534,6 @@ impl Backend for GpuBackend {
         Ok(StepStats {
             substeps,
             dt_secs: f64::from(self.clock.dt),
-            step_ms: 0.0,
-            projections: 0,
             ..StepStats::default()
         })
     }

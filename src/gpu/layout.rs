@@ -272,5 +272,5 @@ pub const SHARED_STRUCTS: [(&str, usize); 17] = [
 
 /// The counters' bytes (`counters` in the kernels' bindings): projections, the first bad step,
 /// then what the implicit steps book (readback.rs's `SolveRecord`: two counts, the CG residual,
-/// two more counts and the step residual, residuals as f32 bits), and a spare word.
+/// two more counts and the step residual, residuals as f32 bits), and the deep projections.
 pub const COUNTERS_BYTES: u64 = 32;

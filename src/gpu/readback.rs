@@ -38,6 +38,8 @@ pub struct ReadBack {
     pub max_speed: f32,
     pub non_finite: bool,
     pub projections: u32,
+    /// Of those, the deep ones (counters[7]: contact_projection.wgsl's `deep`).
+    pub deep_projections: u32,
     /// Index, within the last submission of steps, of the first step whose state went bad.
     pub first_bad_step: Option<u32>,
     /// Implicit Euler and BDF2: what their steps since the last read-back booked.
@@ -210,6 +212,7 @@ pub fn decode(
         max_speed,
         non_finite: bad > 0.0 || !max_speed.is_finite(),
         projections: counters[0],
+        deep_projections: counters[7],
         first_bad_step: (counters[1] != 0).then(|| u32::MAX - counters[1]),
         solve: SolveRecord {
             cg_iterations: counters[2],

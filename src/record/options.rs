@@ -65,10 +65,17 @@ pub fn describe(model: &Model, opts: &RecordOptions) -> Vec<String> {
                 None => "masses".to_owned(),
             };
             let springs = if lines == 0 && opts.springs.is_none() && !b.springs.is_empty() {
-                format!(
-                    "springs left out (more than {} structural; --springs structural or all shows them)",
-                    springs::DEFAULT_MAX_SPRINGS
-                )
+                match springs::is_lattice(b) {
+                    // A filled mesh draws the user's surface; its lattice is scaffolding.
+                    true => "its lattice's springs left out (the surface shows the body; \
+                             --springs structural or all shows them)"
+                        .to_owned(),
+                    false => format!(
+                        "springs left out (more than {} structural; --springs structural or \
+                         all shows them)",
+                        springs::DEFAULT_MAX_SPRINGS
+                    ),
+                }
             } else {
                 format!("{lines} of {} springs as lines", b.springs.len())
             };

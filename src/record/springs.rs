@@ -70,7 +70,8 @@ pub fn selected(
     }
 }
 
-fn is_lattice(body: &BodyInfo) -> bool {
+/// Whether `body` is a mesh filled with a lattice (its surface embedded in the lattice's cells).
+pub fn is_lattice(body: &BodyInfo) -> bool {
     matches!(&body.shape, BodyShape::Mesh(m) if matches!(m.vertices, MeshVertices::Embedded(_)))
 }
 

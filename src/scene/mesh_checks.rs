@@ -6,7 +6,8 @@ use glam::Vec3;
 
 use super::format::{Body, Fill, PinRegion};
 use super::rules::{
-    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite3, positive, springs, within_reach,
+    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite3, positive, springs, start_speed,
+    within_reach,
 };
 use crate::mesh::{Edges, Lattice, TriMesh};
 
@@ -102,6 +103,7 @@ pub(super) fn mesh_body(f: &str, b: &Body) -> Check {
     positive(&format!("{f}.mass_kg"), f64::from(b.mass_kg))?;
     finite3(&format!("{f}.origin_m"), b.origin_m)?;
     finite3(&format!("{f}.velocity_m_per_s"), b.velocity_m_per_s)?;
+    start_speed(f, b)?;
     positive(&format!("{f}.scale"), f64::from(b.scale))?;
     finite3(&format!("{f}.rotation_deg"), b.rotation_deg)?;
     springs(f, b)?;

@@ -19,8 +19,18 @@ pub(super) fn fail<T>(
 pub(super) fn finite(field: &str, v: f64) -> Check {
     if v.is_finite() {
         Ok(())
+    } else if v.is_nan() {
+        fail(field, "must be a finite number, got nan")
     } else {
-        fail(field, format!("must be a finite number, got {v}"))
+        // The file's value was read as f32: 1e300 arrives here as inf.
+        fail(
+            field,
+            format!(
+                "must be finite and within f32's range (±3.4e38), got {} (a value beyond that \
+                 range reads as infinite)",
+                if v > 0.0 { "inf" } else { "-inf" }
+            ),
+        )
     }
 }
 
@@ -128,6 +138,27 @@ pub(super) fn within_reach(field: &str, far: f64, fix: &str) -> Check {
             "places the body up to {far:.3e} m from the origin, beyond the {LARGEST_REACH_M:.0e} m \
              a body may start at (f32 positions, energies and strains lose their range and \
              resolution there): {fix}"
+        ),
+    )
+}
+
+/// The fastest a body may start, in m/s: the speed at which a run counts as runaway and stops
+/// (`backend::RUNAWAY_SPEED_M_PER_S`, held equal by an assertion there). A body started faster
+/// would stop at its first step.
+pub const MAX_START_SPEED_M_PER_S: f32 = 1.0e4;
+
+/// A start speed a run would stop at as runaway is refused before anything steps.
+pub(super) fn start_speed(f: &str, b: &Body) -> Check {
+    let speed = glam::Vec3::from(b.velocity_m_per_s).length();
+    if speed <= MAX_START_SPEED_M_PER_S {
+        return Ok(());
+    }
+    fail(
+        format!("{f}.velocity_m_per_s"),
+        format!(
+            "a start speed of {speed:.3e} m/s is above the {MAX_START_SPEED_M_PER_S:.0e} m/s at \
+             which a run counts as runaway and stops: nothing in a mass-spring scene moves that \
+             fast; give a slower velocity"
         ),
     )
 }

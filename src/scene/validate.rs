@@ -5,7 +5,7 @@ use super::format::{Body, Keyframe, Scene, SelfCollision};
 use super::mesh_checks;
 use super::rules::{
     Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite, finite3, non_negative, positive,
-    springs, within_reach,
+    springs, start_speed, within_reach,
 };
 
 /// Colliders per scene: the GPU passes every collider's pose in each stage's uniform slot.
@@ -131,6 +131,12 @@ fn solver(s: &super::format::Solver) -> Check {
     }
     if let Some(d) = s.duration_secs {
         positive("solver.duration_secs", d)?;
+        if s.frames.is_some() {
+            return fail(
+                "solver.frames",
+                "give either `frames` or `duration_secs`, not both: frames = duration_secs · frame_rate_hz",
+            );
+        }
     }
     if s.xpbd_iterations == Some(0) {
         return fail(
@@ -390,6 +396,7 @@ fn placement(f: &str, b: &Body, spacing: f32) -> Check {
     positive(&format!("{f}.mass_kg"), f64::from(b.mass_kg))?;
     finite3(&format!("{f}.origin_m"), b.origin_m)?;
     finite3(&format!("{f}.velocity_m_per_s"), b.velocity_m_per_s)?;
+    start_speed(f, b)?;
     if let Some(axes) = &b.axes {
         if axes.len() != dim {
             return fail(

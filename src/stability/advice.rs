@@ -37,13 +37,37 @@ pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
             l
         )),
         None => Some(format!(
-            "dt = {:.3e} s: `{}` has no step that is stable for sure on this scene{limit}{}; prefer semi-implicit, verlet or rk4",
+            "dt = {:.3e} s: `{}` has no step that is stable for sure on this scene{limit}{}; prefer {}",
             settings.dt_secs,
             settings.integrator,
             step.dashpot_line_secs
                 .map(|l| format!("; the dashpots along the springs allow at most {l:.3e} s"))
-                .unwrap_or_default()
+                .unwrap_or_default(),
+            instead_of(settings.integrator)
         )),
+    }
+}
+
+/// What to use instead of `integrator` where it has no step stable for sure: the explicit
+/// schemes with a stable step, less the one in use, and where that is one of them, the implicit
+/// schemes, stable at any step.
+fn instead_of(integrator: Integrator) -> String {
+    let explicit = [
+        Integrator::SemiImplicit,
+        Integrator::Verlet,
+        Integrator::Rk4,
+    ];
+    let others: Vec<&str> = explicit
+        .iter()
+        .filter(|&&i| i != integrator)
+        .map(|i| i.name())
+        .collect();
+    match explicit.contains(&integrator) {
+        true => format!(
+            "implicit or bdf2 (stable at any step), or {}",
+            others.join(" or ")
+        ),
+        false => others.join(", "),
     }
 }
 

@@ -24,6 +24,10 @@ pub enum Error {
     #[error(transparent)]
     Settings(#[from] SettingsError),
 
+    /// A scene that needs more memory than the machine has available.
+    #[error(transparent)]
+    TooLarge(#[from] crate::memory_need::TooLarge),
+
     /// An entry of `--compare` (or a scene's `[compare]`) that cannot be read.
     #[error("--compare entry {position} ('{text}'): {why}")]
     CompareEntry {

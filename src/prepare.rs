@@ -109,6 +109,9 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
     for n in &settings.notes {
         say(Notice::Note(n.clone()));
     }
+    // Before anything that grows with the scene is allocated.
+    let on_gpu = request.device.kind == crate::select::BackendKind::Gpu;
+    crate::memory_need::check(&loaded.scene, on_gpu)?;
     let model = Arc::new(model::build(&loaded.scene));
     if let DtChoice::Auto { tolerance_m } = request.dt {
         if !(tolerance_m.is_finite() && tolerance_m > 0.0) {

@@ -24,6 +24,10 @@ pub enum Error {
     #[error(transparent)]
     Settings(#[from] SettingsError),
 
+    /// A body that starts buried in the ground or inside a collider.
+    #[error(transparent)]
+    Buried(#[from] crate::model::Buried),
+
     /// A scene that needs more memory than the machine has available.
     #[error(transparent)]
     TooLarge(#[from] crate::memory_need::TooLarge),

@@ -113,6 +113,9 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
     let on_gpu = request.device.kind == crate::select::BackendKind::Gpu;
     crate::memory_need::check(&loaded.scene, on_gpu)?;
     let model = Arc::new(model::build(&loaded.scene));
+    if let Some(b) = model::buried(&model) {
+        return Err(b.into());
+    }
     if let DtChoice::Auto { tolerance_m } = request.dt {
         if !(tolerance_m.is_finite() && tolerance_m > 0.0) {
             return Err(Error::Tolerance(tolerance_m));

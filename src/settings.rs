@@ -37,8 +37,19 @@ pub enum SettingsError {
         substeps: u32,
         frame_rate_hz: f64,
     },
-    #[error("invalid setting: dt = {dt_secs} s would need {substeps} substeps per frame")]
-    TooManySubsteps { dt_secs: f64, substeps: f64 },
+    #[error(
+        "invalid setting: {given_by} = {dt_secs:.3e} s would need {substeps:.3e} steps a frame, \
+         more than the {} a frame may take: give a step of at least {:.3e} s",
+        u32::MAX,
+        smallest_dt_secs
+    )]
+    TooManySubsteps {
+        /// Where the step came from: `--dt`, or the scene's `solver.dt_secs`.
+        given_by: &'static str,
+        dt_secs: f64,
+        substeps: f64,
+        smallest_dt_secs: f64,
+    },
     #[error("invalid setting: --frames must be at least 1")]
     NoFrames,
     #[error("invalid setting: --duration must be a positive number of seconds, got {0}")]
@@ -130,8 +141,13 @@ impl Settings {
                 let n = (exact - 1e-9).ceil().max(1.0);
                 if n > f64::from(u32::MAX) {
                     return Err(SettingsError::TooManySubsteps {
+                        given_by: match o.dt_secs {
+                            Some(_) => "--dt",
+                            None => "the scene's solver.dt_secs",
+                        },
                         dt_secs: dt,
                         substeps: n,
+                        smallest_dt_secs: frame_secs / f64::from(u32::MAX),
                     });
                 }
                 let n = n as u32;

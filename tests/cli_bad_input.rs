@@ -285,6 +285,11 @@ fn bad_command_line_values_are_clear_errors() {
             vec!["check", "nonexistent-scene"],
             "unknown scene 'nonexistent-scene'",
         ),
+        // Once a 31-digit decimal and a 29-digit step count, naming nothing.
+        (
+            vec!["check", "hair", "--dt", "1e-30"],
+            "--dt = 1.000e-30 s would need 1.667e28 steps a frame, more than the 4294967295",
+        ),
     ] {
         let out = hooke(&args);
         let err = text(&out.stderr);

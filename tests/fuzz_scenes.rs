@@ -535,3 +535,48 @@ fn a_scene_beyond_the_memory_at_hand_is_refused_before_it_is_built() {
     );
     assert!(out.status.success(), "{}", common::text(&out.stderr));
 }
+
+/// A body that starts 5 m under the ground, or wholly inside a sphere, used to run with no word
+/// (7.6e5 J of contact energy in its first frame). It is refused before stepping, naming the
+/// body; a body resting on the ground, as every built-in scene's does, is not.
+#[test]
+fn a_body_that_starts_buried_is_refused_before_it_steps() {
+    let dir = common::temp_dir("buried");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/jello.toml"
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    for (name, from, to, says) in [
+        (
+            "under",
+            "origin_m = [-0.2, 0.5, -0.2]",
+            "origin_m = [-0.2, -5.0, -0.2]",
+            "body 'jello' starts 4.",
+        ),
+        (
+            "inside",
+            "[[bodies]]",
+            "[[effects.spheres]]\ncenter_m = [0.0, 0.7, 0.0]\nradius_m = 2.0\nstiffness_n_per_m = 100.0\n\n[[bodies]]",
+            "body 'jello' starts wholly inside collider 0",
+        ),
+    ] {
+        let path = dir.join(format!("{name}.toml"));
+        let t = text.replace(from, to);
+        assert_ne!(t, text, "{name}");
+        std::fs::write(&path, t).unwrap_or_else(|e| panic!("{e}"));
+        let out = common::hooke(&["check", &path.to_string_lossy()]);
+        let err = common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        assert!(err.contains(says), "{name}: {err}");
+    }
+    for b in hooke::scene::BUILT_IN {
+        let out = common::hooke(&["check", b.name, "--backend", "cpu"]);
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            b.name,
+            common::text(&out.stderr)
+        );
+    }
+}

@@ -40,6 +40,9 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     let prepared = prepare::prepare(&request, &mut |notice| eprintln!("{notice}"))?;
     let record = args.recording.options().for_scene(&prepared.loaded.scene);
     describe(&prepared, &record);
+    // Before the file exists: an interrupt from here on ends the run with the file renamed
+    // into place, never a process killed with only its `.partial` left.
+    let interrupts = Interrupts::install();
     let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     if let Some(file) = &sink.file {
         let size = hooke::recording_size::estimate(&prepared.model, &prepared.settings, record)?;
@@ -48,7 +51,6 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
             hooke::recording_size::describe_for_file(&size, prepared.settings.frames, file.path())
         );
     }
-    let interrupts = Interrupts::install();
     let result = hooke::run::run(prepared, sink.rec.clone(), &opts, interrupts.cancel.clone());
     say_where_saved(&sink, &result);
     let summary = result?;
@@ -187,8 +189,8 @@ fn run_comparison(
             e.settings.frames
         );
     }
-    let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     let interrupts = Interrupts::install();
+    let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     let result = hooke::comparison::run_comparison(
         prepared,
         sink.rec.clone(),

@@ -8,6 +8,7 @@ mod builder;
 mod colliders;
 mod from_mesh;
 mod from_scene;
+mod placement;
 mod springs;
 mod system;
 
@@ -16,6 +17,7 @@ pub use colliders::{
     Collider, ContactModel, Effects, GroundCollider, MassContact, Path, Pose, Shape, poses_at,
 };
 pub use from_scene::build;
+pub use placement::{Buried, buried};
 pub use springs::{Adjacency, NO_LIMITS, Neighbor, Spring, SpringLimits};
 pub use system::{BodyInfo, BodyShape, MeshShape, MeshVertices, Model};
 

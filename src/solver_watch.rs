@@ -4,9 +4,10 @@
 //! `STUCK_FRAMES` frames in a row whose steps leave more than `STUCK_RESIDUAL` of backward
 //! Euler's equations unmet stop the run as a divergence does (`divergence::Unconverged`); a
 //! balance that rises beyond `GAIN_SHARE` of the energy that moved is said once
-//! (`FrameNote::EnergyGained`), and one that rises past all the energy the run held or moved, or a ledger term that is no
-//! longer finite, stops the run (`divergence::Unphysical`). A driver that computes the wrong thing shows up here even where
-//! no test has run on it.
+//! (`FrameNote::EnergyGained`). One that stays past all the energy the run held or moved for
+//! `RUNAWAY_FRAMES` frames, a ledger term that is no longer finite, or an impact the step cannot
+//! resolve (`StepStats::deep_projections`) stops the run (`divergence::Unphysical`). A driver
+//! that computes the wrong thing shows up here even where no test has run on it.
 //!
 //! Measured on the built-in scenes on the CPU (60 frames each, BENCHMARKS.md, "Solvers report
 //! what they did"): implicit Euler and BDF2 end some steps short of their rule where contacts
@@ -111,8 +112,8 @@ impl SolverWatch {
         }
     }
 
-    /// Look at one frame: notes go onto it; a solver stuck short of its rule, or a ledger gone
-    /// wrong, stops the run.
+    /// Look at one frame: notes go onto it; a solver stuck short of its rule, a ledger gone
+    /// wrong or an impact the step cannot resolve stops the run.
     pub fn frame(&mut self, snap: &mut Snapshot) -> Result<(), BackendError> {
         self.solver(snap)
             .map_err(|u| BackendError::Unconverged(Box::new(u)))?;

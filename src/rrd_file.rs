@@ -22,6 +22,23 @@ use rerun::sink::{LogSink, SinkFlushError};
 /// The timeline whose values count frames (see `record`).
 const FRAME_TIMELINE: &str = "frame";
 
+/// The recordings of this process still written under their partial names, (partial, final),
+/// for `rename_unfinished`.
+static UNFINISHED: Mutex<Vec<(PathBuf, PathBuf)>> = Mutex::new(Vec::new());
+
+fn unfinished() -> MutexGuard<'static, Vec<(PathBuf, PathBuf)>> {
+    UNFINISHED.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Give every recording of this process still being written its name, as it stands: for an
+/// exit that will not wait for the run to end (a second Ctrl-C). Its whole frames are readable
+/// (the file has no index, as any file cut short).
+pub fn rename_unfinished() {
+    for (partial, path) in unfinished().drain(..) {
+        let _ = std::fs::rename(partial, path);
+    }
+}
+
 /// The recording file could not be created (its cause is part of the message, not a separate
 /// source, so that a chain of causes prints it once).
 #[derive(Debug, thiserror::Error)]
@@ -251,6 +268,7 @@ impl Shared {
             return Ok(());
         }
         w.published = true;
+        unfinished().retain(|(p, _)| *p != self.partial);
         std::fs::rename(&self.partial, &self.path)
     }
 
@@ -345,6 +363,7 @@ pub fn create(path: &Path, footer: bool) -> Result<(RrdFileSink, RrdFile), Creat
         let _ = std::fs::remove_file(&partial);
     }
     let (encoder, twin, committed) = started?;
+    unfinished().push((partial.clone(), path.to_owned()));
     let shared = Arc::new(Shared {
         path: path.to_owned(),
         partial,
@@ -470,6 +489,7 @@ impl Drop for Shared {
         // not.
         if !w.published {
             w.published = true;
+            unfinished().retain(|(p, _)| *p != self.partial);
             let _ = std::fs::rename(&self.partial, &self.path);
         }
     }

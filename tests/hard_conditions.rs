@@ -188,6 +188,44 @@ fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A second Ctrl-C exits at once, not waiting for the run to end: the recording still takes its
+/// name (its whole frames, without an index), and no partial file is left where the user would
+/// not look for it.
+#[test]
+fn a_second_interrupt_exits_at_once_and_the_file_keeps_its_name() {
+    let dir = temp_dir("second-interrupt");
+    let scene = dir.join("jello-forever.toml");
+    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let path = dir.join("twice.rrd");
+    let partial = dir.join("twice.rrd.partial");
+    let mut run = hooke_command(&cpu_run(
+        &scene.to_string_lossy(),
+        &["--save", &path.to_string_lossy()],
+    ))
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap_or_else(|e| panic!("{e}"));
+    let since = Instant::now();
+    while file_size(&partial) == 0 {
+        assert!(since.elapsed() < Duration::from_secs(30), "no partial file");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for _ in 0..2 {
+        let sent = std::process::Command::new("kill")
+            .args(["-INT", &run.id().to_string()])
+            .status()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(sent.success());
+    }
+    let (status, _) = wait_exit(&mut run, Instant::now());
+    assert_eq!(status.code(), Some(130));
+    assert!(!partial.exists(), "the partial file was left");
+    assert!(file_size(&path) > 0, "no recording at its name");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// A backend whose every substep takes a millisecond of wall time (a CPU or GPU on a huge scene).
 struct Slow {
     steps: u64,

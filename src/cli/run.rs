@@ -308,7 +308,10 @@ impl Interrupts {
                     return;
                 }
                 if cancel.swap(true, Ordering::SeqCst) {
-                    eprintln!("second interrupt: exiting without finishing the recording");
+                    eprintln!(
+                        "second interrupt: exiting without finishing the recording (its whole frames keep the file's name, without an index)"
+                    );
+                    hooke::rrd_file::rename_unfinished();
                     std::process::exit(130);
                 }
                 eprintln!(

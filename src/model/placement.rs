@@ -5,7 +5,8 @@
 
 use glam::Vec3;
 
-use super::Model;
+use super::colliders::poses_at;
+use super::system::Model;
 
 /// A body that starts where no scene means it to.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -32,7 +33,7 @@ pub enum Buried {
 /// The first body that starts buried in the ground or inside a collider.
 pub fn buried(model: &Model) -> Option<Buried> {
     let x = &model.initial.x;
-    let poses = super::poses_at(&model.effects.colliders, 0.0);
+    let poses = poses_at(&model.effects.colliders, 0.0);
     for b in &model.bodies {
         let masses = &x[b.masses.start as usize..b.masses.end as usize];
         if masses.is_empty() {

@@ -30,7 +30,7 @@ pub enum Error {
 
     /// A scene that needs more memory than the machine has available.
     #[error(transparent)]
-    TooLarge(#[from] crate::memory_need::TooLarge),
+    TooLarge(#[from] crate::model::memory_need::TooLarge),
 
     /// An entry of `--compare` (or a scene's `[compare]`) that cannot be read.
     #[error("--compare entry {position} ('{text}'): {why}")]

@@ -20,7 +20,6 @@ pub mod divergence;
 pub mod error;
 pub mod gpu;
 pub mod integrator;
-pub mod memory_need;
 pub mod mesh;
 pub mod model;
 pub mod pacing;

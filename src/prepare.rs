@@ -111,7 +111,7 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
     }
     // Before anything that grows with the scene is allocated.
     let on_gpu = request.device.kind == crate::select::BackendKind::Gpu;
-    crate::memory_need::check(&loaded.scene, on_gpu)?;
+    crate::model::memory_need::check(&loaded.scene, on_gpu)?;
     let model = Arc::new(model::build(&loaded.scene));
     if let Some(b) = model::buried(&model) {
         return Err(b.into());

@@ -8,6 +8,7 @@ mod builder;
 mod colliders;
 mod from_mesh;
 mod from_scene;
+pub mod memory_need;
 mod placement;
 mod springs;
 mod system;

@@ -341,16 +341,14 @@ fn absurd_extents_are_refused_or_run_in_bounded_memory() {
     for spacing in ["1e30", "1e7"] {
         refused(&cube(spacing), "`bodies[0].spacing_m`");
     }
-    let flag = dir.join("flag-1e30.toml");
     let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/meshes/flag.obj");
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/flag.toml"
-    ))
-    .unwrap_or_else(|e| panic!("{e}"))
-    .replace("\"../meshes/flag.obj\"", &format!("{mesh:?}\nscale = 1e30"));
-    std::fs::write(&flag, text).unwrap_or_else(|e| panic!("{e}"));
-    refused(&flag, "`bodies[0].scale`");
+    let flag = common::scene_variant(
+        &dir,
+        "flag",
+        "flag-1e30.toml",
+        &[("\"../meshes/flag.obj\"", &format!("{mesh:?}\nscale = 1e30"))],
+    );
+    refused(std::path::Path::new(&flag), "`bodies[0].scale`");
     let far = cube("1e5");
     let file = dir.join("far.rrd");
     let out = common::hooke_within_memory(
@@ -378,29 +376,23 @@ fn absurd_extents_are_refused_or_run_in_bounded_memory() {
 #[test]
 fn a_ledger_that_goes_non_finite_stops_the_run_and_never_reaches_the_recording() {
     let dir = common::temp_dir("ledger");
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/jello.toml"
-    ))
-    .unwrap_or_else(|e| panic!("{e}"));
-    let mut backends = vec!["cpu"];
-    if common::gpu_available() {
-        backends.push("gpu");
-    }
+    let backends = common::backends();
     for g in ["1e30", "1e25"] {
-        let scene = dir.join(format!("jello-g{g}.toml"));
-        let heavy = text.replace(
-            "gravity_m_per_s2 = [0.0, -9.81, 0.0]",
-            &format!("gravity_m_per_s2 = [0.0, -{g}, 0.0]"),
+        let scene = common::scene_variant(
+            &dir,
+            "jello",
+            &format!("jello-g{g}.toml"),
+            &[(
+                "gravity_m_per_s2 = [0.0, -9.81, 0.0]",
+                &format!("gravity_m_per_s2 = [0.0, -{g}, 0.0]"),
+            )],
         );
-        assert_ne!(heavy, text);
-        std::fs::write(&scene, heavy).unwrap_or_else(|e| panic!("{e}"));
         for backend in &backends {
             let file = dir.join(format!("g{g}-{backend}.rrd"));
             let out = common::hooke_within_memory(
                 &[
                     "run",
-                    scene.to_str().unwrap_or(""),
+                    &scene,
                     "--backend",
                     backend,
                     "--frames",
@@ -432,27 +424,22 @@ fn a_ledger_that_goes_non_finite_stops_the_run_and_never_reaches_the_recording()
 #[test]
 fn an_impact_too_fast_for_the_step_stops_the_run_instead_of_flattening_the_body() {
     let dir = common::temp_dir("impact");
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/jello.toml"
-    ))
-    .unwrap_or_else(|e| panic!("{e}"))
-    .replace("grid = [10, 10, 10]", "grid = [4, 4, 4]");
     let thrown = |speed: &str| {
-        let scene = dir.join(format!("jello-{speed}.toml"));
-        let t = text.replace(
-            "mass_kg = 1.0\n",
-            &format!("mass_kg = 1.0\nvelocity_m_per_s = [0.0, -{speed}, 0.0]\n"),
-        );
-        assert_ne!(t, text);
-        std::fs::write(&scene, t).unwrap_or_else(|e| panic!("{e}"));
-        scene.to_string_lossy().into_owned()
+        common::scene_variant(
+            &dir,
+            "jello",
+            &format!("jello-{speed}.toml"),
+            &[
+                ("grid = [10, 10, 10]", "grid = [4, 4, 4]"),
+                (
+                    "mass_kg = 1.0\n",
+                    &format!("mass_kg = 1.0\nvelocity_m_per_s = [0.0, -{speed}, 0.0]\n"),
+                ),
+            ],
+        )
     };
     let fast = thrown("1000");
-    let mut backends = vec!["cpu"];
-    if common::gpu_available() {
-        backends.push("gpu");
-    }
+    let backends = common::backends();
     for backend in backends {
         let out = common::hooke(&[
             "run",
@@ -489,18 +476,16 @@ fn an_impact_too_fast_for_the_step_stops_the_run_instead_of_flattening_the_body(
 #[test]
 fn a_scene_beyond_the_memory_at_hand_is_refused_before_it_is_built() {
     let dir = common::temp_dir("memory");
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/cloth.toml"
-    ))
-    .unwrap_or_else(|e| panic!("{e}"));
     let cloth = |n: u32| {
-        let path = dir.join(format!("cloth-{n}.toml"));
-        let t = text
-            .replace("grid = [32, 32]", &format!("grid = [{n}, {n}]"))
-            .replace("spacing_m = 0.05", "spacing_m = 0.0001");
-        std::fs::write(&path, t).unwrap_or_else(|e| panic!("{e}"));
-        path.to_string_lossy().into_owned()
+        common::scene_variant(
+            &dir,
+            "cloth",
+            &format!("cloth-{n}.toml"),
+            &[
+                ("grid = [32, 32]", &format!("grid = [{n}, {n}]")),
+                ("spacing_m = 0.05", "spacing_m = 0.0001"),
+            ],
+        )
     };
     let huge = cloth(8192);
     for backend in ["cpu", "gpu"] {
@@ -542,11 +527,6 @@ fn a_scene_beyond_the_memory_at_hand_is_refused_before_it_is_built() {
 #[test]
 fn a_body_that_starts_buried_is_refused_before_it_steps() {
     let dir = common::temp_dir("buried");
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/jello.toml"
-    ))
-    .unwrap_or_else(|e| panic!("{e}"));
     for (name, from, to, says) in [
         (
             "under",
@@ -561,11 +541,8 @@ fn a_body_that_starts_buried_is_refused_before_it_steps() {
             "body 'jello' starts wholly inside collider 0",
         ),
     ] {
-        let path = dir.join(format!("{name}.toml"));
-        let t = text.replace(from, to);
-        assert_ne!(t, text, "{name}");
-        std::fs::write(&path, t).unwrap_or_else(|e| panic!("{e}"));
-        let out = common::hooke(&["check", &path.to_string_lossy()]);
+        let path = common::scene_variant(&dir, "jello", &format!("{name}.toml"), &[(from, to)]);
+        let out = common::hooke(&["check", &path]);
         let err = common::text(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{name}: {err}");
         assert!(err.contains(says), "{name}: {err}");

@@ -118,6 +118,42 @@ fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A CPU run of jello at 4 000 000 000 substeps a frame (it never ends by itself) saving to
+/// `dir/name`, once its partial file holds its header: the run, the file, its partial twin.
+fn endless_run_saving(
+    dir: &Path,
+    name: &str,
+) -> (std::process::Child, std::path::PathBuf, std::path::PathBuf) {
+    let scene = dir.join("jello-forever.toml");
+    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let path = dir.join(name);
+    let partial = dir.join(format!("{name}.partial"));
+    let run = hooke_command(&cpu_run(
+        &scene.to_string_lossy(),
+        &["--save", &path.to_string_lossy()],
+    ))
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap_or_else(|e| panic!("{e}"));
+    let since = Instant::now();
+    while file_size(&partial) == 0 {
+        assert!(since.elapsed() < Duration::from_secs(30), "no partial file");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    (run, path, partial)
+}
+
+/// Send SIGINT to `run`.
+fn interrupt(run: &std::process::Child) {
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &run.id().to_string()])
+        .status()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(sent.success());
+}
+
 /// Two runs saving to one path cannot interleave (they used to, leaving one recording followed
 /// by megabytes of the other's): a run writes `FILE.partial`, locked, and the second run on the
 /// same path is refused naming the first one's pid, with nothing written. The first, stopped,
@@ -126,22 +162,8 @@ fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
 #[test]
 fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end() {
     let dir = temp_dir("one-file");
-    let scene = dir.join("jello-forever.toml");
-    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let path = dir.join("shared.rrd");
-    let partial = dir.join("shared.rrd.partial");
+    let (mut first, path, partial) = endless_run_saving(&dir, "shared.rrd");
     let save = path.to_string_lossy().into_owned();
-    let mut first = hooke_command(&cpu_run(&scene.to_string_lossy(), &["--save", &save]))
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("{e}"));
-    let since = Instant::now();
-    while !partial.exists() {
-        assert!(since.elapsed() < Duration::from_secs(30), "no partial file");
-        std::thread::sleep(Duration::from_millis(20));
-    }
     assert!(
         !path.exists(),
         "the file took its name before the run ended"
@@ -156,11 +178,7 @@ fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end
         )),
         "{err}"
     );
-    let sent = std::process::Command::new("kill")
-        .args(["-INT", &first.id().to_string()])
-        .status()
-        .unwrap_or_else(|e| panic!("{e}"));
-    assert!(sent.success());
+    interrupt(&first);
     let (status, _) = wait_exit(&mut first, Instant::now());
     assert_eq!(status.code(), Some(130));
     assert!(!partial.exists(), "the partial file was left behind");
@@ -194,31 +212,9 @@ fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end
 #[test]
 fn a_second_interrupt_exits_at_once_and_the_file_keeps_its_name() {
     let dir = temp_dir("second-interrupt");
-    let scene = dir.join("jello-forever.toml");
-    std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let path = dir.join("twice.rrd");
-    let partial = dir.join("twice.rrd.partial");
-    let mut run = hooke_command(&cpu_run(
-        &scene.to_string_lossy(),
-        &["--save", &path.to_string_lossy()],
-    ))
-    .stdout(Stdio::null())
-    .stderr(Stdio::null())
-    .spawn()
-    .unwrap_or_else(|e| panic!("{e}"));
-    let since = Instant::now();
-    while file_size(&partial) == 0 {
-        assert!(since.elapsed() < Duration::from_secs(30), "no partial file");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    for _ in 0..2 {
-        let sent = std::process::Command::new("kill")
-            .args(["-INT", &run.id().to_string()])
-            .status()
-            .unwrap_or_else(|e| panic!("{e}"));
-        assert!(sent.success());
-    }
+    let (mut run, path, partial) = endless_run_saving(&dir, "twice.rrd");
+    interrupt(&run);
+    interrupt(&run);
     let (status, _) = wait_exit(&mut run, Instant::now());
     assert_eq!(status.code(), Some(130));
     assert!(!partial.exists(), "the partial file was left");
@@ -638,11 +634,7 @@ fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
     use common::record::{at_frame, read_components};
     use rerun::Loggable as _;
     let dir = temp_dir("solver-short");
-    let mut backends = vec!["cpu"];
-    if gpu_available() {
-        backends.push("gpu");
-    }
-    for backend in backends {
+    for backend in common::backends() {
         let path = dir.join(format!("cloth-{backend}.rrd"));
         let out = hooke(&[
             "run",

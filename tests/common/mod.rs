@@ -113,6 +113,31 @@ pub fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
+/// Built-in scene `name`'s text with each `(from, to)` replaced (each must occur, so a scene
+/// edited elsewhere fails loudly), written to `dir/file`; the file's path.
+pub fn scene_variant(dir: &Path, name: &str, file: &str, edits: &[(&str, &str)]) -> String {
+    let built_in = hooke::scene::BUILT_IN
+        .iter()
+        .find(|b| b.name == name)
+        .unwrap_or_else(|| panic!("no built-in scene '{name}'"));
+    let mut text = built_in.toml.to_owned();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{name}.toml has no `{from}`");
+        text = text.replace(from, to);
+    }
+    let path = dir.join(file);
+    std::fs::write(&path, text).unwrap_or_else(|e| panic!("{e}"));
+    path.to_string_lossy().into_owned()
+}
+
+/// The backends a test runs on here: the CPU, and the GPU where `gpu_available`.
+pub fn backends() -> Vec<&'static str> {
+    match gpu_available() {
+        true => vec!["cpu", "gpu"],
+        false => vec!["cpu"],
+    }
+}
+
 /// Whether GPU tests run here: with an adapter, or fail without one where CI requires it.
 pub fn gpu_available() -> bool {
     let adapters = hooke::gpu::adapters();

@@ -29,6 +29,9 @@ override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
 override CG_FORCING: f32 = 0.1;
+// How many times its allowed depth a mass may sink in a step before its projection counts as
+// deep (src/contact_law.rs's DEEP_SHARE).
+override DEEP_SHARE: f32 = 2.0;
 // VBD's sweeps count as having solved a step below this residual (src/physics/solver.rs).
 override VBD_RESIDUAL: f32 = 0.5;
 // The damping of the multigrid cycle's block-Jacobi sweeps (src/physics/hierarchy.rs's SMOOTHING).

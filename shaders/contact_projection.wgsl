@@ -16,8 +16,6 @@ struct Body {
     deep: u32,
 }
 
-// src/cpu/collide.rs's DEEP_SHARE.
-const DEEP_SHARE: f32 = 2.0;
 
 fn project(b: ptr<function, Body>, m: f32, n: vec3<f32>, depth: f32, max_depth: f32, collider_v: vec3<f32>) {
     if (depth <= max_depth) {

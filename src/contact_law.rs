@@ -11,6 +11,12 @@ pub const MAX_CONTACT_DAMPING_RATIO: f64 = 2.0;
 /// is 0.0478.
 pub const MIN_RESTITUTION: f32 = 0.05;
 
+/// How many times its allowed depth (`max_depth_m`, half the finest grid spacing) a mass may
+/// have sunk within a step before the post-step safeguard's projection of it counts as deep: it
+/// passed a whole spacing, where the layer beneath it was, and putting it back flattens the body
+/// (`cpu::Projected::deep`; the shaders' `DEEP_SHARE` override, contact_projection.wgsl).
+pub const DEEP_SHARE: f32 = 2.0;
+
 /// Coefficient of restitution of one impact on a penalty contact (spring k, damper 2ζ√(km)) that
 /// pushes but never pulls: the contact ends when its force reaches zero, before the spring is
 /// back at rest, so the bounce is larger than the linear oscillator's e = exp(−ζπ/√(1−ζ²))

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use crate::contact_law::DEEP_SHARE;
 use crate::model::{Model, poses_at};
 use crate::state::State;
 
@@ -19,9 +20,6 @@ pub struct Projected {
     /// ended as one plane). The run stops on these (`solver_watch`).
     pub deep: u32,
 }
-
-/// How many times its allowed depth a mass may have sunk before its projection counts as deep.
-pub const DEEP_SHARE: f32 = 2.0;
 
 /// Returns what was projected. The impulse is perfectly inelastic in the collider's
 /// frame: ½ m v_n² (relative normal speed) is dissipated into the contact ledger, and the change

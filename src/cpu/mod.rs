@@ -28,7 +28,7 @@ pub(crate) mod xpbd;
 
 pub use backend::CpuBackend;
 pub use chunks::PARALLEL_MIN_MASSES;
-pub use collide::{DEEP_SHARE, Projected, project_contacts};
+pub use collide::{Projected, project_contacts};
 pub use collide_masses::{collide_masses, mass_contact_energy, pair_contact};
 pub use forces::{Gather, compute_external_forces, compute_forces};
 pub use fused::{FusedStep, Simd};

@@ -3,6 +3,9 @@
 //! they stop with, and what every backend shares (the divergence check). Which backend a run
 //! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::divergence::{Divergence, Fault, StrainedSpring, Unconverged, Unphysical};
 use crate::integrator::Integrator;
 use crate::model::Model;
@@ -66,9 +69,30 @@ pub enum Misplanned {
     WrongState,
 }
 
+/// The flags that ask a run to stop (Ctrl-C, a recorder that can take no more), as a backend
+/// watches them inside a step: between the sweeps and the Newton and CG iterations of one step on
+/// the CPU, between submissions on the GPU. A step cut short is unconverged, so whoever set a
+/// flag drops the frame it belonged to (`sim::step_frame` does). None watched: never asked.
+#[derive(Debug, Clone, Default)]
+pub struct StopFlags(Vec<Arc<AtomicBool>>);
+
+impl StopFlags {
+    pub fn new(flags: impl IntoIterator<Item = Arc<AtomicBool>>) -> Self {
+        Self(flags.into_iter().collect())
+    }
+
+    /// Whether any flag is set.
+    pub fn asked(&self) -> bool {
+        self.0.iter().any(|f| f.load(Ordering::Relaxed))
+    }
+}
+
 pub trait Backend: Send {
     /// Human-readable name of the device, printed at the start of every run.
     fn describe(&self) -> String;
+    /// Watch `flags` from now on: once one is set, the step in progress ends early (see
+    /// [`StopFlags`]) and so does every later one, until the caller drops the backend.
+    fn watch(&mut self, flags: StopFlags);
     /// Advance `substeps` steps of the backend's dt. Stops at the first step whose state is not
     /// finite or runs away, leaving the last good snapshot intact for the caller.
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError>;
@@ -129,6 +153,9 @@ impl<F: FnMut(&mut Snapshot) -> Result<(), BackendError> + Send> Then<F> {
 impl<F: FnMut(&mut Snapshot) -> Result<(), BackendError> + Send> Backend for Then<F> {
     fn describe(&self) -> String {
         self.inner.describe()
+    }
+    fn watch(&mut self, flags: StopFlags) {
+        self.inner.watch(flags)
     }
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.inner.advance(substeps)

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crossbeam_channel::Sender;
 
-use crate::backend::Backend;
+use crate::backend::{Backend, StopFlags};
 use crate::error::{Error, Result};
 use crate::pacing::{Pacer, RecorderPace, SimPace, paced};
 use crate::prepare::Prepared;
@@ -198,19 +198,21 @@ impl Threads<'_> {
     ) -> (Result<sim::SimOutcome>, u64, Option<Error>) {
         let (tx, rx) = crossbeam_channel::bounded(CHANNEL_CAPACITY);
         // Set by the recorder when it can take no more: the simulation stops within a chunk.
-        let halt = AtomicBool::new(false);
+        let halt = Arc::new(AtomicBool::new(false));
+        let flags = StopFlags::new([self.cancel.clone(), halt.clone()]);
         let pace = SimPace::default();
         std::thread::scope(|scope| {
             let sim = std::thread::Builder::new()
                 .name("hooke-sim".into())
                 .spawn_scoped(scope, {
                     let cancel = self.cancel.clone();
-                    let (halt, pace) = (&halt, &pace);
+                    let (halt, pace, flags) = (&halt, &pace, &flags);
                     move || {
                         let stop = sim::Stop {
                             interrupt: &cancel,
                             halt: Some(halt),
                             pace: Some(pace),
+                            within_steps: Some(flags),
                         };
                         simulate(&tx, stop)
                     }
@@ -337,6 +339,7 @@ mod tests {
         fn describe(&self) -> String {
             "a backend that panics".to_owned()
         }
+        fn watch(&mut self, _flags: StopFlags) {}
         fn advance(&mut self, _substeps: u32) -> Result<StepStats, BackendError> {
             let doing = "stepping";
             panic!("the test backend panicked while {doing}");

@@ -3,6 +3,7 @@
 use crate::integrator::{
     DEFAULT_VBD_ITERATIONS, DEFAULT_XPBD_ITERATIONS, Integrator, Step, StepOptions, Unsupported,
 };
+use crate::scene::MOST_SWEEPS;
 use crate::scene::Scene;
 
 /// A value the run cannot use, and what would fix it.
@@ -26,6 +27,14 @@ pub enum SettingsError {
         "invalid setting: --vbd-iterations must be at least 1 (each step sweeps every mass that many times)"
     )]
     NoVbdIterations,
+    #[error(
+        "invalid setting: {flag} {given} is more than {most} sweeps a step; one step would take about {given} times a sweep's work and could not be stopped in time. Ask for at most {most} (a converged reference rarely needs more than 10 000)"
+    )]
+    TooManySweeps {
+        flag: &'static str,
+        given: u32,
+        most: u32,
+    },
     #[error("invalid setting: --substeps must be at least 1")]
     NoSubsteps,
     #[error(
@@ -102,6 +111,18 @@ fn check_overrides(scene: &Scene, o: &Overrides) -> Result<()> {
     }
     if o.vbd_iterations == Some(0) {
         return Err(SettingsError::NoVbdIterations);
+    }
+    for (given, flag) in [
+        (o.xpbd_iterations, "--xpbd-iterations"),
+        (o.vbd_iterations, "--vbd-iterations"),
+    ] {
+        if let Some(given) = given.filter(|&n| n > MOST_SWEEPS) {
+            return Err(SettingsError::TooManySweeps {
+                flag,
+                given,
+                most: MOST_SWEEPS,
+            });
+        }
     }
     if o.substeps == Some(0) {
         return Err(SettingsError::NoSubsteps);

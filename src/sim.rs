@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
-use crate::backend::{Backend, BackendError};
+use crate::backend::{Backend, BackendError, StopFlags};
 use crate::pacing::SimPace;
 use crate::state::{Snapshot, StepStats};
 
@@ -28,9 +28,19 @@ pub struct Stop<'a> {
     pub halt: Option<&'a AtomicBool>,
     /// Where the simulation notes how long it takes to make each frame by itself.
     pub pace: Option<&'a SimPace>,
+    /// The same flags, for the backends to watch inside a step (a step may be long: VBD's
+    /// sweeps, Newton's iterations); without them a stop waits for the step in progress.
+    pub within_steps: Option<&'a StopFlags>,
 }
 
 impl Stop<'_> {
+    /// Hand the flags to `backend`, where there are any.
+    fn watched_by(&self, backend: &mut dyn Backend) {
+        if let Some(flags) = self.within_steps {
+            backend.watch(flags.clone());
+        }
+    }
+
     fn requested(&self) -> bool {
         self.interrupt.load(Ordering::Relaxed)
             || self.halt.is_some_and(|h| h.load(Ordering::Relaxed))
@@ -43,6 +53,7 @@ impl<'a> From<&'a AtomicBool> for Stop<'a> {
             interrupt,
             halt: None,
             pace: None,
+            within_steps: None,
         }
     }
 }
@@ -99,8 +110,13 @@ fn step_frame(
     chunker: &mut Chunker,
     stop: Stop<'_>,
 ) -> Result<Option<StepStats>, BackendError> {
+    // A step the stop cut short is unconverged: its frame is dropped, whatever it returned.
+    let unless_stopped = |stepped: Result<StepStats, BackendError>| match stepped {
+        _ if stop.requested() => Ok(None),
+        other => other.map(Some),
+    };
     if chunker.whole(substeps) {
-        return backend.advance(substeps).map(Some);
+        return unless_stopped(backend.advance(substeps));
     }
     let mut stats: Option<StepStats> = None;
     let mut done = 0;
@@ -110,9 +126,13 @@ fn step_frame(
         }
         let n = chunker.next(substeps - done);
         let start = Instant::now();
-        let s = backend.advance(n)?;
-        // Wait for it: the chunk's real cost is known, and nothing more is queued.
-        backend.finish()?;
+        let Some(s) = unless_stopped(backend.advance(n).and_then(|s| {
+            // Wait for it: the chunk's real cost is known, and nothing more is queued.
+            backend.finish().map(|()| s)
+        }))?
+        else {
+            return Ok(None);
+        };
         chunker.observe(n, start.elapsed());
         stats = Some(stats.map_or(s, |acc| acc.merged(&s)));
         done += n;
@@ -157,6 +177,7 @@ pub fn simulate<'a>(
     recycled: Option<&Receiver<Snapshot>>,
 ) -> SimOutcome {
     let stop: Stop<'a> = stop.into();
+    stop.watched_by(backend);
     let mut out = SimOutcome::default();
     let deliver = |out: &mut SimOutcome, snap: Snapshot| deliver(tx, delivery, out, snap);
     let mut healthy = backend
@@ -269,6 +290,9 @@ pub fn simulate_all<'a>(
     stop: impl Into<Stop<'a>>,
 ) -> SimOutcome {
     let stop: Stop<'a> = stop.into();
+    for b in backends.iter_mut() {
+        stop.watched_by(b.as_mut());
+    }
     let n = backends.len();
     let mut out = SimOutcome::default();
     let mut live = vec![true; n];

@@ -136,8 +136,8 @@ pub struct StepStats {
     /// Implicit Euler and BDF2: most Newton iterations a step of this frame took.
     pub newton_iterations: u32,
     /// How the frame's steps met their solver's acceptance rule, where the backend judged
-    /// them: implicit Euler and BDF2 on both backends, VBD on the CPU (the GPU does not reduce
-    /// VBD's residual); `None` elsewhere, never a made-up zero.
+    /// them: implicit Euler, BDF2 and VBD on both backends; `None` elsewhere, never a made-up
+    /// zero.
     pub rule: Option<RuleOutcome>,
 }
 

@@ -329,6 +329,14 @@ fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
         "3:",
         "either `frames` or `duration_secs`, not both",
     );
+    // 4e9 sweeps a step could not be stopped in time (issue 46); 100 000 are allowed.
+    expect_scene_error(
+        "vbd-sweeps-4e9",
+        &with_table("[solver]\nintegrator = \"vbd\"\nvbd_iterations = 4000000000\n"),
+        "solver.vbd_iterations",
+        "4:",
+        "must be at most 100000",
+    );
     let dir = temp_dir("refused-options");
     let not_a_folder = dir.join("file");
     std::fs::write(&not_a_folder, "").unwrap_or_else(|e| panic!("{e}"));
@@ -371,6 +379,19 @@ fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
                 &many,
             ],
             "a comparison holds at most 16",
+        ),
+        (
+            vec![
+                "run",
+                "hair",
+                "--backend",
+                "cpu",
+                "--integrator",
+                "xpbd",
+                "--xpbd-iterations",
+                "100001",
+            ],
+            "--xpbd-iterations 100001 is more than 100000 sweeps a step",
         ),
         (
             vec!["bench", "throughput", "hair", "--steps", "0"],

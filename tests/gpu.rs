@@ -338,6 +338,9 @@ impl hooke::backend::Backend for LosesDevice {
     fn describe(&self) -> String {
         self.gpu.describe()
     }
+    fn watch(&mut self, flags: hooke::backend::StopFlags) {
+        self.gpu.watch(flags)
+    }
     fn advance(
         &mut self,
         substeps: u32,

@@ -47,21 +47,38 @@ fn wait_exit(
     }
 }
 
-/// jello at 4 000 000 000 substeps per frame (dt = 4.2e-12 s): a frame would take days. SIGTERM
-/// and SIGINT must end the run within the bound, keeping frame 0, with a file that decodes to
-/// its end and carries its index.
+/// jello at 4 000 000 000 substeps per frame (dt = 4.2e-12 s): a frame would take days; and
+/// jello at one VBD step a frame of 100 000 sweeps: one step would take minutes. SIGTERM and
+/// SIGINT must end the run within the bound, keeping frame 0, with a file that decodes to its
+/// end and carries its index.
 #[test]
 fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
     let dir = temp_dir("stop-latency");
     let scene = dir.join("jello-forever.toml");
     std::fs::write(&scene, jello_with("substeps = 40", "substeps = 4000000000"))
         .unwrap_or_else(|e| panic!("{e}"));
-    let mut cases = vec![("cpu", "-TERM"), ("cpu", "-INT")];
+    // One step that would take minutes: VBD's 100 000 sweeps of the jello in a step.
+    let long_step = dir.join("jello-one-long-step.toml");
+    let vbd = jello_with("substeps = 40", "substeps = 1").replace(
+        "integrator = \"semi-implicit\"",
+        "integrator = \"vbd\"\nvbd_iterations = 100000",
+    );
+    std::fs::write(&long_step, vbd).unwrap_or_else(|e| panic!("{e}"));
+    let mut cases = vec![
+        ("cpu", "-TERM", &scene),
+        ("cpu", "-INT", &scene),
+        ("cpu", "-INT", &long_step),
+    ];
     if gpu_available() {
-        cases.push(("gpu", "-TERM"));
+        cases.push(("gpu", "-TERM", &scene));
+        cases.push(("gpu", "-INT", &long_step));
     }
-    for (backend, signal) in cases {
-        let path = dir.join(format!("{backend}{signal}.rrd"));
+    for (backend, signal, scene) in cases {
+        let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
+        let path = dir.join(format!(
+            "{backend}{signal}-{}.rrd",
+            stem.unwrap_or_default()
+        ));
         let mut child = hooke_command(&[
             "run",
             &scene.to_string_lossy(),
@@ -234,6 +251,7 @@ impl Backend for Slow {
     fn describe(&self) -> String {
         "slow".to_owned()
     }
+    fn watch(&mut self, _flags: hooke::backend::StopFlags) {}
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         for _ in 0..substeps {
             std::thread::sleep(Duration::from_millis(1));
@@ -324,6 +342,62 @@ fn the_simulation_stops_within_a_chunk_and_drops_the_frame_in_progress() {
             if k > 0 {
                 assert_eq!(f.stats.substeps, substeps, "frame {k}'s stats");
             }
+        }
+    }
+}
+
+/// A stop that comes inside one step ends it between its iterations, on both backends: VBD's
+/// and XPBD's sweeps (100 000 a step, minutes of work), counted on the CPU by the sweeps run and
+/// on the GPU by the dispatches recorded of those planned. The flag is raised from another thread
+/// while `advance` runs, as Ctrl-C raises it.
+#[test]
+fn a_stop_inside_one_step_ends_it_between_its_iterations() {
+    use hooke::backend::StopFlags;
+    use hooke::integrator::{Integrator, StepOptions};
+    const SWEEPS: u32 = 100_000;
+    let (model, _) = common::scene_model("jello");
+    let options = StepOptions {
+        xpbd_iterations: SWEEPS,
+        vbd_iterations: SWEEPS,
+        preconditioner: None,
+    };
+    let step = |integrator| Step {
+        integrator,
+        dt_secs: 1.0 / 60.0,
+        options,
+    };
+    // Raise the flag a little after `advance` starts; what `advance` returns.
+    let stopped_inside = |be: &mut dyn Backend| {
+        let flag = Arc::new(AtomicBool::new(false));
+        be.watch(StopFlags::new([flag.clone()]));
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                std::thread::sleep(Duration::from_millis(300));
+                flag.store(true, Ordering::Relaxed);
+            });
+            be.advance(1).unwrap_or_else(|e| panic!("{e}"))
+        })
+    };
+    let mut cpu = hooke::cpu::CpuBackend::new(model.clone(), step(Integrator::Vbd));
+    let stats = stopped_inside(&mut cpu);
+    assert!(
+        stats.solver_iterations < SWEEPS,
+        "cpu: all {SWEEPS} sweeps ran after the stop"
+    );
+    if gpu_available() {
+        for integrator in [Integrator::Vbd, Integrator::Xpbd] {
+            let mut gpu = hooke::gpu::GpuBackend::new(model.clone(), step(integrator), None)
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert!(
+                !gpu.sweeps_in_group(),
+                "{integrator:?}: {SWEEPS} sweeps in one dispatch, which nothing can stop"
+            );
+            stopped_inside(&mut gpu);
+            let (recorded, planned) = gpu.last_recorded();
+            assert!(
+                recorded < planned,
+                "gpu {integrator:?}: all {planned} dispatches were recorded after the stop"
+            );
         }
     }
 }

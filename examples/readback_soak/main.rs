@@ -189,6 +189,9 @@ impl Backend for Metered {
     fn describe(&self) -> String {
         self.inner.describe()
     }
+    fn watch(&mut self, flags: hooke::backend::StopFlags) {
+        self.inner.watch(flags)
+    }
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         if let Some(d) = self.sleep {
             std::thread::sleep(d);

@@ -530,7 +530,10 @@ fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
         }
         _ => return,
     };
-    let in_group = |device| hooke::gpu::sweeps_in_one_group(model, settings.integrator, device);
+    let in_group = |device| {
+        let run = (settings.integrator, settings.options);
+        hooke::gpu::sweeps_in_one_group(model, run, device)
+    };
     let how = match (in_group(DiscreteGpu), in_group(Cpu)) {
         (true, true) => format!("all in one dispatch of one workgroup per {per}"),
         (true, false) => format!(

@@ -8,7 +8,7 @@ use super::collide::project_contacts;
 use super::fused::{FusedStep, Simd};
 use super::integrate;
 use super::reduce::{compute_energies, compute_strain};
-use crate::backend::{Backend, BackendError, Internal, find_divergence};
+use crate::backend::{Backend, BackendError, Internal, StopFlags, find_divergence};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::physics::Preconditioner;
@@ -87,6 +87,9 @@ impl CpuBackend {
         let dt = f64::from(self.dt);
         fused.load(&self.state.x, &self.state.v);
         for _ in 0..substeps {
+            if self.scratch.stop_asked() {
+                break;
+            }
             let (power, suspect) = fused.fused_step(&self.model, self.dt);
             self.state.ledger.accumulate(&power, dt);
             self.state.time_secs += dt;
@@ -113,6 +116,9 @@ impl CpuBackend {
         let (mut projections, mut deep_projections) = (0, 0);
         let mut solves = StepStats::default();
         for _ in 0..substeps {
+            if self.scratch.stop_asked() {
+                break;
+            }
             if let Some(solve) = integrate::step(
                 &self.model,
                 self.integrator,
@@ -159,6 +165,10 @@ impl CpuBackend {
 impl Backend for CpuBackend {
     fn describe(&self) -> String {
         format!("cpu ({} threads)", rayon::current_num_threads())
+    }
+
+    fn watch(&mut self, flags: StopFlags) {
+        self.scratch.watch(flags);
     }
 
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {

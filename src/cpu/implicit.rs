@@ -33,6 +33,7 @@ use super::chunks::{
 use super::forces::{Gather, compute_forces};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
+use crate::backend::StopFlags;
 use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
@@ -222,6 +223,7 @@ pub fn implicit_step(
     state: &mut State,
     w: &mut ImplicitWork,
     (integrator, dt): (Integrator, f32),
+    stop: &StopFlags,
 ) -> SolveStats {
     let step = BackwardStep::of(integrator, dt, w.history.steps_taken());
     let h = step.solve_secs;
@@ -239,6 +241,9 @@ pub fn implicit_step(
         .implicit_blend(step, keep, &mut state.x, &mut state.v);
     implicit_begin(&mut w.dv_total);
     for _ in 0..NEWTON_MAX_ITERATIONS {
+        if stop.asked() {
+            break;
+        }
         implicit_iterate(&state.x, &state.v, &w.dv_total, h, (&mut w.xk, &mut w.vk));
         power = compute_forces(model, gather, &w.xk, &w.vk, t_end, h, &mut w.acc);
         linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
@@ -258,7 +263,7 @@ pub fn implicit_step(
             break;
         }
         last_residual = residual;
-        let (iterations, residual) = solve(model, w, h, residual);
+        let (iterations, residual) = solve(model, w, (h, residual), stop);
         stats.newton += 1;
         stats.iterations += iterations;
         stats.residual = stats.residual.max(residual);
@@ -399,8 +404,14 @@ pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
 }
 
 /// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
-/// into `w.dv`, until `cg_goes_on` says, `b_norm` being |b|. Returns the iterations and |r| / |b|.
-fn solve(model: &Model, w: &mut ImplicitWork, h: f32, b_norm: f64) -> (u32, f64) {
+/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, `b_norm` being |b|. Returns the
+/// iterations and |r| / |b|.
+fn solve(
+    model: &Model,
+    w: &mut ImplicitWork,
+    (h, b_norm): (f32, f64),
+    stop: &StopFlags,
+) -> (u32, f64) {
     let ImplicitWork {
         lin,
         b,
@@ -439,7 +450,7 @@ fn solve(model: &Model, w: &mut ImplicitWork, h: f32, b_norm: f64) -> (u32, f64)
     let mut iterations = 0;
     loop {
         let residual = dot(r, r).sqrt() / b_norm;
-        if !cg_goes_on(residual, iterations) {
+        if !cg_goes_on(residual, iterations) || stop.asked() {
             return (iterations, residual);
         }
         iterations += 1;
@@ -557,6 +568,7 @@ mod tests {
                     &mut state,
                     &mut work,
                     (Integrator::Implicit, settings.dt_secs as f32),
+                    &StopFlags::default(),
                 );
                 assert!(s.newton < NEWTON_MAX_ITERATIONS, "{s:?}");
                 s.newton

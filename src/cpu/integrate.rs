@@ -10,6 +10,7 @@ use super::implicit::{ImplicitWork, SolveStats, implicit_step};
 use super::springs::update_springs;
 use super::vbd::{VbdWork, vbd_step};
 use super::xpbd::XpbdWork;
+use crate::backend::StopFlags;
 use crate::integrator::{Integrator, Step, StepOptions};
 use crate::model::Model;
 use crate::physics::Preconditioner;
@@ -38,6 +39,8 @@ pub struct Scratch {
     vbd: Option<VbdWork>,
     options: StepOptions,
     dt_secs: f64,
+    /// What cuts a step's iterations short (`Backend::watch`).
+    stop: StopFlags,
 }
 
 impl Scratch {
@@ -61,11 +64,22 @@ impl Scratch {
             sum_v: vec![Vec3::ZERO; n],
             sum_a: vec![Vec3::ZERO; n],
             verlet_cache: None,
+            stop: StopFlags::default(),
         }
     }
 }
 
 impl Scratch {
+    /// Cut the iterations of later steps short once one of `flags` is set.
+    pub fn watch(&mut self, flags: StopFlags) {
+        self.stop = flags;
+    }
+
+    /// Whether a stop was asked for.
+    pub fn stop_asked(&self) -> bool {
+        self.stop.asked()
+    }
+
     /// Precondition implicit Euler's solves with `p` (its scratch is made again at the next
     /// step).
     pub fn set_preconditioner(&mut self, p: Preconditioner) {
@@ -143,12 +157,13 @@ pub fn step(
                 state,
                 work,
                 (integrator, dt),
+                &s.stop,
             ));
         }
         Integrator::Vbd => {
             let iterations = s.options.vbd_iterations;
             let work = s.vbd.get_or_insert_with(|| VbdWork::new(model, iterations));
-            return Some(vbd_step(model, &mut s.gather, state, work, dt));
+            return Some(vbd_step(model, &mut s.gather, state, work, dt, &s.stop));
         }
     }
     state.time_secs += f64::from(dt);
@@ -196,7 +211,7 @@ fn xpbd_step(model: &Model, state: &mut State, s: &mut Scratch, dt: f32) {
         .xpbd
         .get_or_insert_with(|| XpbdWork::new(&model.springs, &model.inv_mass, h, iterations));
     xpbd_predict(v, &mut work.dx, &s.acc, dt);
-    work.project(s.gather.springs(), &model.inv_mass, dt, x, v);
+    work.project(s.gather.springs(), &model.inv_mass, dt, (x, v), &s.stop);
     ledger.accumulate(&p, f64::from(dt));
 }
 

@@ -421,6 +421,7 @@ mod tests {
                         &mut state,
                         &mut work,
                         (Integrator::Implicit, h),
+                        &crate::backend::StopFlags::default(),
                     )
                     .iterations
                 })

@@ -26,6 +26,7 @@ use super::chunks::PARALLEL_MIN_MASSES;
 use super::forces::{Gather, compute_forces, force_on_mass};
 use super::implicit::SolveStats;
 use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
+use crate::backend::StopFlags;
 use crate::model::{Model, Pose, poses_at};
 use crate::physics::{MassColouring, VBD_RESIDUAL, vbd_colouring};
 use crate::state::State;
@@ -139,14 +140,16 @@ pub fn vbd_solve_mass(
     v[i] + invert_block(block) * b
 }
 
-/// One VBD step of `dt`: the guess, `iterations` sweeps over the colours, and the ledger's rates
-/// at the end of the step (backward quadrature, as implicit Euler books them).
+/// One VBD step of `dt`: the guess, `iterations` sweeps over the colours (fewer once `stop` is
+/// asked), and the ledger's rates at the end of the step (backward quadrature, as implicit Euler
+/// books them).
 pub fn vbd_step(
     model: &Model,
     gather: &mut Gather,
     state: &mut State,
     w: &mut VbdWork,
     dt: f32,
+    stop: &StopFlags,
 ) -> SolveStats {
     let h = dt;
     let t_end = state.time_secs + f64::from(h);
@@ -160,7 +163,12 @@ pub fn vbd_step(
         (&w.x0, &w.v0),
         (&mut state.x, &mut state.v),
     );
+    let mut sweeps = 0;
     for _ in 0..w.iterations {
+        if stop.asked() {
+            break;
+        }
+        sweeps += 1;
         for c in 0..w.colouring.colours() {
             let masses = w.colouring.masses_of(c);
             let solve = |&i: &u32| {
@@ -190,7 +198,7 @@ pub fn vbd_step(
     state.steps += 1;
     SolveStats {
         newton: 0,
-        iterations: w.iterations,
+        iterations: sweeps,
         residual,
         step_residual: residual,
         met: residual <= VBD_RESIDUAL,

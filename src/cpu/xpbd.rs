@@ -23,6 +23,7 @@
 
 use glam::Vec3;
 
+use crate::backend::StopFlags;
 use crate::model::Spring;
 use crate::physics::{Colouring, XpbdSpring, colour_springs, xpbd_constants};
 
@@ -70,8 +71,8 @@ pub fn xpbd_solve_spring(
     dl
 }
 
-/// Step 2 of a substep: `iterations` sweeps over the colours, correcting `dx`. `lambda` (one per
-/// spring) is reset here.
+/// Step 2 of a substep: `iterations` sweeps over the colours (fewer once `stop` is asked),
+/// correcting `dx`. `lambda` (one per spring) is reset here.
 #[allow(clippy::too_many_arguments)]
 pub fn xpbd_solve(
     springs: &[Spring],
@@ -82,9 +83,13 @@ pub fn xpbd_solve(
     x: &[Vec3],
     dx: &mut [Vec3],
     lambda: &mut [f32],
+    stop: &StopFlags,
 ) {
     lambda.iter_mut().for_each(|l| *l = 0.0);
     for _ in 0..iterations {
+        if stop.asked() {
+            break;
+        }
         for c in 0..colouring.colours() {
             for &i in colouring.springs_of(c) {
                 let i = i as usize;
@@ -135,8 +140,8 @@ impl XpbdWork {
         springs: &[Spring],
         inv_mass: &[f32],
         h: f32,
-        x: &mut [Vec3],
-        v: &mut [Vec3],
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+        stop: &StopFlags,
     ) {
         xpbd_solve(
             springs,
@@ -147,6 +152,7 @@ impl XpbdWork {
             x,
             &mut self.dx,
             &mut self.lambda,
+            stop,
         );
         xpbd_update_velocity(&self.dx, h, x, v);
     }
@@ -268,7 +274,13 @@ mod tests {
             for (dx, v) in work.dx.iter_mut().zip(&v) {
                 *dx = h * *v;
             }
-            work.project(&springs, &inv_mass, h, &mut x, &mut v);
+            work.project(
+                &springs,
+                &inv_mass,
+                h,
+                (&mut x, &mut v),
+                &StopFlags::default(),
+            );
         }
         let stretch = (0..n)
             .map(|i| ((x[i] - x[i + 1]).length() - 0.1) / ((n - i) as f32 * m * g / k))
@@ -342,6 +354,7 @@ mod tests {
                     &x,
                     &mut dx,
                     &mut lambda,
+                    &StopFlags::default(),
                 );
                 xpbd_update_velocity(&dx, h as f32, &mut x, &mut v);
             }

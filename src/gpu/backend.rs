@@ -7,28 +7,29 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::context::{DeviceError, GpuContext, ReadBackOf};
-use super::dispatch::{Dispatch, SLOTS_PER_STEP, why_not_in_group};
+use super::dispatch::why_not_in_group;
 use super::encode::{Dispatcher, in_pass};
-use super::implicit::{self, Budgets, ImplicitStep, Path};
-use super::kernels::Kernel;
+use super::implicit::{self, Budgets, Path};
 use super::layout::FrameSolve;
 use super::limits::check_fits;
 use super::loop_budget::LoopBudget;
 use super::multigrid::Layout as MultigridLayout;
 use super::pipelines::{Layouts, Needed, Pipelines};
-use super::plan::{self, ExplicitPath, ListBuild, fused_step_plan, step_plan};
+use super::plan::{self, ExplicitPath};
 use super::readback::{self, Pending, ReadBack, SolveRecord, StagingLayout};
 use super::resources::Resources;
 use super::stages::{Clock, StageSlots};
 use super::tuning::{Tuning, specialise};
-use crate::backend::{Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, find_divergence};
+use crate::backend::{
+    Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, StopFlags, find_divergence,
+};
 use crate::divergence::Divergence;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
 /// Frames whose records implicit Euler's budgets follow (per-pass path).
-const RECENT_FRAMES: usize = 8;
+pub(super) const RECENT_FRAMES: usize = 8;
 
 pub struct GpuBackend {
     pub(super) ctx: GpuContext,
@@ -37,14 +38,14 @@ pub struct GpuBackend {
     pub(super) clock: Clock,
     /// Energy folded out of the per-mass ledger at each snapshot, summed in f64.
     ledger: Ledger,
-    verlet_primed: bool,
+    pub(super) verlet_primed: bool,
     pub(super) pipelines: Pipelines,
     pub(super) layouts: Layouts,
     pub(super) resources: Resources,
     pub(super) stages: StageSlots,
     /// Bytes of GPU memory held by the simulation's buffers.
     pub memory_bytes: u64,
-    advance_started: Option<Instant>,
+    pub(super) advance_started: Option<Instant>,
     /// Snapshots asked for and not yet collected, oldest first.
     pending: VecDeque<Pending>,
     /// Snapshots returned by the recorder, their buffers reused.
@@ -52,17 +53,21 @@ pub struct GpuBackend {
     /// Implicit Euler: how its steps run, and the budgets the next frame is encoded with (the
     /// path of a dispatch per pass).
     pub(super) implicit_path: Option<Path>,
-    budgets: Budgets,
+    pub(super) budgets: Budgets,
     /// What the last few frames' steps took (the budgets follow the most of them).
-    recent_frames: VecDeque<FrameSolve>,
+    pub(super) recent_frames: VecDeque<FrameSolve>,
     /// Frames replayed with larger budgets since the run began.
-    replays: u64,
+    pub(super) replays: u64,
     /// Explicit integrators: fused steps or a pass per stage (`plan::fused_links`).
-    explicit_path: ExplicitPath,
+    pub(super) explicit_path: ExplicitPath,
     /// `fused_frame` keeps the state in workgroup memory between a submission's steps.
     frame_state_in_workgroup: bool,
     /// How long the adapter lets a shader invocation loop, measured as the device opened.
     pub(super) loop_budget: LoopBudget,
+    /// What ends the steps of an `advance` between submissions (`Backend::watch`).
+    pub(super) stop: StopFlags,
+    /// The dispatches the last explicit or sweeping `advance` recorded, of those it planned.
+    pub(super) last_recorded: (usize, usize),
 }
 
 impl GpuBackend {
@@ -191,6 +196,8 @@ impl GpuBackend {
             explicit_path: explicit,
             frame_state_in_workgroup,
             loop_budget,
+            stop: StopFlags::default(),
+            last_recorded: (0, 0),
         };
         backend.ctx.check()?;
         Ok(backend)
@@ -229,19 +236,6 @@ impl GpuBackend {
             .reserve(&self.ctx.device, self.layouts.stages(), slots);
     }
 
-    /// Write the stage slots of the next `steps` steps (in one workgroup without colliders, the
-    /// first step's: the kernel reads no other pose), and room for the snapshot's after them.
-    pub(super) fn prepare_stages(&mut self, steps: u32) {
-        self.reserve_stage_slots(SLOTS_PER_STEP * steps + 1);
-        let still = self.model.effects.colliders.is_empty();
-        let laid = match self.explicit_path {
-            ExplicitPath::InGroup if still => 1,
-            _ => steps,
-        };
-        let stages = self.clock.stages(&self.model, steps, laid);
-        self.stages.write(&self.ctx.queue, 0, stages);
-    }
-
     /// How this run's explicit steps are dispatched.
     pub fn explicit_path(&self) -> ExplicitPath {
         self.explicit_path
@@ -255,110 +249,6 @@ impl GpuBackend {
     /// Whether XPBD's or VBD's sweeps take one workgroup (`vbd_sweeps`, `xpbd_sweeps`).
     pub fn sweeps_in_group(&self) -> bool {
         self.resources.sweeps().one_group
-    }
-
-    /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:
-    /// a fused Euler or semi-implicit step that reads B).
-    pub(super) fn step_plan(&self, prime: bool, odd: bool) -> Vec<Dispatch> {
-        match self.explicit_path {
-            ExplicitPath::InGroup => return vec![Dispatch::at(Kernel::FusedFrame, 0)],
-            ExplicitPath::Fused => return fused_step_plan(self.integrator, prime, odd),
-            ExplicitPath::General => {}
-        }
-        step_plan(
-            self.integrator,
-            &self.model.effects,
-            self.list_build(),
-            prime,
-            self.resources.sweeps(),
-        )
-    }
-
-    /// How this run rebuilds mass–mass contact's neighbour lists.
-    pub(super) fn list_build(&self) -> ListBuild {
-        ListBuild::for_masses(self.model.mass_count())
-    }
-
-    /// Whether `steps` steps leave the state in B (fused Euler and semi-implicit Euler
-    /// alternate): then [`GpuBackend::copy_back`] returns it to A, where everything else reads it.
-    fn ends_in_b(&self, steps: u32) -> bool {
-        self.explicit_path == ExplicitPath::Fused
-            && matches!(
-                self.integrator,
-                Integrator::Euler | Integrator::SemiImplicit
-            )
-            && steps % 2 == 1
-    }
-
-    /// After `steps` steps, record the copy of B's x and v to A if they ended there.
-    pub(super) fn copy_back(&self, enc: &mut wgpu::CommandEncoder, steps: u32) {
-        if self.ends_in_b(steps) {
-            let r = &self.resources;
-            enc.copy_buffer_to_buffer(&r.xt, 0, &r.x, 0, r.x.size());
-            enc.copy_buffer_to_buffer(&r.vt, 0, &r.v, 0, r.v.size());
-        }
-    }
-
-    /// The dispatches of the next `steps` steps, each slot counted from slot 0; Verlet's first
-    /// step also evaluates a(x_0). In one workgroup, one dispatch runs them all.
-    pub(super) fn plan_steps(&mut self, steps: u32) -> Vec<Dispatch> {
-        if self.explicit_path == ExplicitPath::InGroup {
-            // No steps, no dispatch: the kernel would run the count a stale slot holds.
-            return match steps {
-                0 => Vec::new(),
-                _ => self.step_plan(false, false),
-            };
-        }
-        let warm = [self.step_plan(false, false), self.step_plan(false, true)];
-        let mut all = Vec::with_capacity(warm[0].len() * steps as usize);
-        for k in 0..steps {
-            let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
-            let plan = if prime {
-                self.step_plan(true, false)
-            } else {
-                warm[k as usize % 2].clone()
-            };
-            all.extend(plan.into_iter().map(|d| Dispatch {
-                slot: SLOTS_PER_STEP * k + d.slot,
-                ..d
-            }));
-            self.verlet_primed = true;
-        }
-        all
-    }
-
-    fn advance_implicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
-        self.prepare_stages(substeps);
-        let post = self.step_plan(false, false);
-        let Some(solver) = self.resources.solver.as_ref() else {
-            return Err(BackendError::Internal(Internal::NoImplicitSolver));
-        };
-        let step = ImplicitStep {
-            ctx: &self.ctx,
-            kernels: self.kernels(),
-            solver,
-            post: &post,
-            multigrid: self.resources.multigrid.as_ref().map(|mg| mg.passes()),
-        };
-        // The solve's iterations and residual reach the snapshot, read back with the frame.
-        if self.implicit_path == Some(Path::InGroup) {
-            step.run_in_group(substeps)?;
-        } else {
-            let outcome = step.run_frame(substeps, self.budgets)?;
-            if self.recent_frames.len() == RECENT_FRAMES {
-                self.recent_frames.pop_front();
-            }
-            self.recent_frames.push_back(outcome.took);
-            self.budgets = outcome.budgets.fitted(&self.recent_frames);
-            self.replays += u64::from(outcome.replays);
-        }
-        self.clock.advance(substeps);
-        self.ctx.check()?;
-        Ok(StepStats {
-            substeps,
-            dt_secs: f64::from(self.clock.dt),
-            ..StepStats::default()
-        })
     }
 
     fn staging_layout(&self) -> StagingLayout {
@@ -516,26 +406,16 @@ impl Backend for GpuBackend {
         format!("gpu: {}", self.ctx.describe())
     }
 
+    fn watch(&mut self, flags: StopFlags) {
+        self.stop = flags;
+    }
+
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.advance_started.get_or_insert_with(Instant::now);
-        if self.resources.solver.is_some() {
-            return self.advance_implicit(substeps);
+        match self.resources.solver.is_some() {
+            true => self.advance_implicit(substeps),
+            false => self.advance_explicit(substeps),
         }
-        self.prepare_stages(substeps);
-        let plan = self.plan_steps(substeps);
-        let enc = self.ctx.encoder("steps");
-        let mut enc = self
-            .kernels()
-            .encode_in_submissions(&self.ctx, enc, "steps", &plan)?;
-        self.copy_back(&mut enc, substeps);
-        self.ctx.queue.submit([enc.finish()]);
-        self.clock.advance(substeps);
-        self.ctx.check()?;
-        Ok(StepStats {
-            substeps,
-            dt_secs: f64::from(self.clock.dt),
-            ..StepStats::default()
-        })
     }
 
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {

@@ -319,6 +319,20 @@ impl GpuContext {
         self.check()
     }
 
+    /// Wait until submission `index` has run (and not what was submitted after it).
+    pub fn wait_for(&self, index: wgpu::SubmissionIndex) -> Result<(), BackendError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|cause| DeviceError::Wait {
+                adapter: self.describe(),
+                cause,
+            })?;
+        self.check()
+    }
+
     /// Map `slice` for reading once submission `index` has run, waiting for that submission
     /// only: work submitted after it keeps the GPU busy meanwhile.
     pub fn map_and_wait(

@@ -38,10 +38,17 @@ pub struct ColourPass {
 /// and sweep cost more than the sweeps' work on one workgroup.
 pub const XPBD_ONE_GROUP_SPRINGS: usize = 16_384;
 
-/// Whether a run with `spring_count` springs sweeps XPBD's colours in one dispatch
-/// (`xpbd_sweeps.wgsl`).
-pub fn xpbd_in_one_group(spring_count: usize) -> bool {
-    spring_count <= XPBD_ONE_GROUP_SPRINGS
+/// The most sweeps one dispatch of `xpbd_sweeps` or `vbd_sweeps` runs: a dispatch cannot be
+/// stopped, and a stop waits for the submission in progress (`encode_in_submissions`). More
+/// sweeps than this take a dispatch per colour and sweep, whose result is the same bit for bit
+/// (the kernels' headers say why); 1 024 sweeps of the 4 × 4 × 4 jello's 16 colours in one
+/// workgroup take about 0.1 s on lavapipe.
+pub const MOST_SWEEPS_IN_ONE_DISPATCH: u32 = 1024;
+
+/// Whether a run with `spring_count` springs sweeps XPBD's colours `iterations` times in one
+/// dispatch (`xpbd_sweeps.wgsl`).
+pub fn xpbd_in_one_group(spring_count: usize, iterations: u32) -> bool {
+    spring_count <= XPBD_ONE_GROUP_SPRINGS && iterations <= MOST_SWEEPS_IN_ONE_DISPATCH
 }
 
 /// Threads of the first level of implicit Euler's one-workgroup sums (`SUM_LEVEL`,
@@ -70,20 +77,21 @@ pub fn vbd_one_group_masses(device: wgpu::DeviceType) -> usize {
     }
 }
 
-/// Whether a VBD run with `mass_count` masses sweeps its colours in one dispatch on `device`.
-pub fn vbd_in_one_group(mass_count: usize, device: wgpu::DeviceType) -> bool {
-    mass_count <= vbd_one_group_masses(device)
+/// Whether a VBD run with `mass_count` masses sweeps its colours `iterations` times in one
+/// dispatch on `device`.
+pub fn vbd_in_one_group(mass_count: usize, iterations: u32, device: wgpu::DeviceType) -> bool {
+    mass_count <= vbd_one_group_masses(device) && iterations <= MOST_SWEEPS_IN_ONE_DISPATCH
 }
 
 /// Whether a run's colour sweeps (XPBD's springs, VBD's masses) take one workgroup on `device`.
 pub fn sweeps_in_one_group(
     model: &crate::model::Model,
-    integrator: Integrator,
+    (integrator, options): (Integrator, crate::integrator::StepOptions),
     device: wgpu::DeviceType,
 ) -> bool {
     match integrator {
-        Integrator::Xpbd => xpbd_in_one_group(model.spring_count()),
-        Integrator::Vbd => vbd_in_one_group(model.mass_count(), device),
+        Integrator::Xpbd => xpbd_in_one_group(model.spring_count(), options.xpbd_iterations),
+        Integrator::Vbd => vbd_in_one_group(model.mass_count(), options.vbd_iterations, device),
         _ => false,
     }
 }

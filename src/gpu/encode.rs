@@ -1,13 +1,15 @@
 //! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
 //! count, all as the kernel table says.
 
+use std::time::Instant;
+
 use super::bindings::Group;
 use super::context::GpuContext;
 use super::dispatch::{Dispatch, SLOTS_PER_STEP};
 use super::pipelines::Pipelines;
 use super::resources::Resources;
 use super::stages::StageSlots;
-use crate::backend::{BackendError, Internal, Misplanned};
+use crate::backend::{BackendError, Internal, Misplanned, StopFlags};
 
 /// What recording a dispatch needs of the backend.
 #[derive(Clone, Copy)]
@@ -85,27 +87,54 @@ impl Dispatcher<'_> {
         ds.iter().try_for_each(|&d| self.dispatch(pass, d, base))
     }
 
-    /// Record `plan` into `enc` and on, in passes labelled `label`, submitting each encoder on
-    /// `ctx` as it fills with `MOST_DISPATCHES_PER_SUBMISSION` dispatches; returns the encoder
-    /// holding the rest (all of a short plan), which the caller finishes and submits.
+    /// Record `plan` into `enc` and on, in passes labelled `label`, submitting on `ctx` as the
+    /// encoder fills; returns the encoder holding the rest (all of a short plan), which the
+    /// caller finishes and submits, and how many of the plan's dispatches it recorded (all,
+    /// unless a stop came).
+    ///
+    /// A long plan is where a stop must not wait for the end. Each submission waits for the one
+    /// before it to run (so at most two are queued, and the device stays busy), holds about
+    /// [`SUBMISSION_SECS`] of work as the last waits measured it, and once `stop` is asked
+    /// nothing more is recorded. The steps are then cut short, and the caller's caller drops
+    /// their frame (`Backend::watch`). The split never changes the dispatches or their order.
     pub fn encode_in_submissions(
         &self,
-        ctx: &GpuContext,
+        (ctx, stop): (&GpuContext, &StopFlags),
         mut enc: wgpu::CommandEncoder,
         label: &'static str,
         plan: &[Dispatch],
-    ) -> Result<wgpu::CommandEncoder, BackendError> {
-        let last = plan.len().saturating_sub(1) / MOST_DISPATCHES_PER_SUBMISSION
-            * MOST_DISPATCHES_PER_SUBMISSION;
-        for chunk in plan[..last].chunks(MOST_DISPATCHES_PER_SUBMISSION) {
+    ) -> Result<(wgpu::CommandEncoder, usize), BackendError> {
+        let mut size = FIRST_SUBMISSION;
+        let mut start = 0;
+        let mut queued: Option<(wgpu::SubmissionIndex, usize)> = None;
+        let mut last_done = Instant::now();
+        while plan.len() - start > size {
+            if stop.asked() {
+                return Ok((enc, start));
+            }
+            let chunk = &plan[start..start + size];
             in_pass(&mut enc, label, |pass| self.dispatch_all(pass, chunk, 0))?;
-            ctx.queue.submit([enc.finish()]);
+            let index = ctx.queue.submit([enc.finish()]);
+            if let Some((before, dispatches)) = queued.replace((index, chunk.len())) {
+                ctx.wait_for(before)?;
+                let secs = last_done.elapsed().as_secs_f64() / dispatches as f64;
+                last_done = Instant::now();
+                let fits = (SUBMISSION_SECS / secs.max(1e-9)) as usize;
+                size = fits.clamp(
+                    FIRST_SUBMISSION / 8,
+                    (4 * size).min(MOST_DISPATCHES_PER_SUBMISSION),
+                );
+            }
+            start += chunk.len();
             enc = ctx.encoder(label);
         }
+        if stop.asked() {
+            return Ok((enc, start));
+        }
         in_pass(&mut enc, label, |pass| {
-            self.dispatch_all(pass, &plan[last..], 0)
+            self.dispatch_all(pass, &plan[start..], 0)
         })?;
-        Ok(enc)
+        Ok((enc, plan.len()))
     }
 }
 
@@ -115,6 +144,14 @@ impl Dispatcher<'_> {
 /// ran 25 steps in one submission (65 100 dispatches) and crashed at 26 (67 704). A frame's steps
 /// beyond this many go in several submissions, in order (docs/drivers.md).
 pub const MOST_DISPATCHES_PER_SUBMISSION: usize = 16_384;
+
+/// The first submission of a long plan, before any has been timed.
+const FIRST_SUBMISSION: usize = 512;
+
+/// The work one submission of a long plan aims at, so that a stop waits for about two of them
+/// (`encode_in_submissions`): 0.1 s, a few hundred of VBD's dispatches on the 1 000-mass jello
+/// on lavapipe, the most allowed on a GPU.
+pub const SUBMISSION_SECS: f64 = 0.1;
 
 /// Record `body` in one compute pass of `enc`.
 pub fn in_pass<T>(

@@ -28,6 +28,12 @@ impl GpuBackend {
         self.loop_budget
     }
 
+    /// The dispatches the last `advance` of an explicit or sweeping integrator recorded, and
+    /// those it planned: fewer where a stop cut its steps short (`Backend::watch`).
+    pub fn last_recorded(&self) -> (usize, usize) {
+        self.last_recorded
+    }
+
     /// The path implicit Euler's or BDF2's steps take (`None` for the other integrators).
     pub fn implicit_path(&self) -> Option<Path> {
         self.implicit_path

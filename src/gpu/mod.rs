@@ -14,7 +14,8 @@
 //!   dispatch.
 //! - `implicit`: implicit Euler's solve; `multigrid`: its CG's multigrid cycle on large systems;
 //!   `readback`: what a snapshot reads back.
-//! - `backend`: `GpuBackend`; `profile` and `inspect` add to it (bench timings, test hooks).
+//! - `backend`: `GpuBackend`; `steps` records its steps (an `advance`), `profile` and `inspect`
+//!   add to it (bench timings, test hooks).
 
 mod backend;
 #[doc(hidden)]
@@ -41,6 +42,7 @@ mod resources;
 mod shaders;
 mod stages;
 mod stencils;
+mod steps;
 mod tuning;
 mod vbd;
 mod xpbd;

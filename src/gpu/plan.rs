@@ -283,7 +283,11 @@ pub fn step_passes(model: &Model, step: Step) -> (Vec<String>, Option<String>, V
     let one_sweep = Sweeps {
         colours: 1,
         iterations: 1,
-        one_group: sweeps_in_one_group(model, integrator, wgpu::DeviceType::DiscreteGpu),
+        one_group: sweeps_in_one_group(
+            model,
+            (integrator, step.options),
+            wgpu::DeviceType::DiscreteGpu,
+        ),
     };
     let plan = steady_step_plan(model, integrator, path, one_sweep);
     passes.extend(plan.into_iter().map(|d| match d.colour {

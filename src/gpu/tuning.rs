@@ -125,9 +125,9 @@ pub(super) fn specialise(
     if let Some(colours) = resources.colours.as_mut()
         && step.integrator == Integrator::Vbd
     {
-        colours.sweeps.one_group = tuning
-            .vbd_in_group
-            .unwrap_or_else(|| vbd_in_one_group(model.mass_count(), device));
+        colours.sweeps.one_group = tuning.vbd_in_group.unwrap_or_else(|| {
+            vbd_in_one_group(model.mass_count(), colours.sweeps.iterations, device)
+        });
         colours.spread(lanes);
         vbd_threads_wanted = vbd_threads(device, (colours.widest, lanes), widest_group);
     }

@@ -57,6 +57,7 @@ pub(super) fn xpbd_groups(
     });
     let mut colour_groups =
         ColourGroups::new(groups, 2, (&colouring.starts, s.max_per_dim), s.iterations);
-    colour_groups.sweeps.one_group = xpbd_in_one_group(model.spring_count());
+    colour_groups.sweeps.one_group =
+        xpbd_in_one_group(model.spring_count(), colour_groups.sweeps.iterations);
     (colour_groups, sweeps_group)
 }

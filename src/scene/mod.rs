@@ -18,5 +18,5 @@ pub use builtin::{BUILT_IN, BUILT_IN_MESHES, BuiltIn};
 pub use error::{LoadError, SceneError, SceneOrigin};
 pub use format::*;
 pub use load::{LoadedScene, from_toml, load};
-pub use rules::MAX_START_SPEED_M_PER_S;
+pub use rules::{MAX_START_SPEED_M_PER_S, MOST_SWEEPS};
 pub use validate::MAX_COLLIDERS;

@@ -9,6 +9,12 @@ pub(super) type Check = Result<(), (String, String)>;
 /// that an absurd grid is refused before it is allocated.
 pub const MAX_MASSES: u64 = 1 << 26;
 
+/// The most sweeps (XPBD's iterations of a substep, VBD's of a step) a setting may ask for:
+/// room for a converged VBD reference (100 000 sweeps), and a bound on what one step costs and
+/// on the GPU's plan of it (a dispatch per colour and sweep), so that no setting makes a step
+/// that cannot end. Past it, a run is refused, naming the setting.
+pub const MOST_SWEEPS: u32 = 100_000;
+
 pub(super) fn fail<T>(
     field: impl Into<String>,
     message: impl Into<String>,

@@ -4,8 +4,8 @@
 use super::format::{Body, Keyframe, Scene, SelfCollision};
 use super::mesh_checks;
 use super::rules::{
-    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite, finite3, non_negative, positive,
-    springs, start_speed, within_reach,
+    Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, MOST_SWEEPS, fail, finite, finite3,
+    non_negative, positive, springs, start_speed, within_reach,
 };
 
 /// Colliders per scene: the GPU passes every collider's pose in each stage's uniform slot.
@@ -149,6 +149,19 @@ fn solver(s: &super::format::Solver) -> Check {
             "solver.vbd_iterations",
             "must be at least 1 (each step sweeps every mass that many times)",
         );
+    }
+    for (given, field) in [
+        (s.xpbd_iterations, "solver.xpbd_iterations"),
+        (s.vbd_iterations, "solver.vbd_iterations"),
+    ] {
+        if given.is_some_and(|n| n > MOST_SWEEPS) {
+            return fail(
+                field,
+                format!(
+                    "must be at most {MOST_SWEEPS}: more sweeps make one step too long to stop in time (a converged reference rarely needs more than 10 000)"
+                ),
+            );
+        }
     }
     if s.frames == Some(0) {
         return fail("solver.frames", "must be at least 1");

@@ -22,7 +22,7 @@ use super::super::encode::Dispatcher;
 use super::super::layout::FrameSolve;
 use super::super::resources::SolverBuffers;
 use super::plan::*;
-use crate::backend::{BackendError, Internal};
+use crate::backend::{BackendError, Internal, StopFlags};
 use crate::physics::{CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS};
 
 const NEWTON_SLOTS: usize = NEWTON_MAX_ITERATIONS as usize;
@@ -110,6 +110,8 @@ impl Budgets {
 pub struct ImplicitStep<'a> {
     pub ctx: &'a GpuContext,
     pub kernels: Dispatcher<'a>,
+    /// What ends a frame's steps between submissions (`Backend::watch`).
+    pub stop: &'a StopFlags,
     pub solver: &'a SolverBuffers,
     /// The passes every integrator runs after its step (plasticity, tearing).
     pub post: &'a [Dispatch],
@@ -153,9 +155,9 @@ impl ImplicitStep<'_> {
             self.post_step(&mut plan, slot);
         }
         let enc = self.ctx.encoder(label);
-        let enc = self
-            .kernels
-            .encode_in_submissions(self.ctx, enc, label, &plan)?;
+        let (enc, _) =
+            self.kernels
+                .encode_in_submissions((self.ctx, self.stop), enc, label, &plan)?;
         self.ctx.queue.submit([enc.finish()]);
         Ok(())
     }
@@ -183,11 +185,12 @@ impl ImplicitStep<'_> {
             for k in 0..steps {
                 self.plan_step(&mut plan, SLOTS_PER_STEP * k + 3, budgets);
             }
-            let rest = self
-                .kernels
-                .encode_in_submissions(self.ctx, enc, label, &plan)?;
+            let (rest, _) =
+                self.kernels
+                    .encode_in_submissions((self.ctx, self.stop), enc, label, &plan)?;
             let took = self.submit_and_read(rest)?;
-            if took.overran == 0 {
+            // A stopped frame is dropped: nothing to replay.
+            if took.overran == 0 || self.stop.asked() {
                 return Ok(FrameOutcome {
                     took,
                     budgets,

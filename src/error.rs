@@ -28,6 +28,10 @@ pub enum Error {
     #[error(transparent)]
     Buried(#[from] crate::model::Buried),
 
+    /// A step too small for any mass to move in f32.
+    #[error(transparent)]
+    BelowResolution(#[from] crate::stability::BelowResolution),
+
     /// A scene that needs more memory than the machine has available.
     #[error(transparent)]
     TooLarge(#[from] crate::model::memory_need::TooLarge),

@@ -67,9 +67,32 @@ const PACE_MIN_BUSY: Duration = Duration::from_millis(500);
 pub struct SimPace {
     frames: std::sync::atomic::AtomicU64,
     nanos: std::sync::atomic::AtomicU64,
+    /// A substep's wall time in the last chunk of a long frame (nanoseconds; 0: none yet).
+    substep_nanos: std::sync::atomic::AtomicU64,
+    /// The substeps of that frame.
+    frame_substeps: std::sync::atomic::AtomicU64,
 }
 
 impl SimPace {
+    /// A chunk of a frame of `frame_substeps` took `per_substep` a substep.
+    pub fn stepped(&self, frame_substeps: u32, per_substep: Duration) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let nanos = u64::try_from(per_substep.as_nanos()).unwrap_or(u64::MAX);
+        self.substep_nanos.store(nanos.max(1), Relaxed);
+        self.frame_substeps
+            .store(u64::from(frame_substeps), Relaxed);
+    }
+
+    /// A frame's substeps, and one substep's wall time, as the last chunk measured them.
+    fn substeps(&self) -> Option<(u64, Duration)> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (n, nanos) = (
+            self.frame_substeps.load(Relaxed),
+            self.substep_nanos.load(Relaxed),
+        );
+        (nanos > 0).then(|| (n, Duration::from_nanos(nanos)))
+    }
+
     /// One more frame, made in `took`.
     pub fn made(&self, took: Duration) {
         use std::sync::atomic::Ordering::Relaxed;
@@ -118,9 +141,103 @@ impl RecorderPace {
     }
 }
 
+/// A frame that takes longer than this is said, with what it will take.
+pub const LONG_FRAME: Duration = Duration::from_secs(10);
+
+/// What the recorder says, once, when frames are long: how long each takes as measured and what
+/// the run will take, or that one step has run for [`LONG_FRAME`] and is not done (a step of many
+/// sweeps). A run of frames this long is most likely a setting the user did not mean.
+#[derive(Debug)]
+pub struct LongFrames {
+    last_frame: Instant,
+    said: bool,
+}
+
+impl Default for LongFrames {
+    fn default() -> Self {
+        Self {
+            last_frame: Instant::now(),
+            said: false,
+        }
+    }
+}
+
+impl LongFrames {
+    /// A frame arrived.
+    pub fn frame(&mut self) {
+        self.last_frame = Instant::now();
+    }
+
+    /// What to say, with `frames_left` frames to go, while the recorder waits for a frame.
+    pub fn waiting(&mut self, sim: &SimPace, frames_left: u64) -> Option<String> {
+        let waited = self.last_frame.elapsed();
+        if self.said || waited < LONG_FRAME {
+            return None;
+        }
+        self.said = true;
+        let stop = "Ctrl-C stops the run within half a second and keeps every finished frame";
+        Some(match sim.substeps() {
+            Some((substeps, each)) => {
+                let frame = each.as_secs_f64() * substeps as f64;
+                format!(
+                    "a frame takes about {} here ({substeps} substeps of {:.3e} s each, as \
+                     measured), so the {frames_left} frames left take about {}: {stop}; fewer \
+                     substeps (a larger --dt) or fewer sweeps make frames shorter",
+                    human_secs(frame),
+                    each.as_secs_f64(),
+                    human_secs(frame * frames_left as f64),
+                )
+            }
+            None => format!(
+                "the next frame has taken {} so far and its first substep is not done (a step \
+                 this long does a great deal of work: many sweeps, or a very large scene): {stop}",
+                human_secs(waited.as_secs_f64()),
+            ),
+        })
+    }
+}
+
+/// `secs` in the unit a person reads best: "42 s", "3.5 min", "7.2 h", "12 d".
+fn human_secs(secs: f64) -> String {
+    match secs {
+        s if s < 120.0 => format!("{s:.0} s"),
+        s if s < 7200.0 => format!("{:.1} min", s / 60.0),
+        s if s < 172_800.0 => format!("{:.1} h", s / 3600.0),
+        s if s < 3.2e8 => format!("{:.0} d", s / 86_400.0),
+        s => format!("{:.0e} years", s / 3.156e7),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_frame_is_said_once_with_its_measured_length() {
+        let sim = SimPace::default();
+        let mut long = LongFrames {
+            last_frame: Instant::now() - LONG_FRAME,
+            said: false,
+        };
+        sim.stepped(1_000_000, Duration::from_micros(300));
+        let said = long.waiting(&sim, 10).expect("said");
+        assert!(
+            said.contains("a frame takes about 5.0 min")
+                && said.contains("1000000 substeps of 3.000e-4 s")
+                && said.contains("the 10 frames left take about 50.0 min"),
+            "{said}"
+        );
+        assert_eq!(long.waiting(&sim, 10), None, "once");
+        // Before any substep is done, how long the frame has run so far.
+        let mut first = LongFrames {
+            last_frame: Instant::now() - LONG_FRAME,
+            said: false,
+        };
+        let said = first.waiting(&SimPace::default(), 10).expect("said");
+        assert!(said.contains("its first substep is not done"), "{said}");
+        // A frame shorter than LONG_FRAME says nothing.
+        assert_eq!(LongFrames::default().waiting(&sim, 10), None);
+    }
 
     #[test]
     fn the_recorder_is_named_once_when_it_is_the_slower_side() {

@@ -67,6 +67,8 @@ pub enum Notice {
     AboveStableLimit(String),
     /// XPBD's or VBD's sweeps cannot converge the springs at the step (stable, but wrong).
     SweepsShort(String),
+    /// The step is so small that slow masses cannot move in f32.
+    SmallStep(String),
 }
 
 impl std::fmt::Display for Notice {
@@ -74,7 +76,9 @@ impl std::fmt::Display for Notice {
         match self {
             Notice::Note(n) => write!(f, "note: {n}"),
             Notice::AutoDt(auto) => write!(f, "{auto}"),
-            Notice::AboveStableLimit(w) | Notice::SweepsShort(w) => write!(f, "warning: {w}"),
+            Notice::AboveStableLimit(w) | Notice::SweepsShort(w) | Notice::SmallStep(w) => {
+                write!(f, "warning: {w}")
+            }
         }
     }
 }
@@ -124,6 +128,9 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         settings.substeps = auto.substeps;
         settings.dt_secs = auto.dt_secs;
         say(Notice::AutoDt(auto));
+    }
+    if let Some(w) = crate::stability::check_resolution(&model, settings.dt_secs)? {
+        say(Notice::SmallStep(w));
     }
     Ok(Planned {
         loaded,
@@ -181,6 +188,9 @@ pub fn prepare_comparison(
         let settings = Settings::resolve(&loaded.scene, &overrides)?;
         for n in &settings.notes {
             say(Notice::Note(format!("{entry}: {n}")));
+        }
+        if let Some(w) = crate::stability::check_resolution(&model, settings.dt_secs)? {
+            say(Notice::SmallStep(format!("{entry}: {w}")));
         }
         let stable = stable_step(&modes, entry.integrator);
         match stable.dt_secs {

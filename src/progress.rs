@@ -67,6 +67,11 @@ pub fn realtime_factor(sim_secs: f64, wall_secs: f64) -> String {
 }
 
 impl Progress {
+    /// The frames of the run, the initial one included.
+    pub fn frames_total(&self) -> u64 {
+        self.frames_total
+    }
+
     /// Progress over `frames_total` frames (the initial one included) of scene `name`.
     pub fn new(mode: ProgressMode, frames_total: u64, name: &str) -> Self {
         let bar = if mode == ProgressMode::Bar {

@@ -8,7 +8,7 @@ use crossbeam_channel::Sender;
 
 use crate::backend::{Backend, StopFlags};
 use crate::error::{Error, Result};
-use crate::pacing::{Pacer, RecorderPace, SimPace, paced};
+use crate::pacing::{LongFrames, Pacer, RecorderPace, SimPace, paced};
 use crate::prepare::Prepared;
 use crate::progress::{Progress, ProgressMode};
 use crate::record::{RecordError, RecordOptions, Recorder, digesting};
@@ -21,6 +21,9 @@ use crate::viewer::{LinkState, ViewerLink};
 /// Snapshots in flight between the threads: enough to smooth out a slow log call, small enough
 /// that a large scene's snapshots do not pile up in memory.
 pub const CHANNEL_CAPACITY: usize = 4;
+
+/// How often the recorder looks up from waiting for a frame (to say that frames are long).
+const LISTEN: std::time::Duration = std::time::Duration::from_millis(250);
 
 #[derive(Debug, Clone)]
 pub struct RunOptions {
@@ -278,12 +281,26 @@ impl Recording<'_> {
         let mut recorded = 0u64;
         let mut recorder_pace = RecorderPace::default();
         let mut viewer_lost = false;
+        let mut long_frames = LongFrames::default();
         let stop_simulation = |e: Error| {
             halt.store(true, Ordering::SeqCst);
             // Returning drops the receiver as well, which a waiting simulation sees.
             Some(e)
         };
-        for f in rx.iter() {
+        loop {
+            // Waiting long for a frame is when to say that frames are long.
+            let f = match rx.recv_timeout(LISTEN) {
+                Ok(f) => f,
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => {
+                    let left = progress.frames_total().saturating_sub(recorded);
+                    if let Some(say) = long_frames.waiting(pace, left) {
+                        progress.suspend(|| eprintln!("note: {say}"));
+                    }
+                    continue;
+                }
+                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
+            };
+            long_frames.frame();
             let started = std::time::Instant::now();
             let frame = match log(f, progress) {
                 Ok(frame) => frame,

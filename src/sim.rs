@@ -134,6 +134,9 @@ fn step_frame(
             return Ok(None);
         };
         chunker.observe(n, start.elapsed());
+        if let Some(p) = stop.pace {
+            p.stepped(substeps, start.elapsed() / n);
+        }
         stats = Some(stats.map_or(s, |acc| acc.merged(&s)));
         done += n;
     }
@@ -197,6 +200,20 @@ pub fn simulate<'a>(
             }
         }
         let whole = chunker.whole(substeps);
+        if !whole {
+            // A long frame: the last one goes to the recorder now, not once this one is done.
+            match backend.collect_snapshot() {
+                Ok(Some(snap)) => healthy = deliver(&mut out, snap),
+                Ok(None) => {}
+                Err(e) => {
+                    out.failed = Some(e);
+                    healthy = false;
+                }
+            }
+            if !healthy {
+                break;
+            }
+        }
         let start = Instant::now();
         let stepped = step_frame(backend, substeps, &mut chunker, stop).and_then(|stats| {
             stats

@@ -394,6 +394,17 @@ fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
             "--xpbd-iterations 100001 is more than 100000 sweeps a step",
         ),
         (
+            vec![
+                "check",
+                "jello",
+                "--backend",
+                "cpu",
+                "--substeps",
+                "4000000000",
+            ],
+            "below what f32 positions resolve: a mass 1.051 m from the origin moves only if it goes faster than 1.5e4 m/s",
+        ),
+        (
             vec!["bench", "throughput", "hair", "--steps", "0"],
             "--steps",
         ),
@@ -412,6 +423,22 @@ fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
         let code = if args.contains(&"--steps") { 2 } else { 1 };
         expect_failure(&args, code, says);
     }
+    // Slow masses cannot move at 1.7e-10 s: said, and the run goes on.
+    let small = hooke(&[
+        "check",
+        "jello",
+        "--backend",
+        "cpu",
+        "--substeps",
+        "100000000",
+    ]);
+    assert!(small.status.success(), "{}", text(&small.stderr));
+    // `check` prints what it notes with its report, on stdout.
+    assert!(
+        text(&small.stdout).contains("stays where it is unless it goes faster than 375.92 m/s"),
+        "{}",
+        text(&small.stdout)
+    );
     let noted = hooke(&[
         "check",
         "hair",

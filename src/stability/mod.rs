@@ -1,14 +1,17 @@
 //! How large a step the scene survives: the region its modes lie in (`modes`), each
 //! integrator's largest stable step over that region and the limit that binds (`estimate`),
 //! what a user is told when the chosen step is above it (`advice`), and whether XPBD's or VBD's
-//! fixed sweeps converge the springs at the step, or leave them fast and wrong (`sweeps`).
+//! fixed sweeps converge the springs at the step, or leave them fast and wrong (`sweeps`), and
+//! whether the step is large enough for f32 positions to move at all (`resolution`).
 
 mod advice;
 mod estimate;
 mod modes;
+mod resolution;
 mod sweeps;
 
 pub use advice::{Refusal, dt_warning, stable_dts};
 pub use estimate::{Limit, StableStep, stable_step, stable_steps};
 pub use modes::{Bound, Modes, Ratios, Source};
+pub use resolution::{BelowResolution, Resolution, check_resolution, resolution};
 pub use sweeps::{SWEEPS_ENOUGH, SweepShortfall, sweep_shortfall, sweep_warning};

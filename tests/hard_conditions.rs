@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use common::{
     cpu_run, file_size, gpu_available, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text,
+    verified_rrd, verified_rrd_without_index,
 };
 use hooke::backend::{Backend, BackendError};
 use hooke::select::BackendKind;
@@ -117,7 +118,7 @@ fn a_stop_takes_effect_within_half_a_second_whatever_the_frame_length() {
             latency < STOP_BOUND,
             "{backend}{signal}: the run took {latency:?} to stop (bound {STOP_BOUND:?}): {err}"
         );
-        let rec = read_rrd(&path);
+        let rec = verified_rrd(&path);
         assert_eq!(
             rec.complete_frames(),
             1,
@@ -199,7 +200,7 @@ fn two_runs_on_one_file_cannot_interleave_and_the_file_takes_its_name_at_the_end
     let (status, _) = wait_exit(&mut first, Instant::now());
     assert_eq!(status.code(), Some(130));
     assert!(!partial.exists(), "the partial file was left behind");
-    let rec = read_rrd(&path);
+    let rec = verified_rrd(&path);
     assert_eq!(
         rec.complete_frames(),
         1,
@@ -236,6 +237,7 @@ fn a_second_interrupt_exits_at_once_and_the_file_keeps_its_name() {
     assert_eq!(status.code(), Some(130));
     assert!(!partial.exists(), "the partial file was left");
     assert!(file_size(&path) > 0, "no recording at its name");
+    verified_rrd_without_index(&path);
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -509,7 +511,7 @@ fn a_file_size_limit_mid_recording_keeps_every_frame_written_and_says_so() {
     assert_eq!(count, after + 1, "{line}");
     let size = file_size(&path);
     assert!(size <= limit, "{size} bytes");
-    let rec = read_rrd(&path);
+    let rec = verified_rrd_without_index(&path);
     assert_eq!(
         rec.complete_frames(),
         count,
@@ -544,7 +546,7 @@ fn a_full_disk_warns_first_then_stops_with_the_frames_written() {
     let path = dir.join("cloth.rrd");
     let out = hooke(&long_cloth_run(&path));
     let err = text(&out.stderr);
-    let rec = std::panic::catch_unwind(|| read_rrd(&path));
+    let rec = std::panic::catch_unwind(|| verified_rrd_without_index(&path));
     let size = file_size(&path);
     let _ = std::process::Command::new("umount").arg(&dir).status();
     let _ = std::fs::remove_dir_all(&dir);

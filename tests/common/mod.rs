@@ -233,6 +233,60 @@ pub fn read_rrd(path: &Path) -> Recording {
     }
 }
 
+/// The `rerun` command (the viewer's CLI, `pip install rerun-sdk==0.36.3` as the README says),
+/// or the one `HOOKE_RERUN` names.
+pub fn rerun_cli() -> PathBuf {
+    if let Some(p) = std::env::var_os("HOOKE_RERUN") {
+        return PathBuf::from(p);
+    }
+    let on_path = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|d| d.join("rerun"))
+            .find(|p| p.is_file())
+    });
+    on_path.unwrap_or_else(|| {
+        panic!(
+            "no `rerun` command on PATH: the tests check recordings with Rerun's own verifier; \
+             install it with `pip install rerun-sdk==0.36.3` (README), or name it in HOOKE_RERUN"
+        )
+    })
+}
+
+/// A recording a run made from bad input, checked as the README promises: `rerun rrd verify`
+/// (Rerun's own reader, its footer and index included) passes, and no value in it is NaN or
+/// infinite. Returns it decoded.
+pub fn verified_rrd(path: &Path) -> Recording {
+    verify_rrd(path, true)
+}
+
+/// [`verified_rrd`] for a file that ends without its index by design: the disk filled, or a
+/// second Ctrl-C left at once. Every frame in it must still read.
+pub fn verified_rrd_without_index(path: &Path) -> Recording {
+    verify_rrd(path, false)
+}
+
+fn verify_rrd(path: &Path, footers: bool) -> Recording {
+    let out = Command::new(rerun_cli())
+        .args(["rrd", "verify", "--check-footers", &footers.to_string()])
+        .arg(path)
+        .output()
+        .unwrap_or_else(|e| panic!("running rerun rrd verify: {e}"));
+    assert!(
+        out.status.success(),
+        "rerun rrd verify {}: {}{}",
+        path.display(),
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let bad = record::non_finite_components(path);
+    assert!(
+        bad.is_empty(),
+        "{} holds NaN or infinity in {bad:?}",
+        path.display()
+    );
+    read_rrd(path)
+}
+
 /// Rerun's stream footer ends a file that was finished with its index: "RRF2FOOT" and the
 /// number of index entries (u32). A file cut short, or written without an index, lacks it.
 fn ends_with_stream_footer(bytes: &[u8]) -> bool {

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use common::{
-    cpu_run, file_size, gpu_available, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text,
+    cpu_run, file_size, gpu_available, hooke, hooke_command, save_cpu_run, temp_dir, text,
     verified_rrd, verified_rrd_without_index,
 };
 use hooke::backend::{Backend, BackendError};

@@ -27,6 +27,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::backward::{History, residual_work};
+use super::cg::solve;
 use super::chunks::{
     CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair, max_chunks, sum_chunks,
 };
@@ -37,8 +38,8 @@ use crate::backend::StopFlags;
 use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
-    BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL,
-    NEWTON_TOLERANCE, Preconditioner, newton_floor, newton_residual, relative,
+    BackwardStep, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE, Preconditioner,
+    newton_floor, newton_residual, relative,
 };
 use crate::state::{Power, State};
 
@@ -69,22 +70,22 @@ pub struct Linearisation {
 /// Scratch for the solve, allocated once per backend.
 #[derive(Debug, Default)]
 pub struct ImplicitWork {
-    lin: Linearisation,
+    pub(super) lin: Linearisation,
     acc: Vec<Vec3>,
-    b: Vec<Vec3>,
-    r: Vec<Vec3>,
-    z: Vec<Vec3>,
-    p: Vec<Vec3>,
-    ap: Vec<Vec3>,
-    dv: Vec<Vec3>,
+    pub(super) b: Vec<Vec3>,
+    pub(super) r: Vec<Vec3>,
+    pub(super) z: Vec<Vec3>,
+    pub(super) p: Vec<Vec3>,
+    pub(super) ap: Vec<Vec3>,
+    pub(super) dv: Vec<Vec3>,
     /// Each mass's diagonal block of the system, inverted: the preconditioner.
-    block_inv: Vec<Mat3>,
+    pub(super) block_inv: Vec<Mat3>,
     /// Δv so far, and the iterate's state.
     dv_total: Vec<Vec3>,
     xk: Vec<Vec3>,
     vk: Vec<Vec3>,
     /// Large systems' preconditioner (block Jacobi without it).
-    multigrid: Option<Multigrid>,
+    pub(super) multigrid: Option<Multigrid>,
     /// BDF2's last step start.
     history: History,
 }
@@ -122,7 +123,7 @@ impl ImplicitWork {
 
 /// a · b in f64, summed per chunk of masses and the chunks in order: the same result on any
 /// number of threads.
-fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+pub(super) fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     sum_chunks(a.len(), |r| {
         a[r.clone()]
             .iter()
@@ -389,135 +390,11 @@ pub fn newton_stalled(residual: f64, last: f64, scale: f64, floor: f64) -> bool 
     residual <= floor * scale && residual > NEWTON_STALL * last
 }
 
-/// Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
-/// after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
-pub fn cg_goes_on(residual: f64, iterations: u32) -> bool {
-    residual > CG_FORCING && iterations < CG_MAX_ITERATIONS
-}
-
 /// The step ends at the last iterate.
 pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
     each_mass_pair(&mut state.x, &mut state.v, |i, x, v| {
         *v += dv_total[i];
         *x += h * *v;
-    });
-}
-
-/// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
-/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, `b_norm` being |b|. Returns the
-/// iterations and |r| / |b|.
-fn solve(
-    model: &Model,
-    w: &mut ImplicitWork,
-    (h, b_norm): (f32, f64),
-    stop: &StopFlags,
-) -> (u32, f64) {
-    let ImplicitWork {
-        lin,
-        b,
-        r,
-        z,
-        p,
-        ap,
-        dv,
-        block_inv,
-        multigrid,
-        ..
-    } = w;
-    dv.fill(Vec3::ZERO);
-    r.copy_from_slice(b);
-    if b_norm == 0.0 {
-        return (0, 0.0);
-    }
-    let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
-    if let Some(mg) = multigrid.as_mut() {
-        mg.linearise(
-            |i| own_and_contacts(model, lin, h, drag, i),
-            |s| lin.springs[s].block(),
-        );
-        mg.cycle(
-            block_inv,
-            |p, out| apply_system(model, lin, h, p, out),
-            r,
-            z,
-        );
-    } else {
-        let (r, block_inv) = (&*r, &*block_inv);
-        each_mass(z, |i, z| *z = block_inv[i] * r[i]);
-    }
-    p.copy_from_slice(z);
-    let mut rz = dot(r, z);
-    let mut iterations = 0;
-    loop {
-        let residual = dot(r, r).sqrt() / b_norm;
-        if !cg_goes_on(residual, iterations) || stop.asked() {
-            return (iterations, residual);
-        }
-        iterations += 1;
-        apply_system(model, lin, h, p, ap);
-        let pap = dot(p, ap);
-        if pap <= 0.0 || !pap.is_finite() {
-            return (iterations, residual);
-        }
-        let alpha = (rz / pap) as f32;
-        if let Some(mg) = multigrid.as_mut() {
-            cg_update_unpreconditioned(alpha, (p, ap), (dv, r));
-            mg.cycle(
-                block_inv,
-                |p, out| apply_system(model, lin, h, p, out),
-                r,
-                z,
-            );
-        } else {
-            cg_update(alpha, (p, ap, block_inv), (dv, r, z));
-        }
-        let rz_next = dot(r, z);
-        let beta = (rz_next / rz) as f32;
-        rz = rz_next;
-        cg_direction(beta, z, p);
-    }
-}
-
-/// δ += α p, r −= α Ap, z = B⁻¹ r (B the block diagonal).
-pub fn cg_update(
-    alpha: f32,
-    (p, ap, block_inv): (&[Vec3], &[Vec3], &[Mat3]),
-    (dv, r, z): (&mut [Vec3], &mut [Vec3], &mut [Vec3]),
-) {
-    let n = p.len();
-    type Chunks<'a> = ((&'a mut [Vec3], &'a mut [Vec3]), &'a mut [Vec3]);
-    let body = |(c, ((dv, r), z)): (usize, Chunks<'_>)| {
-        for k in 0..dv.len() {
-            let i = c * CHUNK + k;
-            dv[k] += alpha * p[i];
-            r[k] -= alpha * ap[i];
-            z[k] = block_inv[i] * r[k];
-        }
-    };
-    if n >= PARALLEL_MIN_MASSES {
-        dv.par_chunks_mut(CHUNK)
-            .zip(r.par_chunks_mut(CHUNK))
-            .zip(z.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(body);
-    } else {
-        dv.chunks_mut(CHUNK)
-            .zip(r.chunks_mut(CHUNK))
-            .zip(z.chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(body);
-    }
-}
-
-/// δ += α p, r −= α Ap (the multigrid preconditioner then makes z from r).
-fn cg_update_unpreconditioned(
-    alpha: f32,
-    (p, ap): (&[Vec3], &[Vec3]),
-    (dv, r): (&mut [Vec3], &mut [Vec3]),
-) {
-    each_mass_pair(dv, r, |i, d, r| {
-        *d += alpha * p[i];
-        *r -= alpha * ap[i];
     });
 }
 
@@ -535,11 +412,6 @@ pub(super) fn own_and_contacts(
         d += c.block();
     }
     d
-}
-
-/// p = z + β p.
-pub fn cg_direction(beta: f32, z: &[Vec3], p: &mut [Vec3]) {
-    each_mass(p, |i, p| *p = z[i] + beta * *p);
 }
 
 #[cfg(test)]
@@ -605,6 +477,8 @@ mod tests {
             newton_floor(1.0 / 60.0, 1)
         ));
         // A solve stops at a tenth of the Newton residual it started from, or at its cap.
+        use super::super::cg::cg_goes_on;
+        use crate::physics::{CG_FORCING, CG_MAX_ITERATIONS};
         assert!(cg_goes_on(CG_FORCING * 1.01, 0));
         assert!(!cg_goes_on(CG_FORCING * 0.99, 0));
         assert!(!cg_goes_on(1.0, CG_MAX_ITERATIONS));

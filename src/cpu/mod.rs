@@ -7,6 +7,7 @@
 mod aggregates;
 mod backend;
 pub(crate) mod backward;
+pub(crate) mod cg;
 pub(crate) mod chunks;
 pub(crate) mod collide;
 pub(crate) mod collide_masses;

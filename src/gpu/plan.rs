@@ -1,17 +1,12 @@
 //! The step plans: which kernels a step dispatches, in order, on which state and at which stage
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
-use super::dispatch::{
-    ColourPass, Dispatch, Flow, StateIn, Sweeps, sweeps_in_one_group, why_not_in_group,
-};
+use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps, why_not_in_group};
 use super::implicit;
 use super::kernels::Kernel;
 use super::multigrid;
-use super::shaders::effect_constants;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::Integrator;
 use crate::model::{Effects, Model};
-use crate::physics::Preconditioner;
-use crate::physics::hierarchy::Hierarchy;
 
 /// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
 /// folded into its force gathers, the state ping-ponging between A and B), fused with every step
@@ -263,49 +258,6 @@ pub fn fused_links(
     }
 }
 
-/// For `hooke check`: the kernels one GPU step dispatches, in order, on an adapter with enough
-/// storage buffers for the fused steps (and why a run does not take them), and the effects
-/// compiled into them (absent effects are specialised away and cost nothing).
-pub fn step_passes(model: &Model, step: Step) -> (Vec<String>, Option<String>, Vec<&'static str>) {
-    let integrator = step.integrator;
-    let mut passes = if integrator.newton() {
-        let path = implicit::path(model);
-        let levels = match crate::physics::preconditioner_of(model, step) {
-            Preconditioner::Multigrid => Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32),
-            Preconditioner::BlockJacobi => 0,
-        };
-        vec![implicit::passes(path, levels)]
-    } else {
-        Vec::new()
-    };
-    let (path, why) = explicit_path(model, integrator, (u32::MAX, wgpu::DeviceType::DiscreteGpu));
-    // XPBD's sweeps are listed once, in brackets: their count is the run's.
-    let one_sweep = Sweeps {
-        colours: 1,
-        iterations: 1,
-        one_group: sweeps_in_one_group(
-            model,
-            (integrator, step.options),
-            wgpu::DeviceType::DiscreteGpu,
-        ),
-    };
-    let plan = steady_step_plan(model, integrator, path, one_sweep);
-    passes.extend(plan.into_iter().map(|d| match d.colour {
-        Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
-        None => d.kernel.name().to_owned(),
-    }));
-    let why = match integrator {
-        Integrator::Implicit | Integrator::Bdf2 | Integrator::Xpbd | Integrator::Vbd => None,
-        _ => why,
-    };
-    let effects = effect_constants(model)
-        .into_iter()
-        .filter(|(_, on)| *on != 0.0)
-        .map(|(name, _)| name)
-        .collect();
-    (passes, why, effects)
-}
-
 /// How many dispatches one GPU step records: `fixed`, plus (implicit Euler a dispatch per pass)
 /// so many per Newton iteration and per CG iteration that the step takes (the frame's budgets
 /// also encode a few that find their step or solve stopped and return at once,
@@ -349,7 +301,7 @@ pub fn sweeps_of(
 }
 
 /// The dispatches of `model`'s steps after the first (not Verlet's priming one) on `path`.
-fn steady_step_plan(
+pub(super) fn steady_step_plan(
     model: &Model,
     integrator: Integrator,
     path: ExplicitPath,

@@ -481,6 +481,37 @@ fn a_gltf_that_would_crash_its_reader_is_refused_with_what_is_wrong() {
             "8 bytes long",
         ],
     );
+    // Files with no triangles say which part gave none and why (issue 46: three broken files
+    // all said "it has no triangles"; a primitive without POSITION is the reader's own error).
+    let good = triangle_gltf(5123, 3, r#"[{"mesh":0}]"#);
+    for (name, from, to, says) in [
+        (
+            "lines.gltf",
+            r#""indices":1}"#,
+            r#""indices":1,"mode":1}"#,
+            "mesh 0's primitive 0 is in mode LINES, and only TRIANGLES make a surface",
+        ),
+        (
+            "past.gltf",
+            r#""componentType":5126,"count":3"#,
+            r#""componentType":5126,"count":2"#,
+            "mesh 0's primitive 0 has indices up to 2, past its 2 vertices",
+        ),
+        (
+            "unplaced.gltf",
+            r#""nodes":[{"mesh":0}]"#,
+            r#""nodes":[{"name":"empty"}]"#,
+            "its scene places none of its 1 mesh(es) on a node",
+        ),
+    ] {
+        assert!(good.contains(from), "{name}: no `{from}`");
+        write(name, &good.replace(from, to));
+        refused(
+            &dir,
+            &scene_text(name, no_bending),
+            &[name, "it has no triangles", says],
+        );
+    }
 }
 
 /// A unit cube, its faces quads.

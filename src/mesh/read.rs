@@ -67,14 +67,45 @@ pub enum MeshError {
     ReaderPanicked { reader: &'static str },
     #[error("its buffer {index} is the GLB's binary chunk, but the file has none")]
     NoBinaryChunk { index: usize },
-    #[error(
-        "it has no triangles: a body needs faces (OBJ `f` lines, glTF primitives in TRIANGLES mode)"
-    )]
-    NoTriangles,
+    #[error("it has no triangles: {0}")]
+    NoTriangles(Faceless),
     #[error("a coordinate of vertex {vertex} is not finite ({value:?})")]
     NotFinite { vertex: usize, value: [f32; 3] },
     #[error("it has {count} triangles, more than the {max} a body may have")]
     TooLarge { count: usize, max: usize },
+}
+
+/// Why a file gave no triangles: the first part of it that gave none, and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Faceless {
+    #[error("a body needs faces (OBJ `f` lines, glTF primitives in TRIANGLES mode)")]
+    NoFaces,
+    #[error("the file holds no mesh")]
+    NoMeshes,
+    #[error(
+        "its scene places none of its {meshes} mesh(es) on a node; give a node of the scene \
+         `\"mesh\": 0`"
+    )]
+    NotPlaced { meshes: usize },
+    #[error(
+        "mesh {mesh}'s primitive {primitive} is in mode {mode}, and only TRIANGLES make a \
+         surface; export it as triangles"
+    )]
+    NotTriangles {
+        mesh: usize,
+        primitive: usize,
+        mode: String,
+    },
+    #[error(
+        "mesh {mesh}'s primitive {primitive} has indices up to {index}, past its {vertices} \
+         vertices"
+    )]
+    IndexPastVertices {
+        mesh: usize,
+        primitive: usize,
+        index: u32,
+        vertices: usize,
+    },
 }
 
 /// The most triangles one mesh body may have (a million: a cloth of about 500 000 masses, past
@@ -112,9 +143,17 @@ pub fn read(
 struct Welder {
     index_of: HashMap<[u32; 3], u32>,
     mesh: TriMesh,
+    /// The first part of the file that gave no faces, and why: what a file without triangles
+    /// is told.
+    faceless: Option<Faceless>,
 }
 
 impl Welder {
+    /// Note why a part gave no faces, unless an earlier part's reason is noted.
+    fn faceless_because(&mut self, why: Faceless) {
+        self.faceless.get_or_insert(why);
+    }
+
     fn vertex(&mut self, p: [f32; 3]) -> Result<u32, MeshError> {
         if !p.iter().all(|c| c.is_finite()) {
             return Err(MeshError::NotFinite {
@@ -176,7 +215,8 @@ impl Welder {
     fn finish(self) -> Result<TriMesh, MeshError> {
         let mut mesh = self.mesh;
         if mesh.triangles.is_empty() {
-            return Err(MeshError::NoTriangles);
+            let why = self.faceless.unwrap_or(Faceless::NoFaces);
+            return Err(MeshError::NoTriangles(why));
         }
         const UNUSED: u32 = u32::MAX;
         let mut new_of = vec![UNUSED; mesh.positions.len()];
@@ -271,6 +311,10 @@ fn read_gltf(
     // Nodes of the default scene (or the first) with their world transforms; a file with no
     // scene gives its meshes as they are.
     let mut placed: Vec<(gltf::Node, Mat4)> = Vec::new();
+    let meshes = doc.meshes().count();
+    if meshes == 0 {
+        w.faceless_because(Faceless::NoMeshes);
+    }
     if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
         let children: Vec<Vec<usize>> = doc
             .nodes()
@@ -288,6 +332,9 @@ fn read_gltf(
             placed.push((node, world));
         }
         placed.sort_by_key(|(n, _)| n.index());
+        if meshes > 0 && placed.iter().all(|(n, _)| n.mesh().is_none()) {
+            w.faceless_because(Faceless::NotPlaced { meshes });
+        }
         for (node, world) in placed {
             if let Some(mesh) = node.mesh() {
                 let name = node.name().or(mesh.name()).unwrap_or_default().to_owned();
@@ -311,11 +358,18 @@ fn gltf_mesh(
     w: &mut Welder,
 ) -> Result<(), MeshError> {
     let mut group = Vec::new();
-    for prim in mesh.primitives() {
+    for (primitive, prim) in mesh.primitives().enumerate() {
+        let at = (mesh.index(), primitive);
         if prim.mode() != gltf::mesh::Mode::Triangles {
+            w.faceless_because(Faceless::NotTriangles {
+                mesh: at.0,
+                primitive,
+                mode: format!("{:?}", prim.mode()).to_uppercase(),
+            });
             continue;
         }
         let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+        // The reader's validation already refused a primitive without POSITION.
         let Some(positions) = reader.read_positions() else {
             continue;
         };
@@ -333,8 +387,14 @@ fn gltf_mesh(
                 .collect();
             // An index past the vertices is the file's error; the reader stops at the accessor's
             // end, so a face that reaches past it is left out rather than invented.
-            if let Some(c) = corners {
-                w.face(&c, &mut group)?;
+            match corners {
+                Some(c) => w.face(&c, &mut group)?,
+                None => w.faceless_because(Faceless::IndexPastVertices {
+                    mesh: at.0,
+                    primitive,
+                    index: t.iter().copied().max().unwrap_or(0),
+                    vertices: vertices.len(),
+                }),
             }
         }
     }

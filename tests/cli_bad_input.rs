@@ -4,7 +4,13 @@
 
 mod common;
 
-use common::{hooke, temp_dir, text};
+use common::{hooke_within_memory, temp_dir, text};
+
+/// Every bad input here runs under a 2 GB address space (`ulimit -v`): one whose refusal needed
+/// more would fail its test, not the machine (issue 46).
+fn hooke(args: &[&str]) -> std::process::Output {
+    hooke_within_memory(args, 2 << 30)
+}
 
 /// Run `check` on scene text; expect failure with one line naming the field and position.
 fn expect_scene_error(name: &str, toml: &str, field: &str, position: &str, says: &str) {

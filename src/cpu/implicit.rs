@@ -268,6 +268,10 @@ pub fn implicit_step(
         stats.newton += 1;
         stats.iterations += iterations;
         stats.residual = stats.residual.max(residual);
+        // A solve the stop cut short says nothing of convergence: the step ends unmet.
+        if stop.asked() {
+            break;
+        }
         if newton_update(&w.dv, &mut w.dv_total) {
             stats.met = true;
             break;

@@ -92,21 +92,24 @@ fn short(dt: f64) -> String {
     }
 }
 
+/// A step as a user writes it, in seconds: `0.001`, `1e-3` or a fraction such as `1/60`
+/// (`--dt` and `--compare` alike); `None` when `s` is neither.
+pub fn seconds(s: &str) -> Option<f64> {
+    match s.split_once('/') {
+        Some((a, b)) => {
+            let (a, b): (f64, f64) = (a.trim().parse().ok()?, b.trim().parse().ok()?);
+            Some(a / b)
+        }
+        None => s.trim().parse().ok(),
+    }
+}
+
 fn parse_step(s: &str) -> Result<f64, EntryError> {
     let bad = || EntryError::NotAStep {
         given: s.to_owned(),
     };
     let s = s.strip_prefix("dt=").unwrap_or(s).trim();
-    let value = match s.split_once('/') {
-        Some((a, b)) => {
-            let (a, b): (f64, f64) = (
-                a.trim().parse().map_err(|_| bad())?,
-                b.trim().parse().map_err(|_| bad())?,
-            );
-            a / b
-        }
-        None => s.parse().map_err(|_| bad())?,
-    };
+    let value = seconds(s).ok_or_else(bad)?;
     if !(value.is_finite() && value > 0.0) {
         return Err(EntryError::NotPositive { dt_secs: value });
     }

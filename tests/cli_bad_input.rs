@@ -299,6 +299,19 @@ fn bad_command_line_values_are_clear_errors() {
     ] {
         expect_failure(&args, 1, says);
     }
+    // `--dt` takes a fraction, as `--compare` does (issue 48); a broken one says what it takes.
+    expect_failure(
+        &["check", "hair", "--dt", "1/x"],
+        2,
+        "expected seconds (like 0.001 or 1/60) or `auto`, got '1/x'",
+    );
+    let out = hooke(&["check", "hair", "--backend", "cpu", "--dt", "1/600"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("dt = 1.6667e-3 s (10 substeps per frame at 60 Hz)"),
+        "{}",
+        text(&out.stdout)
+    );
 }
 
 /// Run `hooke` with `args`; expect exit status `code` (1: our error, 2: the argument parser's)

@@ -230,7 +230,10 @@ fn pins_by_vertex_by_region_and_by_group() {
             "flag.obj",
             "pins_in = { center_m = [5, 5, 5], radius_m = 0.1 }",
         ),
-        &["bodies[0].pins_in[0]", "holds none of body 'b''s masses"],
+        &[
+            "bodies[0].pins_in[0]",
+            "holds none of the masses of body 'b'",
+        ],
     );
     refused(
         &dir,

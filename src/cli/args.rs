@@ -279,7 +279,8 @@ pub struct SolverArgs {
     /// Time integrator.
     #[arg(long, value_enum)]
     pub integrator: Option<Integrator>,
-    /// Step size in seconds (the substeps per frame follow from it), or `auto`: substeps chosen
+    /// Step size in seconds, as a number or a fraction (`1/60`; the substeps per frame follow
+    /// from it), or `auto`: substeps chosen
     /// from the stability estimate and --tolerance, measured by step doubling on a short probe.
     #[arg(long, conflicts_with = "substeps", allow_negative_numbers = true, value_parser = parse_dt)]
     pub dt: Option<Dt>,
@@ -319,9 +320,9 @@ fn parse_dt(s: &str) -> Result<Dt, String> {
     if s == "auto" {
         return Ok(Dt::Auto);
     }
-    s.parse::<f64>()
+    hooke::compare_entry::seconds(s)
         .map(Dt::Secs)
-        .map_err(|_| format!("expected seconds (like 0.001) or `auto`, got '{s}'"))
+        .ok_or_else(|| format!("expected seconds (like 0.001 or 1/60) or `auto`, got '{s}'"))
 }
 
 impl DeviceArgs {

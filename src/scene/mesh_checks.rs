@@ -48,7 +48,7 @@ pub(super) fn regions_hold_masses(f: &str, b: &Body, masses: &[Vec3]) -> Check {
             return fail(
                 format!("{f}.pins_in[{r}]"),
                 format!(
-                    "holds none of body '{}''s masses, which start between {:?} and {:?} m",
+                    "holds none of the masses of body '{}', which start between {:?} and {:?} m",
                     b.name,
                     lo.to_array(),
                     hi.to_array()

@@ -131,7 +131,7 @@ pub fn sweep_warning(model: &Model, settings: &Settings) -> Option<String> {
         "implicit (Newton and conjugate gradients)"
     };
     Some(format!(
-        "`{}` with {sweeps} sweep{} per {per} corrects only {} of body '{}''s slowest stretch \
+        "`{}` with {sweeps} sweep{} per {per} corrects only {} of the slowest stretch of body '{}' \
          at dt = {:.3e} s ({reach}, h²k/m = {:.3e}): it will sag and stretch far more than its \
          springs allow. Enough would be about {needed} sweeps ({flag} {needed}), or dt ≤ {:.3e} s \
          ({substeps} substeps per frame); or use {alternative}",

@@ -80,6 +80,11 @@ fn check_prints_the_model_and_stable_steps() {
             "no stable dt for {i}:\n{s}"
         );
     }
+    // The run's integrator is marked with the step it takes, not beside its limit alone.
+    assert!(
+        s.contains("<- this run: dt = 4.167e-4 s, 84% of the limit"),
+        "{s}"
+    );
     // Far above the limit: a warning that says what to do.
     let out = hooke(&["check", "jello", "--substeps", "2"]);
     let s = text(&out.stdout);

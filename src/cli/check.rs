@@ -308,10 +308,16 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             .limit
             .map(|l| format!(", {} limit", l.name()))
             .unwrap_or_default();
-        let mark = if i == settings.integrator {
-            " <- chosen"
-        } else {
-            ""
+        // The run's integrator, with the step it takes against this limit (issue 48: the arrow
+        // beside a limit read as the step chosen).
+        let mark = match (i == settings.integrator, dt) {
+            (false, _) => String::new(),
+            (true, Some(limit)) if limit.is_finite() && limit > 0.0 => format!(
+                " <- this run: dt = {:.3e} s, {:.0}% of the limit",
+                settings.dt_secs,
+                100.0 * settings.dt_secs / limit
+            ),
+            (true, _) => format!(" <- this run: dt = {:.3e} s", settings.dt_secs),
         };
         match dt {
             Some(dt) if dt.is_finite() => {

@@ -85,6 +85,13 @@ fn check_prints_the_model_and_stable_steps() {
         s.contains("<- this run: dt = 4.167e-4 s, 84% of the limit"),
         "{s}"
     );
+    // Where each body's pins landed (the cloth's two top corners).
+    let out = hooke(&["check", "cloth", "--backend", "cpu"]);
+    assert!(
+        text(&out.stdout).contains("pinned at (m): [-0.775, 1.200, 0.000], [0.775, 1.200, 0.000]"),
+        "{}",
+        text(&out.stdout)
+    );
     // Far above the limit: a warning that says what to do.
     let out = hooke(&["check", "jello", "--substeps", "2"]);
     let s = text(&out.stdout);

@@ -210,6 +210,17 @@ fn pins_by_vertex_by_region_and_by_group() {
     // By vertex index: the mesh's own numbering (the order faces first use them).
     let m = model(&dir, &scene_text("flag.obj", "pins = [[0], [1]]"));
     assert_eq!(pinned(&m).len(), 2);
+    // The same as a flat list (issue 48: `pins = [0, 10]` said "invalid type: integer").
+    let flat = model(&dir, &scene_text("flag.obj", "pins = [0, 1]"));
+    assert_eq!(pinned(&flat), pinned(&m));
+    refused(
+        &dir,
+        &scene_text("flag.obj", "pins = [\"corner\"]"),
+        &[
+            "bodies[0].pins",
+            "a grid index (`[i, j]`) or a mesh vertex (`v` or `[v]`)",
+        ],
+    );
     refused(
         &dir,
         &scene_text("flag.obj", "pin_groups = [\"pole\"]"),

@@ -152,7 +152,34 @@ fn masses_and_springs(s: &mut String, model: &Model) {
             b.masses.len(),
             b.springs.len()
         );
+        pinned(s, model, b.masses.clone());
     }
+}
+
+/// Where a body's pins landed, the first few by position (issue 48: a mesh's vertex numbers
+/// follow the order its faces use them, so `pins = [0, 10]` may not be the corners one meant).
+fn pinned(s: &mut String, model: &Model, masses: std::ops::Range<u32>) {
+    const SHOWN: usize = 6;
+    let at: Vec<String> = masses
+        .map(|i| i as usize)
+        .filter(|&i| model.inv_mass[i] == 0.0)
+        .map(|i| {
+            let p = model.initial.x[i];
+            format!("[{:.3}, {:.3}, {:.3}]", p.x, p.y, p.z)
+        })
+        .collect();
+    if at.is_empty() {
+        return;
+    }
+    let more = match at.len().saturating_sub(SHOWN) {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    let _ = writeln!(
+        s,
+        "    pinned at (m): {}{more}",
+        at[..at.len().min(SHOWN)].join(", ")
+    );
 }
 
 /// Every effect the scene has, with its parameters; "none" when it has none.

@@ -305,8 +305,9 @@ pub struct Body {
     /// Initial velocity of every mass.
     #[serde(default)]
     pub velocity_m_per_s: [f32; 3],
-    /// Masses held fixed in place: grid indices (`[i, j]`), or a mesh's vertex indices (`[v]`).
-    #[serde(default)]
+    /// Masses held fixed in place: grid indices (`[i, j]`), or a mesh's vertex indices (`[v]`,
+    /// or `v` alone: `pins = [0, 10]`).
+    #[serde(default, deserialize_with = "pin_list")]
     pub pins: Vec<Vec<u32>>,
     /// Every mass that starts inside these regions is pinned.
     #[serde(default, deserialize_with = "one_or_many")]
@@ -425,6 +426,42 @@ impl PinRegion {
             _ => false,
         }
     }
+}
+
+/// `pins = [[i, j], …]`, and for a mesh's vertices `pins = [v, …]` too (each `v` read as `[v]`).
+fn pin_list<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Vec<u32>>, D::Error> {
+    struct Pins;
+    impl<'de> serde::de::Visitor<'de> for Pins {
+        type Value = Vec<Vec<u32>>;
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str(
+                "a list of pins, each a grid index (`[i, j]`) or a mesh vertex (`v` or `[v]`)",
+            )
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(
+            self,
+            mut seq: A,
+        ) -> Result<Self::Value, A::Error> {
+            #[derive(Deserialize)]
+            #[serde(
+                untagged,
+                expecting = "a pin: a grid index (`[i, j]`) or a mesh vertex (`v` or `[v]`), each a whole number from 0"
+            )]
+            enum Pin {
+                Vertex(u32),
+                Index(Vec<u32>),
+            }
+            let mut pins = Vec::new();
+            while let Some(pin) = seq.next_element::<Pin>()? {
+                pins.push(match pin {
+                    Pin::Vertex(v) => vec![v],
+                    Pin::Index(i) => i,
+                });
+            }
+            Ok(pins)
+        }
+    }
+    d.deserialize_seq(Pins)
 }
 
 /// `pins_in = { … }` or `pins_in = [{ … }, { … }]`.

@@ -27,7 +27,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::backward::{History, residual_work};
-use super::cg::solve;
+use super::cg::{cg_direction, cg_goes_on, cg_update, cg_update_unpreconditioned};
 use super::chunks::{
     CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair, max_chunks, sum_chunks,
 };
@@ -123,7 +123,7 @@ impl ImplicitWork {
 
 /// a · b in f64, summed per chunk of masses and the chunks in order: the same result on any
 /// number of threads.
-pub(super) fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     sum_chunks(a.len(), |r| {
         a[r.clone()]
             .iter()
@@ -402,6 +402,81 @@ pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
     });
 }
 
+/// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
+/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, `b_norm` being |b|. Returns the
+/// iterations and |r| / |b|.
+fn solve(
+    model: &Model,
+    w: &mut ImplicitWork,
+    (h, b_norm): (f32, f64),
+    stop: &StopFlags,
+) -> (u32, f64) {
+    let ImplicitWork {
+        lin,
+        b,
+        r,
+        z,
+        p,
+        ap,
+        dv,
+        block_inv,
+        multigrid,
+        ..
+    } = w;
+    dv.fill(Vec3::ZERO);
+    r.copy_from_slice(b);
+    if b_norm == 0.0 {
+        return (0, 0.0);
+    }
+    let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
+    if let Some(mg) = multigrid.as_mut() {
+        mg.linearise(
+            |i| own_and_contacts(model, lin, h, drag, i),
+            |s| lin.springs[s].block(),
+        );
+        mg.cycle(
+            block_inv,
+            |p, out| apply_system(model, lin, h, p, out),
+            r,
+            z,
+        );
+    } else {
+        let (r, block_inv) = (&*r, &*block_inv);
+        each_mass(z, |i, z| *z = block_inv[i] * r[i]);
+    }
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z);
+    let mut iterations = 0;
+    loop {
+        let residual = dot(r, r).sqrt() / b_norm;
+        if !cg_goes_on(residual, iterations) || stop.asked() {
+            return (iterations, residual);
+        }
+        iterations += 1;
+        apply_system(model, lin, h, p, ap);
+        let pap = dot(p, ap);
+        if pap <= 0.0 || !pap.is_finite() {
+            return (iterations, residual);
+        }
+        let alpha = (rz / pap) as f32;
+        if let Some(mg) = multigrid.as_mut() {
+            cg_update_unpreconditioned(alpha, (p, ap), (dv, r));
+            mg.cycle(
+                block_inv,
+                |p, out| apply_system(model, lin, h, p, out),
+                r,
+                z,
+            );
+        } else {
+            cg_update(alpha, (p, ap, block_inv), (dv, r, z));
+        }
+        let rz_next = dot(r, z);
+        let beta = (rz_next / rz) as f32;
+        rz = rz_next;
+        cg_direction(beta, z, p);
+    }
+}
+
 /// Mass `i`'s own block: its mass with drag, and its contacts, without its springs
 /// (`block_of_mass` adds them; the multigrid hierarchy takes them as its edges).
 pub(super) fn own_and_contacts(
@@ -481,7 +556,6 @@ mod tests {
             newton_floor(1.0 / 60.0, 1)
         ));
         // A solve stops at a tenth of the Newton residual it started from, or at its cap.
-        use super::super::cg::cg_goes_on;
         use crate::physics::{CG_FORCING, CG_MAX_ITERATIONS};
         assert!(cg_goes_on(CG_FORCING * 1.01, 0));
         assert!(!cg_goes_on(CG_FORCING * 0.99, 0));

@@ -214,7 +214,7 @@ fn dt_auto_says_what_it_picked_and_a_tighter_tolerance_takes_more_substeps() {
     );
     let out = hooke(&["check", "hair", "--dt", "fast"]);
     assert!(
-        text(&out.stderr).contains("expected seconds (like 0.001) or `auto`"),
+        text(&out.stderr).contains("expected seconds (like 0.001 or 1/60) or `auto`"),
         "{}",
         text(&out.stderr)
     );

@@ -152,7 +152,8 @@ fn bench_accuracy_reaches_one_step_per_frame() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// The guidance names, for each error level, the cheapest stable run that reached it.
+/// The guidance names, for each error level, the cheapest stable run that reached it and every
+/// other within 10% of its cost (a tie: timing noise must not decide the answer), and no other.
 fn assert_guidance_names_the_cheapest_runs(stdout: &str, rows: &[Vec<&str>], csv: &str) {
     let num = |c: &str| c.parse::<f64>().unwrap_or(f64::NAN);
     let mut named = 0;
@@ -172,11 +173,32 @@ fn assert_guidance_names_the_cheapest_runs(stdout: &str, rows: &[Vec<&str>], csv
             continue;
         }
         named += 1;
-        let row = reaching
-            .iter()
-            .find(|r| r[1] == cells[2] && (num(r[2]) / num(cells[3]) - 1.0).abs() < 1e-3)
-            .unwrap_or_else(|| panic!("{line} names a run that does not reach it:\n{csv}"));
-        assert_eq!(num(row[9]), cheapest, "{line}: not the cheapest\n{csv}");
+        let tied: Vec<(&str, f64)> = cells[2]
+            .split(" = ")
+            .zip(cells[3].split(" = "))
+            .map(|(i, dt)| (i, num(dt)))
+            .collect();
+        let is =
+            |r: &Vec<&str>, (i, dt): (&str, f64)| r[1] == i && (num(r[2]) / dt - 1.0).abs() < 1e-3;
+        for &t in &tied {
+            let row = reaching
+                .iter()
+                .find(|r| is(r, t))
+                .unwrap_or_else(|| panic!("{line} names a run that does not reach it:\n{csv}"));
+            assert!(
+                num(row[9]) <= cheapest * 1.1,
+                "{line}: not within 10% of the cheapest\n{csv}"
+            );
+        }
+        for r in reaching.iter().filter(|r| num(r[9]) <= cheapest * 1.1) {
+            assert!(
+                tied.iter().any(|&t| is(r, t)),
+                "{line} leaves out {} at {} ({} s), within 10% of the cheapest\n{csv}",
+                r[1],
+                r[2],
+                r[9]
+            );
+        }
     }
     assert!(named >= 2, "{stdout}");
 }

@@ -31,6 +31,8 @@ pub struct AccuracyOptions {
     /// Also the fast end: doublings of the largest of those steps up to one step per frame
     /// (1/60 s at 60 frames/s), where only the unconditionally stable solvers survive.
     pub fast_end: bool,
+    /// Timed runs of each point (at least 1); the wall time reported is their median.
+    pub repeat: u32,
     pub out_dir: PathBuf,
     /// Also record the series to this .rrd file.
     pub rrd: Option<PathBuf>,
@@ -42,31 +44,40 @@ struct RunEnd {
     wall_secs: f64,
 }
 
-/// Run `model` for `steps` steps of `dt` and time it (the wait for the device included).
+/// Run `model` for `steps` steps of `dt`, `repeat` times, each on a fresh backend and timed
+/// (the wait for the device included): the last run's end, and the median of the times. Each
+/// backend is deterministic, so the runs end alike; only the clock differs between them.
 fn run(
     model: &Arc<Model>,
-    device: &Device,
+    (device, repeat): (&Device, u32),
     integrator: Integrator,
     dt: f64,
     steps: u64,
 ) -> std::result::Result<(RunEnd, String), BackendError> {
-    // XPBD at its default of one iteration per substep: the chart's dial is the substep.
-    let mut be = device.create(model.clone(), Step::new(integrator, dt))?;
-    let name = be.describe();
-    let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
-    let start = Instant::now();
-    backend::advance_steps(be.as_mut(), steps, 1000)?;
-    be.finish()?;
-    let wall_secs = start.elapsed().as_secs_f64();
-    let end = be.snapshot(1, Default::default())?;
-    Ok((
-        RunEnd {
-            x: end.positions,
-            balance_change_j: end.energies.balance_j() - b0,
-            wall_secs,
-        },
-        name,
-    ))
+    let mut times = Vec::new();
+    loop {
+        // XPBD at its default of one iteration per substep: the chart's dial is the substep.
+        let mut be = device.create(model.clone(), Step::new(integrator, dt))?;
+        let name = be.describe();
+        let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
+        let start = Instant::now();
+        backend::advance_steps(be.as_mut(), steps, 1000)?;
+        be.finish()?;
+        times.push(start.elapsed().as_secs_f64());
+        if times.len() < repeat.max(1) as usize {
+            continue;
+        }
+        let end = be.snapshot(1, Default::default())?;
+        times.sort_by(f64::total_cmp);
+        return Ok((
+            RunEnd {
+                x: end.positions,
+                balance_change_j: end.energies.balance_j() - b0,
+                wall_secs: times[times.len() / 2],
+            },
+            name,
+        ));
+    }
 }
 
 /// Measure `scene_arg`, telling `progress` what each stage finished (the whole takes minutes).
@@ -177,42 +188,45 @@ fn row(
 ) -> Result<Row> {
     let duration = opts.duration_secs;
     let steps = (duration / dt).round() as u64;
-    Ok(match run(model, &opts.device, integrator, dt, steps) {
-        Ok((end, name)) => {
-            let errors: Vec<f64> = end
-                .x
-                .iter()
-                .zip(reference_x)
-                .map(|(p, q)| (p.as_dvec3() - *q).length())
-                .collect();
-            let rms =
-                (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
-            let max = errors.iter().copied().fold(0.0, f64::max);
-            Row {
+    Ok(
+        match run(model, (&opts.device, opts.repeat), integrator, dt, steps) {
+            Ok((end, name)) => {
+                let errors: Vec<f64> = end
+                    .x
+                    .iter()
+                    .zip(reference_x)
+                    .map(|(p, q)| (p.as_dvec3() - *q).length())
+                    .collect();
+                let rms =
+                    (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
+                let max = errors.iter().copied().fold(0.0, f64::max);
+                Row {
+                    integrator,
+                    dt_secs: dt,
+                    steps,
+                    rms_error_m: rms,
+                    max_error_m: max,
+                    energy_drift_j: end.balance_change_j,
+                    stable: rms.is_finite()
+                        && stayed_stable(end.balance_change_j, energy_scale(model)),
+                    dissipated_pct: dissipated_pct(end.balance_change_j, energy_scale(model)),
+                    wall_secs_per_sim_sec: end.wall_secs / duration,
+                    backend: name,
+                }
+            }
+            Err(BackendError::Diverged(_)) => Row {
                 integrator,
                 dt_secs: dt,
                 steps,
-                rms_error_m: rms,
-                max_error_m: max,
-                energy_drift_j: end.balance_change_j,
-                stable: rms.is_finite() && stayed_stable(end.balance_change_j, energy_scale(model)),
-                dissipated_pct: dissipated_pct(end.balance_change_j, energy_scale(model)),
-                wall_secs_per_sim_sec: end.wall_secs / duration,
-                backend: name,
-            }
-        }
-        Err(BackendError::Diverged(_)) => Row {
-            integrator,
-            dt_secs: dt,
-            steps,
-            rms_error_m: f64::NAN,
-            max_error_m: f64::NAN,
-            energy_drift_j: f64::NAN,
-            stable: false,
-            dissipated_pct: f64::NAN,
-            wall_secs_per_sim_sec: f64::NAN,
-            backend: format!("{:?}", opts.device.kind).to_lowercase(),
+                rms_error_m: f64::NAN,
+                max_error_m: f64::NAN,
+                energy_drift_j: f64::NAN,
+                stable: false,
+                dissipated_pct: f64::NAN,
+                wall_secs_per_sim_sec: f64::NAN,
+                backend: format!("{:?}", opts.device.kind).to_lowercase(),
+            },
+            Err(e) => return Err(e.into()),
         },
-        Err(e) => return Err(e.into()),
-    })
+    )
 }

@@ -182,6 +182,10 @@ pub enum BenchCommand {
         /// frame (1/60 s at 60 frames/s), where only implicit Euler, VBD and XPBD survive.
         #[arg(long)]
         no_fast_end: bool,
+        /// Timed runs of each point; its wall time is their median (the physics of every run is
+        /// the same, bit for bit). Single runs of milliseconds let noise pick the cheapest solver.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+        repeat: u32,
         /// Where the table, CSV and chart go.
         #[arg(long, default_value = "bench-out")]
         out: std::path::PathBuf,

@@ -23,6 +23,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             points,
             coarsest,
             no_fast_end,
+            repeat,
             out,
             save,
         } => {
@@ -32,6 +33,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                 points,
                 coarsest,
                 fast_end: !no_fast_end,
+                repeat,
                 out_dir: out.clone(),
                 rrd: save.clone(),
             };

@@ -148,20 +148,30 @@ fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
     let py = |v: f64| plot.py(v);
     for (k, integrator) in Integrator::ALL.iter().enumerate() {
         let c = COLORS[k];
-        let line: Vec<(f64, f64)> = r
+        let points: Vec<(f64, f64, f64)> = r
             .rows
             .iter()
             .filter(|p| p.integrator == *integrator && p.stable && p.rms_error_m > 0.0)
-            .map(|p| (px(p.wall_secs_per_sim_sec.max(1e-9)), py(p.rms_error_m)))
+            .map(|p| {
+                let x = px(p.wall_secs_per_sim_sec.max(1e-9));
+                (x, py(p.rms_error_m), p.dt_secs)
+            })
             .collect();
+        let line: Vec<(f64, f64)> = points.iter().map(|&(x, y, _)| (x, y)).collect();
         let path: Vec<String> = line.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
         let _ = writeln!(
             s,
             r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="2"/>"#,
             path.join(" ")
         );
-        for (x, y) in &line {
-            let _ = writeln!(s, r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{c}"/>"#);
+        // Each point names its step (issue 48: the points carried no dt).
+        for (x, y, dt) in &points {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{c}"><title>{integrator} at dt = {dt:.3e} s</title></circle><text x="{:.1}" y="{:.1}" font-size="9" fill="{c}">{dt:.1e}</text>"#,
+                x + 5.0,
+                y - 5.0
+            );
         }
         let ly = mt + 20.0 + 22.0 * k as f64;
         let _ = writeln!(
@@ -178,6 +188,7 @@ fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
         s,
         r##"<text x="{}" y="{}" fill="#666">diverged runs are left out</text>"##,
         w - mr + 15.0,
-        mt + 20.0 + 22.0 * 6.0 + 10.0
+        // Below the last legend entry, not over one (it overprinted xpbd's).
+        mt + 20.0 + 22.0 * Integrator::ALL.len() as f64 + 4.0
     );
 }

@@ -388,8 +388,15 @@ impl CompareRecorder {
             format!("compare/energy_balance/{}", e.name),
             &rerun::Scalars::single(balance),
         )?;
+        // Frame 1's time holds what a backend does once (a GPU driver compiling its kernels at
+        // their first dispatch: over a second, issue 48), which would flatten the plot of every
+        // later frame: it goes beside the plot, not in it.
+        let wall = match snap.frame {
+            1 => "first_frame_wall_ms",
+            _ => "wall_ms",
+        };
         rec.log(
-            format!("compare/wall_ms/{}", e.name),
+            format!("compare/{wall}/{}", e.name),
             &rerun::Scalars::single(snap.stats.step_ms),
         )?;
         Ok(())

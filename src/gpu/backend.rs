@@ -413,9 +413,16 @@ impl Backend for GpuBackend {
     fn advance(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
         self.advance_started.get_or_insert_with(Instant::now);
         match self.resources.solver.is_some() {
-            true => self.advance_implicit(substeps),
-            false => self.advance_explicit(substeps),
+            true => self.advance_implicit(substeps)?,
+            false => self.advance_explicit(substeps)?,
         }
+        self.clock.advance(substeps);
+        self.ctx.check()?;
+        Ok(StepStats {
+            substeps,
+            dt_secs: f64::from(self.clock.dt),
+            ..StepStats::default()
+        })
     }
 
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {

@@ -9,7 +9,6 @@ use super::kernels::Kernel;
 use super::plan::{ExplicitPath, ListBuild, fused_step_plan, step_plan};
 use crate::backend::{BackendError, Internal};
 use crate::integrator::Integrator;
-use crate::state::StepStats;
 
 impl GpuBackend {
     /// Write the stage slots of the next `steps` steps (in one workgroup without colliders, the
@@ -25,8 +24,9 @@ impl GpuBackend {
         self.stages.write(&self.ctx.queue, 0, stages);
     }
 
-    /// `advance` for the integrators without a solve on the device: the steps' dispatches.
-    pub(super) fn advance_explicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+    /// What `advance` records for the integrators without a solve on the device: the steps'
+    /// dispatches (`advance` then moves the clock and checks the device).
+    pub(super) fn advance_explicit(&mut self, substeps: u32) -> Result<(), BackendError> {
         self.prepare_stages(substeps);
         let plan = self.plan_steps(substeps);
         let enc = self.ctx.encoder("steps");
@@ -36,13 +36,7 @@ impl GpuBackend {
         self.last_recorded = (recorded, plan.len());
         self.copy_back(&mut enc, substeps);
         self.ctx.queue.submit([enc.finish()]);
-        self.clock.advance(substeps);
-        self.ctx.check()?;
-        Ok(StepStats {
-            substeps,
-            dt_secs: f64::from(self.clock.dt),
-            ..StepStats::default()
-        })
+        Ok(())
     }
 
     /// The dispatches of one step (`prime`: Verlet's first, which also evaluates a(x_0); `odd`:
@@ -115,7 +109,9 @@ impl GpuBackend {
         all
     }
 
-    pub(super) fn advance_implicit(&mut self, substeps: u32) -> Result<StepStats, BackendError> {
+    /// What `advance` records for implicit Euler and BDF2: their solves, in one workgroup or a
+    /// dispatch per pass (replayed with larger budgets where a frame outran them).
+    pub(super) fn advance_implicit(&mut self, substeps: u32) -> Result<(), BackendError> {
         self.prepare_stages(substeps);
         let post = self.step_plan(false, false);
         let Some(solver) = self.resources.solver.as_ref() else {
@@ -141,12 +137,6 @@ impl GpuBackend {
             self.budgets = outcome.budgets.fitted(&self.recent_frames);
             self.replays += u64::from(outcome.replays);
         }
-        self.clock.advance(substeps);
-        self.ctx.check()?;
-        Ok(StepStats {
-            substeps,
-            dt_secs: f64::from(self.clock.dt),
-            ..StepStats::default()
-        })
+        Ok(())
     }
 }

@@ -214,6 +214,9 @@ fn broken_per_frame(be: &mut dyn Backend, frames: u32, substeps: u32) -> Vec<usi
         .collect()
 }
 
+/// Starts moved by one f32 step (`common::parity::nudged`) the tear scene also runs from.
+const NUDGED_STARTS: u64 = 3;
+
 #[test]
 fn the_tear_scene_tears_the_same_way_every_run() {
     let (model, dt, substeps) = tear_model();
@@ -245,13 +248,28 @@ fn the_tear_scene_tears_the_same_way_every_run() {
         }
     }
     // GPU against the CPU: the same springs break within a frame or so (f32 rounding may tip
-    // a spring at its limit a step earlier or later).
+    // a spring at its limit a step earlier or later). A spring that sits near its limit for
+    // long breaks when rounding says: from starts moved by one f32 step the CPU itself parts
+    // from its own count by `spread` at a frame, and a GPU that rounds otherwise may part as
+    // far (an H100 broke 292 against the CPU's 282 at frame 60).
+    let spread = (1..=NUDGED_STARTS).fold(vec![0usize; first.len()], |mut spread, seed| {
+        let mut cpu = CpuBackend::new(
+            common::parity::nudged(&model, seed),
+            Step::new(Integrator::SemiImplicit, dt),
+        );
+        let counts = broken_per_frame(&mut cpu, frames, substeps);
+        for ((s, c), n) in spread.iter_mut().zip(first).zip(&counts) {
+            *s = (*s).max(c.abs_diff(*n));
+        }
+        spread
+    });
+    println!("{name}: from nudged starts, apart by at most {spread:?}");
     if let Some((gpu, counts)) = runs.iter().find(|(n, _)| n != name) {
-        for (f, (c, g)) in first.iter().zip(counts).enumerate() {
-            let slack = 2 + c / 50;
+        for (f, ((c, g), s)) in first.iter().zip(counts).zip(&spread).enumerate() {
+            let slack = 2 + c / 50 + s;
             assert!(
                 c.abs_diff(*g) <= slack,
-                "frame {f}: {c} broken on the CPU, {g} on {gpu}"
+                "frame {f}: {c} broken on the CPU, {g} on {gpu} (nudged CPU starts parted by {s})"
             );
         }
     }

@@ -145,7 +145,29 @@ fn gpu_energies_match_the_cpu() {
         .zip(&g.strain)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f32, f32::max);
-    assert!(worst <= 1e-5, "strain differs by {worst}");
+    // Where the GPU rounds as the CPU, the strains agree to 1e-5; elsewhere each strain follows
+    // its positions: two ends apart by at most |Δx| change a spring's length by at most 2 |Δx|,
+    // its strain by that over its rest length (an H100 differed by 1.7e-5).
+    let worst_x = c
+        .positions
+        .iter()
+        .zip(&g.positions)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0f32, f32::max);
+    let shortest = model
+        .springs
+        .iter()
+        .map(|s| s.rest_m)
+        .fold(f32::INFINITY, f32::min);
+    let allowed = if common::parity::gpu_rounds_as_the_cpu() {
+        1e-5
+    } else {
+        1e-5 + 2.0 * worst_x / shortest
+    };
+    assert!(
+        worst <= allowed,
+        "strain differs by {worst} (allowed {allowed}, positions by {worst_x} m)"
+    );
 }
 
 #[test]

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use common::{gpu_available, ok, scene_model};
 
 use glam::Vec3;
-use hooke::backend::Backend as _;
+use hooke::backend::Backend;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
 use hooke::integrator::{Integrator, Step};
@@ -275,29 +275,77 @@ fn run_both(
     frames: u32,
     substeps: u32,
 ) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
-    let mut cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
-    let mut gpu = ok(GpuBackend::new(
+    let cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
+    let gpu = ok(GpuBackend::new(
         model.clone(),
         Step::new(integrator, dt),
         None,
     ));
+    let (mut cpu, mut gpu) = (cpu, gpu);
+    run_pair((&mut cpu, &mut gpu), frames, substeps)
+}
+
+/// How far the CPU parts from itself when its start moves by one f32 step
+/// (`common::parity::nudged`, `NUDGED_STARTS` of them): the largest position difference over
+/// the frames, and of the contact, kinetic and dissipated energies at the end.
+fn nudged_spread(
+    model: &Arc<Model>,
+    integrator: Integrator,
+    dt: f64,
+    frames: u32,
+    substeps: u32,
+) -> (f64, [f64; 3]) {
+    (1..=NUDGED_STARTS).fold((0.0, [0.0; 3]), |(worst, energies), seed| {
+        let step = Step::new(integrator, dt);
+        let (x, c, n) = run_pair(
+            (
+                &mut CpuBackend::new(model.clone(), step),
+                &mut CpuBackend::new(common::parity::nudged(model, seed), step),
+            ),
+            frames,
+            substeps,
+        );
+        let apart = aggregates(&c).into_iter().zip(aggregates(&n));
+        let mut energies = energies;
+        for (e, (a, b)) in energies.iter_mut().zip(apart) {
+            *e = f64::max(*e, (a - b).abs());
+        }
+        (f64::max(worst, x), energies)
+    })
+}
+
+/// The contact, kinetic and dissipated energies of a snapshot.
+fn aggregates(s: &hooke::state::Snapshot) -> [f64; 3] {
+    let e = s.energies;
+    [e.contact_j, e.kinetic_j, e.ledger.dissipated_j()]
+}
+
+/// Two backends stepped alike, compared at every frame (`run_both`).
+fn run_pair(
+    (a, b): (&mut dyn Backend, &mut dyn Backend),
+    frames: u32,
+    substeps: u32,
+) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
     let mut worst = 0.0f64;
     let mut last = None;
     for frame in 0..frames {
-        ok(cpu.advance(substeps));
-        ok(gpu.advance(substeps));
+        ok(a.advance(substeps));
+        ok(b.advance(substeps));
         let (c, g) = (
-            ok(cpu.snapshot(u64::from(frame), Default::default())),
-            ok(gpu.snapshot(u64::from(frame), Default::default())),
+            ok(a.snapshot(u64::from(frame), Default::default())),
+            ok(b.snapshot(u64::from(frame), Default::default())),
         );
-        for (a, b) in c.positions.iter().zip(&g.positions) {
-            worst = worst.max(f64::from(a.distance(*b)));
+        for (p, q) in c.positions.iter().zip(&g.positions) {
+            worst = worst.max(f64::from(p.distance(*q)));
         }
         last = Some((c, g));
     }
     let (c, g) = last.unwrap_or_else(|| panic!("no frames"));
     (worst, c, g)
 }
+
+/// Starts moved by one f32 step that `gpu_matches_cpu_with_mass_contact` also runs the CPU from.
+const NUDGED_STARTS: u64 = 2;
 
 /// Stated tolerance, as the other parity tests: lavapipe evaluates the same f32 operations in
 /// the same order as the CPU (bit-identical in practice); a GPU that fuses multiply-adds differs
@@ -307,7 +355,10 @@ const PARITY_X_M: f64 = 1e-4;
 /// pile (cubes landing on each other from 0.15 s) and cloth-fold (the sheet landing and folding
 /// from 0.4 s), with the integrators whose force evaluations read different states (x, v; the
 /// RK4 stages' xt, vt; Verlet's x, vt): positions agree at every frame, and so do the contact
-/// energy (the pair potential) and the dissipated energy.
+/// energy (the pair potential) and the dissipated energy. Where the GPU rounds as the CPU, to
+/// `PARITY_X_M` and 1e-4 of the energy. A sheet folding onto itself is chaotic, so elsewhere it
+/// may part from the CPU as far as the CPU parts from itself when its start moves by one f32
+/// step (an H100 ended 0.2 m from the CPU on cloth-fold, with its contact energy 10% apart).
 #[test]
 fn gpu_matches_cpu_with_mass_contact() {
     if !gpu_available() {
@@ -323,16 +374,23 @@ fn gpu_matches_cpu_with_mass_contact() {
         let substeps = (1.0 / (60.0 * dt)).round() as u32;
         let (worst, c, g) = run_both(&model, integrator, dt, frames, substeps);
         let (ec, eg) = (c.energies, g.energies);
+        let (spread_x, spread_e) = nudged_spread(&model, integrator, dt, frames, substeps);
+        let exact = common::parity::gpu_rounds_as_the_cpu();
         println!(
-            "{name} {integrator}: |Δx| {worst:.2e} m; contact energy CPU {:.6e} J, GPU {:.6e} J; dissipated CPU {:.6e} J, GPU {:.6e} J",
+            "{name} {integrator}: |Δx| {worst:.2e} m (nudged CPU starts {spread_x:.2e}); contact energy CPU {:.6e} J, GPU {:.6e} J; dissipated CPU {:.6e} J, GPU {:.6e} J",
             ec.contact_j,
             eg.contact_j,
             ec.ledger.dissipated_j(),
             eg.ledger.dissipated_j()
         );
+        let allowed_x = if exact {
+            PARITY_X_M
+        } else {
+            PARITY_X_M.max(spread_x)
+        };
         assert!(
-            worst <= PARITY_X_M,
-            "{name} {integrator}: GPU positions differ from the CPU by {worst:.3e} m"
+            worst <= allowed_x,
+            "{name} {integrator}: GPU positions differ from the CPU by {worst:.3e} m (nudged CPU starts by {spread_x:.3e})"
         );
         assert!(
             ec.ledger.contact_j > 1e-3,
@@ -340,18 +398,21 @@ fn gpu_matches_cpu_with_mass_contact() {
             ec.ledger.contact_j
         );
         let scale = ec.total_j().abs().max(1e-3);
-        for (what, a, b) in [
-            ("contact energy", ec.contact_j, eg.contact_j),
-            ("kinetic energy", ec.kinetic_j, eg.kinetic_j),
-            (
-                "dissipated",
-                ec.ledger.dissipated_j(),
-                eg.ledger.dissipated_j(),
-            ),
-        ] {
+        let what = ["contact energy", "kinetic energy", "dissipated"];
+        for (((what, a), b), spread) in what
+            .iter()
+            .zip(aggregates(&c))
+            .zip(aggregates(&g))
+            .zip(spread_e)
+        {
+            let allowed = if exact {
+                1e-4 * scale
+            } else {
+                (1e-4 * scale).max(spread)
+            };
             assert!(
-                (a - b).abs() <= 1e-4 * scale,
-                "{name} {integrator}: {what} {a} J on the CPU, {b} J on the GPU"
+                (a - b).abs() <= allowed,
+                "{name} {integrator}: {what} {a} J on the CPU, {b} J on the GPU (nudged CPU starts {spread} J apart)"
             );
         }
     }

@@ -83,6 +83,57 @@ peer60() {
     --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
 }
 case $phase in
+v | t)
+  # (t: the test binaries alone, as pack.sh's TESTS name them.)
+  # Real-driver conformance (issue 49) and the cost of waiting between submissions (issue 46)
+  # in one call, carrying [".gpu/gl", ".gpu/p", ".gpu/t"]. .gpu/p holds env.sh and the peers'
+  # files (../shared/gpu/), .gpu/t/kit.tar.xz this hooke, the baseline (hooke-old) and the GPU
+  # test binaries, stripped, in one xz stream whose window spans them all (they share most of
+  # their code: ten binaries and two hookes in about 10 MB):
+  #   bench/device/pack.sh 77e1e67
+  # The test binaries look for the checkout where they were built (/work/main) and for
+  # target/release/hooke there.
+  t0=$(date +%s)
+  left() { [ $(($(date +%s) - t0)) -lt "$1" ]; }
+  mkdir -p /tmp/t && xz -dc .gpu/t/kit.tar.xz | tar xf - -C /tmp/t
+  # install, not cp: env.sh, sourced above, left an empty /tmp/hooke without a hooke.gz.
+  install -m 755 /tmp/t/hooke /tmp/hooke && install -m 755 /tmp/t/hooke-old /tmp/hooke-old
+  H=/tmp/hooke
+  nvidia-smi -L
+  [ "$PWD" = /work/main ] || { mkdir -p /work && ln -sfn "$PWD" /work/main; }
+  mkdir -p target/release && cp /tmp/hooke target/release/hooke
+  export HOOKE_CACHE_DIR=/tmp/hooke-cache HOOKE_REQUIRE_ADAPTER=1
+  # The conformance probe for every integrator's kernel families, as `check` prints it.
+  verify_all() {
+    for i in semi-implicit euler rk2 rk4 verlet implicit bdf2 xpbd vbd; do
+      timeout 60 "$H" check cloth --integrator $i --verify 2>&1 | grep -E "^adapter|^conformance"
+    done | tee $out/verify.txt
+    timeout 60 "$H" check jello --integrator implicit --verify 2>&1 | grep -E "^conformance" |
+      tee -a $out/verify.txt
+  }
+  [ "$phase" = t ] || { verify_all; }
+  # The GPU test binaries on this driver, as `cargo test --release` would run them.
+  for b in $(ls /tmp/t/tests); do
+    left 330 || { echo "skipped $b: out of time" | tee -a $out/tests.txt; continue; }
+    echo "== $b" >>$out/tests.txt
+    timeout 120 /tmp/t/tests/$b >>$out/tests.txt 2>&1
+    echo "$b: exit $? $(grep -E '^test result' $out/tests.txt | tail -1)"
+  done
+  grep -E "FAILED|panicked|failures:" $out/tests.txt | head -40
+  # Submissions that wait for the one before (issue 46) against the baseline, interleaved.
+  [ "$phase" = t ] && exit 0
+  for r in 1 2; do for tag in old new; do
+    left 470 || break 2
+    b=/tmp/hooke-old
+    [ $tag = new ] && b=$H
+    row "46-$tag" $b hair --steps 40000 --batch 2000
+    row "46-$tag" $b jello --steps 40000 --batch 2000
+    row "46-$tag" $b cloth-1024 --steps 1000 --batch 500
+    row "46-$tag" $b bench/scenes/jello-60hz.toml --integrator vbd --steps 600 --batch 60
+    row "46-$tag" $b bench/scenes/cloth-60hz.toml --integrator vbd --steps 600 --batch 60
+    row "46-$tag" $b bench/scenes/cloth-256-60hz.toml --integrator implicit --steps 60 --batch 1
+  done; done
+  ;;
 one)
   # Every issue's rows that need no peer, this binary alone, in one short call (carrying
   # [".gpu/bin", ".gpu/gl", ".gpu/p"]): for a card lent only for a few minutes.

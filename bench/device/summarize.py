@@ -33,15 +33,16 @@ for r in rows:
 runs = defaultdict(lambda: defaultdict(list))
 for r in rows:
     tag = label(r)
-    if tag in ("29-old", "29-new"):
+    issue, _, which = tag.rpartition("-")
+    if which in ("old", "new"):
         res = r["result"]
-        key = (r["args"], res["integrator"], res["springs"])
-        runs[key][tag[3:]].append(res["steps_per_sec"]["median"])
+        key = (issue, r["args"], res["integrator"], res["springs"])
+        runs[key][which].append(res["steps_per_sec"]["median"])
 if runs:
-    print(f"\n{'issue 29 configuration':58} {'old steps/s':>22} {'new steps/s':>22} {'new/old':>9}")
-    for (args, integrator, springs), by in runs.items():
+    print(f"\n{'issue: configuration':58} {'old steps/s':>22} {'new steps/s':>22} {'new/old':>9}")
+    for (issue, args, integrator, springs), by in runs.items():
         def span(v):
             return f"{min(v):,.0f}-{max(v):,.0f}" if v else "-"
         old, new = by.get("old", []), by.get("new", [])
         ratio = f"{min(new) / max(old):.2f}-{max(new) / min(old):.2f}" if old and new else "-"
-        print(f"{args[:58]:58} {span(old):>22} {span(new):>22} {ratio:>9}")
+        print(f"{(issue + ': ' + args)[:58]:58} {span(old):>22} {span(new):>22} {ratio:>9}")

@@ -72,6 +72,42 @@ pub fn run_both_with(
     (ok(cpu.state()), ok(gpu.state()), worst)
 }
 
+/// Whether the GPU adapter the tests get rounds as the CPU does: Mesa's lavapipe (Vulkan on the
+/// CPU) evaluates the same f32 operations in the same order, bit for bit. A GPU's driver fuses
+/// multiply-adds and rounds otherwise (NVIDIA's on an H100: BENCHMARKS.md, "A real driver's
+/// rounding"), so a chaotic scene or a property that holds only by luck of rounding parts there.
+pub fn gpu_rounds_as_the_cpu() -> bool {
+    hooke::gpu::adapters().first().is_some_and(|a| {
+        let info = a.get_info();
+        info.backend == wgpu::Backend::Vulkan && info.device_type == wgpu::DeviceType::Cpu
+    })
+}
+
+/// `model` with each movable mass's start moved by at most one f32 step per coordinate, in a
+/// pattern `seed` picks (seed 0: unmoved): the CPU reference under another rounding, as a GPU
+/// that fuses multiply-adds rounds. What a test claims of a chaotic scene or a fragile solve,
+/// it checks on these starts too, so that the claim is not the luck of one rounding.
+pub fn nudged(model: &Model, seed: u64) -> Arc<Model> {
+    let mut m = model.clone();
+    if seed > 0 {
+        let step = |v: f32, pick: u64| match pick % 3 {
+            0 => v,
+            1 => v.next_up(),
+            _ => v.next_down(),
+        };
+        for (i, x) in m.initial.x.iter_mut().enumerate() {
+            if model.inv_mass[i] == 0.0 {
+                continue;
+            }
+            let h = (i as u64 + 1)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .wrapping_add(seed.wrapping_mul(0xD1B5_4A32_D192_ED03));
+            *x = glam::Vec3::new(step(x.x, h >> 7), step(x.y, h >> 17), step(x.z, h >> 27));
+        }
+    }
+    Arc::new(m)
+}
+
 /// Stated tolerance. Mesa lavapipe reproduces the CPU bit for bit (both evaluate the same f32
 /// operations in the same order); a GPU that fuses multiply-adds differs by rounding, which this
 /// allows for over a few hundred steps.

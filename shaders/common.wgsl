@@ -28,6 +28,8 @@ override NEWTON_MAX_ITERATIONS: u32 = 10u;
 override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
 override NEWTON_STALL: f32 = 0.5;
+override NEWTON_BACKTRACKS: u32 = 2u;
+override NEWTON_OVERSHOOT: f32 = 1.1;
 override CG_FORCING: f32 = 0.1;
 // How many times its allowed depth a mass may sink in a step before its projection counts as
 // deep (src/contact_law.rs's DEEP_SHARE).

@@ -92,7 +92,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
 // nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, F32_MAX, 0u, 0u, 0u);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, F32_MAX, 0u, 0.0, 0u);
     if (scratch.frame.overran != 0u) {
         scratch.solver.converged = 1u;
     }
@@ -143,6 +143,17 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
         book_step(sv.newton, relative(b_norm, sv.scale), true);
         return;
     }
+    if (newton_overshot(b_norm, sv.last_residual, sv.halvings)) {
+        // No solve: newton_update halves the last update instead (NEWTON_HALVING).
+        sv.halvings += 1u;
+        sv.evaluated = b_norm;
+        sv.iterations = 0u;
+        sv.cg_active = 0u;
+        sv.newton_pending = NEWTON_HALVING;
+        scratch.solver = sv;
+        return;
+    }
+    sv.halvings = 0u;
     sv.last_residual = b_norm;
     sv.rz = t.x;
     sv.iterations = 0u;
@@ -189,6 +200,9 @@ fn cg_apply(
     sv.rz = t.x;
     var partial = vec4<f32>(0.0);
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+        if (first) {
+            solve_begin_at(i);
+        }
         partial += apply_system_at(i, sv.beta, true);
     }
     store_grid_partial(lid, wid.x, OTHER_SUMS, partial, false);
@@ -235,7 +249,12 @@ fn cg_advance(
     }
 }
 
-// Once the solve has stopped (after cg_apply: scratch.applied). Partials: (max |δ|, max |Δv|).
+// newton_pending while a halving of the last update, not a solve's, is to be applied.
+const NEWTON_HALVING: u32 = 2u;
+
+// Once the solve has stopped (after cg_apply: scratch.applied): Δv += δ, or the halving cg_begin
+// chose. A solve that stopped before its first iteration leaves δ = 0 (cg_apply zeroes it on
+// its first). Partials: (max |δ|, max |Δv|).
 @compute @workgroup_size(64)
 fn newton_update(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -248,7 +267,14 @@ fn newton_update(
     }
     var partial = vec4<f32>(0.0);
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
-        partial = max(partial, newton_update_at(i));
+        if (sv.newton_pending == NEWTON_HALVING) {
+            newton_halve_at(i);
+        } else {
+            if (sv.iterations == 0u) {
+                solve_begin_at(i);
+            }
+            partial = max(partial, newton_update_at(i));
+        }
     }
     store_grid_partial(lid, wid.x, OTHER_SUMS, partial, true);
 }
@@ -280,15 +306,24 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
         return;
     }
     var sv = applied;
-    scratch.frame.cg_most[sv.newton] = max(scratch.frame.cg_most[sv.newton], sv.iterations);
-    sv.newton += 1u;
+    let halving = sv.newton_pending == NEWTON_HALVING;
     sv.newton_pending = 0u;
-    sv.max_residual = max(sv.max_residual, sv.residual);
-    sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
-    // The step ends here: its update was too small to matter, or its iterations ran out short of
-    // the rule (sv.last_residual: the last iterate's, before this update).
-    if (sv.converged != 0u || sv.newton >= NEWTON_MAX_ITERATIONS) {
-        book_step(sv.newton, relative(sv.last_residual, sv.scale), sv.converged != 0u);
+    if (halving) {
+        // A halving counts as an iteration; whether Newton converged is judged after solves.
+        sv.newton += 1u;
+        if (sv.newton >= NEWTON_MAX_ITERATIONS) {
+            book_step(sv.newton, relative(sv.evaluated, sv.scale), false);
+        }
+    } else {
+        scratch.frame.cg_most[sv.newton] = max(scratch.frame.cg_most[sv.newton], sv.iterations);
+        sv.newton += 1u;
+        sv.max_residual = max(sv.max_residual, sv.residual);
+        sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
+        // The step ends here: its update was too small to matter, or its iterations ran out
+        // short of the rule (sv.last_residual: the last iterate's, before this update).
+        if (sv.converged != 0u || sv.newton >= NEWTON_MAX_ITERATIONS) {
+            book_step(sv.newton, relative(sv.last_residual, sv.scale), sv.converged != 0u);
+        }
     }
     if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {
         scratch.frame.overran |= NEWTON_OVERRAN;

@@ -33,6 +33,9 @@ fn group_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
 // (as src/cpu/implicit.rs's solve).
 fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32) -> vec2<f32> {
     let n = params.mass_count;
+    for (var i = lid; i < n; i += GROUP_THREADS) {
+        solve_begin_at(i);
+    }
     if (b_norm == 0.0) {
         return vec2<f32>(0.0);
     }
@@ -82,6 +85,7 @@ fn step_in_group(lid: u32) {
     var newtons = 0u;
     var met = false;
     var step_residual = 0.0;
+    var halvings = 0u;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
         for (var i = lid; i < n; i += GROUP_THREADS) {
             implicit_iterate_at(i);
@@ -103,6 +107,16 @@ fn step_in_group(lid: u32) {
             met = true;
             break;
         }
+        if (newton_overshot(b_norm, last_residual, halvings)) {
+            // Each thread halves its own masses' update, which only it reads next.
+            halvings += 1u;
+            newtons += 1u;
+            for (var i = lid; i < n; i += GROUP_THREADS) {
+                newton_halve_at(i);
+            }
+            continue;
+        }
+        halvings = 0u;
         last_residual = b_norm;
         newtons += 1u;
         let solved = solve_in_group(lid, t.x, b_norm);

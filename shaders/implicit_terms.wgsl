@@ -201,7 +201,7 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
         inv = invert_block(block);
     }
     let z = inv * b;
-    set_vector(DV, i, vec4<f32>(0.0));
+    // δ (DV) keeps the last update until the solve starts (newton_halve_at may halve it).
     set_vector(RESIDUAL, i, vec4<f32>(b, 0.0));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     set_vector(DIRECTION, i, vec4<f32>(z, 0.0));
@@ -270,6 +270,25 @@ fn cg_direction_at(i: u32, beta: f32) {
 }
 
 // Δv += δ. Returns (|δ|, |Δv|), to be maxed.
+// Whether the last update left Newton's residual above NEWTON_OVERSHOOT times the one it started
+// from (`last`), with fewer than NEWTON_BACKTRACKS halvings of it so far
+// (src/cpu/implicit.rs's newton_overshot).
+fn newton_overshot(residual: f32, last: f32, halvings: u32) -> bool {
+    return residual > NEWTON_OVERSHOOT * last && halvings < NEWTON_BACKTRACKS;
+}
+
+// The last update halved: δ ← δ / 2, Δv ← Δv − δ (src/cpu/implicit.rs's newton_halve).
+fn newton_halve_at(i: u32) {
+    let dv = 0.5 * vector_at(DV, i).xyz;
+    set_vector(DV, i, vec4<f32>(dv, 0.0));
+    set_vector(DV_TOTAL, i, vec4<f32>(vector_at(DV_TOTAL, i).xyz - dv, 0.0));
+}
+
+// A solve starts from δ = 0.
+fn solve_begin_at(i: u32) {
+    set_vector(DV, i, vec4<f32>(0.0));
+}
+
 fn newton_update_at(i: u32) -> vec4<f32> {
     let dv = vector_at(DV, i).xyz;
     let total = vector_at(DV_TOTAL, i).xyz + dv;

@@ -28,12 +28,15 @@ struct Solver {
     converged: u32,
     // |b| of the current solve's start: its residual is relative to it.
     b_norm: f32,
-    // |h f − M Δv| at the last Newton iterate (newton_stalled).
+    // |h f − M Δv| at the last Newton iterate solved from (newton_stalled, newton_overshot).
     last_residual: f32,
+    // Halvings of the last update so far (newton_overshot); 2 in newton_pending while one is
+    // to be applied.
+    halvings: u32,
+    // |h f − M Δv| at the iterate a halving was evaluated at, booked if the step ends there.
+    evaluated: f32,
     // To 64 bytes: the partials after the two statuses and the frame record start 16-aligned.
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 // What the per-pass kernels learn of a frame, read back once by the host (src/gpu/layout.rs's

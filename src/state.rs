@@ -133,7 +133,8 @@ pub struct StepStats {
     /// relative to the Newton residual it started from (at most `CG_FORCING` when they
     /// converged). VBD on the CPU: its largest step residual |h f − M Δv| / |h f|.
     pub solver_residual: f64,
-    /// Implicit Euler and BDF2: most Newton iterations a step of this frame took.
+    /// Implicit Euler and BDF2: most Newton iterations a step of this frame took (a halved
+    /// update counts as one: `physics::NEWTON_BACKTRACKS`).
     pub newton_iterations: u32,
     /// How the frame's steps met their solver's acceptance rule, where the backend judged
     /// them: implicit Euler, BDF2 and VBD on both backends; `None` elsewhere, never a made-up

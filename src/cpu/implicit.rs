@@ -38,15 +38,15 @@ use crate::backend::StopFlags;
 use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
 use crate::physics::{
-    BackwardStep, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE, Preconditioner,
-    newton_floor, newton_residual, relative,
+    BackwardStep, NEWTON_BACKTRACKS, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT, NEWTON_STALL,
+    NEWTON_TOLERANCE, Preconditioner, newton_floor, newton_residual, relative,
 };
 use crate::state::{Power, State};
 
 /// How one implicit step's linear solve went.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SolveStats {
-    /// Newton iterations of the step.
+    /// Newton iterations of the step, a halving of an update that overshot counting as one.
     pub newton: u32,
     /// Conjugate-gradient iterations over all of the step's Newton iterations.
     pub iterations: u32,
@@ -241,6 +241,7 @@ pub fn implicit_step(
     w.history
         .implicit_blend(step, keep, &mut state.x, &mut state.v);
     implicit_begin(&mut w.dv_total);
+    let mut halvings = 0;
     for _ in 0..NEWTON_MAX_ITERATIONS {
         if stop.asked() {
             break;
@@ -263,6 +264,13 @@ pub fn implicit_step(
             stats.met = true;
             break;
         }
+        if newton_overshot(residual, last_residual, halvings) {
+            halvings += 1;
+            stats.newton += 1;
+            newton_halve(&mut w.dv, &mut w.dv_total);
+            continue;
+        }
+        halvings = 0;
         last_residual = residual;
         let (iterations, residual) = solve(model, w, (h, residual), stop);
         stats.newton += 1;
@@ -378,6 +386,21 @@ pub fn newton_update(dv: &[Vec3], dv_total: &mut [Vec3]) -> bool {
     each_mass(dv_total, |i, total| *total += dv[i]);
     let size = largest(dv_total);
     step <= NEWTON_TOLERANCE * size || step < 1e-7
+}
+
+/// Whether the last update left Newton's residual `residual` above `physics::NEWTON_OVERSHOOT`
+/// times the one it started from (`last`), with fewer than `physics::NEWTON_BACKTRACKS`
+/// halvings of it so far: it is then halved (`newton_halve`) rather than solved from.
+pub fn newton_overshot(residual: f64, last: f64, halvings: u32) -> bool {
+    residual > NEWTON_OVERSHOOT * last && halvings < NEWTON_BACKTRACKS
+}
+
+/// The last update δ is halved: δ ← δ / 2, Δv ← Δv − δ.
+pub fn newton_halve(dv: &mut [Vec3], dv_total: &mut [Vec3]) {
+    each_mass_pair(dv, dv_total, |_, d, total| {
+        *d *= 0.5;
+        *total -= *d;
+    });
 }
 
 /// Whether Newton's residual `residual` (|h f − M Δv| at the current iterate) is small enough

@@ -125,8 +125,12 @@ pub struct SolverStatus {
     /// |b| of the current solve's start: its residual is relative to it.
     pub b_norm: f32,
     pub last_residual: f32,
+    /// Halvings of the last Newton update so far (`physics::NEWTON_BACKTRACKS`).
+    pub halvings: u32,
+    /// |h f − M Δv| at the iterate a halving was evaluated at.
+    pub evaluated: f32,
     /// To 64 bytes, so that the partials after two statuses and a `FrameSolve` start 16-aligned.
-    pub _pad: [u32; 3],
+    pub _pad: u32,
 }
 
 /// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.

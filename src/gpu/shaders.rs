@@ -137,8 +137,8 @@ pub fn constants(
     ),
 ) -> Vec<(&'static str, f64)> {
     use crate::physics::{
-        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_MAX_ITERATIONS, NEWTON_STALL, NEWTON_TOLERANCE,
-        NEWTON_WORK_SHARE, newton_floor, newton_residual,
+        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT,
+        NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE, newton_floor, newton_residual,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -170,6 +170,8 @@ pub fn constants(
         ),
         ("NEWTON_FLOOR", newton_floor(dt_secs, integrator.order())),
         ("NEWTON_STALL", NEWTON_STALL),
+        ("NEWTON_BACKTRACKS", f64::from(NEWTON_BACKTRACKS)),
+        ("NEWTON_OVERSHOOT", NEWTON_OVERSHOOT),
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
         ("VBD_RESIDUAL", crate::physics::VBD_RESIDUAL),

@@ -28,6 +28,21 @@ pub const NEWTON_RESIDUAL_STEP_SECS: f64 = 1.0 / 60.0;
 pub const NEWTON_FLOOR: f64 = 1e-2;
 /// See `NEWTON_FLOOR`.
 pub const NEWTON_STALL: f64 = 0.5;
+/// A Newton update that leaves the residual |h f − M Δv| more than `NEWTON_OVERSHOOT` times
+/// larger than it found it is halved, and the iterate evaluated again, up to this many times
+/// before Newton goes on from where it is (a backtracking line search on the residual; each
+/// evaluation counts against `NEWTON_MAX_ITERATIONS`). Newton's system clamps a compressed
+/// spring's transverse stiffness (so that it stays definite), so on springs very stiff against
+/// the step its update can overshoot. On `tests/hard_cases.rs`'s chain at k = 5e4 (k h²/m ≈
+/// 1.4e4 at 1/60 s), from 200 starts moved by one f32 step, implicit Euler gained energy in 15
+/// (to 165 times the start) and BDF2 in 23 (to 894 times) without it, and 0 of either with it;
+/// at k = 1e5 implicit Euler still did in 9 of 200 (BENCHMARKS.md, "A real driver's rounding").
+pub const NEWTON_BACKTRACKS: u32 = 2;
+/// How much larger than the last a residual must be to count as overshot: a margin above the
+/// rounding of the sums, which the GPU takes in f32 and the CPU in f64, so that both backends
+/// halve the same updates (with none, a residual at the floor of f32 forces, equal from one
+/// iterate to the next, halved on one backend and not the other).
+pub const NEWTON_OVERSHOOT: f64 = 1.1;
 /// At a large step the floor of f32 forces can sit above the tolerance itself: on a 256 × 256
 /// cloth at 1/60 s (positions near 1.5 m, whose f32 spacing times the springs' stiffness is a
 /// tenth of a mass's weight) Newton's residual fell to 4.3–4.5% of |h f| and stayed there for

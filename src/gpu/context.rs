@@ -1,6 +1,7 @@
 //! Choosing an adapter and opening a device with the adapter's real limits; waiting on it, and
 //! what its errors mean for the user.
 
+use std::sync::atomic::AtomicUsize;
 use std::sync::{Arc, Mutex};
 
 use crate::backend::BackendError;
@@ -155,6 +156,10 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
     errors: Arc<Mutex<Vec<Fault>>>,
+    /// How many dispatches a submission of a long plan holds, as the last timed one said (0:
+    /// none timed yet): `encode::Dispatcher::encode_in_submissions` keeps it from one call to
+    /// the next, so that only a run's first long plan starts small and waits.
+    pub submission_dispatches: AtomicUsize,
 }
 
 /// Set to 1 (as CI does) to turn "no adapter" from a skip into a failure in the GPU tests.
@@ -267,6 +272,7 @@ impl GpuContext {
             limits,
             features,
             errors,
+            submission_dispatches: AtomicUsize::new(0),
         })
     }
 

@@ -1,6 +1,7 @@
 //! Recording dispatches: a kernel's pipeline, its bind groups and stage slot, and its workgroup
 //! count, all as the kernel table says.
 
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use super::bindings::Group;
@@ -94,8 +95,10 @@ impl Dispatcher<'_> {
     ///
     /// A long plan is where a stop must not wait for the end. Each submission waits for the one
     /// before it to run (so at most two are queued, and the device stays busy), holds about
-    /// [`SUBMISSION_SECS`] of work as the last waits measured it, and once `stop` is asked
-    /// nothing more is recorded. The steps are then cut short, and the caller's caller drops
+    /// [`SUBMISSION_SECS`] of work as the last waits measured it (kept in the context from one
+    /// call to the next: a plan that fits one such submission is submitted whole, without
+    /// waiting, and the host records the next while the device runs it), and once `stop` is
+    /// asked nothing more is recorded. The steps are then cut short, and the caller's caller drops
     /// their frame (`Backend::watch`). The split never changes the dispatches or their order.
     pub fn encode_in_submissions(
         &self,
@@ -104,7 +107,10 @@ impl Dispatcher<'_> {
         label: &'static str,
         plan: &[Dispatch],
     ) -> Result<(wgpu::CommandEncoder, usize), BackendError> {
-        let mut size = FIRST_SUBMISSION;
+        let mut size = match ctx.submission_dispatches.load(Ordering::Relaxed) {
+            0 => FIRST_SUBMISSION,
+            timed => timed,
+        };
         let mut start = 0;
         let mut queued: Option<(wgpu::SubmissionIndex, usize)> = None;
         let mut last_done = Instant::now();
@@ -124,6 +130,7 @@ impl Dispatcher<'_> {
                     FIRST_SUBMISSION / 8,
                     (4 * size).min(MOST_DISPATCHES_PER_SUBMISSION),
                 );
+                ctx.submission_dispatches.store(size, Ordering::Relaxed);
             }
             start += chunk.len();
             enc = ctx.encoder(label);

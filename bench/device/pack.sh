@@ -18,10 +18,12 @@ grep -qx '/.gpu/' "$ex" 2>/dev/null || echo '/.gpu/' >>"$ex"
 rm -rf /tmp/pack && mkdir -p /tmp/pack/tests
 strip -o /tmp/pack/hooke target/release/hooke
 strip -o /tmp/pack/hooke-old /tmp/bt/release/hooke
+# A third binary where one is named (V1=path: an earlier state of this work).
+[ -n "${V1:-}" ] && strip -o /tmp/pack/hooke-v1 "$V1"
 for t in ${TESTS:-gpu gpu_implicit gpu_fused vbd xpbd effects self_collision hard_cases hard_limits energy}; do
   strip -o /tmp/pack/tests/$t "$(ls -t target/release/deps/$t-* | grep -v '\.d$' | head -1)"
 done
 mkdir -p .gpu/t
-(cd /tmp/pack && tar cf - hooke hooke-old tests | xz -T1 --lzma2=preset=9,dict=256MiB) >.gpu/t/kit.tar.xz
+(cd /tmp/pack && tar cf - hooke* tests | xz -T1 --lzma2=preset=9,dict=256MiB) >.gpu/t/kit.tar.xz
 mkdir -p .gpu/p && cp ../shared/gpu/env.sh .gpu/p/ && cp -r ../shared/peers .gpu/p/peers
 ls -la .gpu/t/kit.tar.xz

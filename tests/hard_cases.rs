@@ -407,8 +407,11 @@ fn bdf2_holds_very_stiff_springs_at_one_step_per_frame() {
 const AT_REST_M: f64 = 1e-2;
 
 /// Starts moved by one f32 step (`common::parity::nudged`) that each stiff chain also runs from,
-/// on the CPU.
-const NUDGED_STARTS: u64 = 6;
+/// on the CPU: two, and the six of the first 40 from which the chain gained energy before Newton
+/// halved its updates (`physics::NEWTON_BACKTRACKS` = 0: implicit Euler at k = 5e4 from 19, 27
+/// and 39, by up to 171%; BDF2 at 5e4 from 15 and 23, at 2e4 from 37, by 1 184%), so that this
+/// test fails without the halving.
+const NUDGED_STARTS: [u64; 8] = [1, 2, 15, 19, 23, 27, 37, 39];
 
 /// A chain of stiffness `k` swinging at one step per frame under `integrator` (its CG
 /// preconditioned by `preconditioner`, else as its size says), on every backend and from
@@ -460,7 +463,7 @@ fn hold_stiff_chain(
     let runs = backends()
         .into_iter()
         .map(|kind| (kind, 0))
-        .chain((1..=NUDGED_STARTS).map(|seed| (BackendKind::Cpu, seed)));
+        .chain(NUDGED_STARTS.map(|seed| (BackendKind::Cpu, seed)));
     for (kind, seed) in runs {
         let options = hooke::integrator::StepOptions {
             preconditioner,

@@ -1,5 +1,5 @@
 //! The live viewer's connection, watched so that a run whose viewer goes away says so once and
-//! follows one rule (README, "When the viewer goes away"): with a file named by `--save` as well,
+//! follows one rule (docs/guide/running.md, "When the viewer goes away"): with a file named by `--save` as well,
 //! the run finishes into that file; with no file, it stops cleanly after the current frame.
 
 use std::sync::{Arc, Mutex};

@@ -401,12 +401,13 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
 }
 
 #[test]
-fn the_readme_scene_example_is_a_valid_scene() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
-        .unwrap_or_else(|e| panic!("{e}"));
+fn the_guide_scene_example_is_a_valid_scene() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/guide/scenes.md"))
+            .unwrap_or_else(|e| panic!("{e}"));
     let start = readme
         .find("```toml\n")
-        .unwrap_or_else(|| panic!("no toml block in README"))
+        .unwrap_or_else(|| panic!("no toml block in docs/guide/scenes.md"))
         + 8;
     let len = readme[start..]
         .find("```")
@@ -605,5 +606,37 @@ fn an_interrupted_recording_keeps_every_frame_it_produced() {
             "{signal}: the summary should count the {n} frames saved: {err}"
         );
         let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
+/// The README stays a page a newcomer reads in two minutes (at most 200 lines: the rest is in
+/// docs/guide/), and every relative link in it and in the guide names a file that exists.
+#[test]
+fn the_readme_is_short_and_its_links_and_the_guides_resolve() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        readme.lines().count() <= 200,
+        "README.md has {} lines: move the detail into docs/guide/",
+        readme.lines().count()
+    );
+    let mut pages = vec![root.join("README.md")];
+    let guide = std::fs::read_dir(root.join("docs/guide")).unwrap_or_else(|e| panic!("{e}"));
+    pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
+    assert!(pages.len() > 5, "the guide's pages: {pages:?}");
+    for page in pages {
+        let text = std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{e}"));
+        let dir = page.parent().unwrap_or(root);
+        for link in text.split("](").skip(1) {
+            let target = link.split([')', '#']).next().unwrap_or("");
+            if target.is_empty() || target.starts_with("http") {
+                continue;
+            }
+            assert!(
+                dir.join(target).exists(),
+                "{}: the link to {target} names no file",
+                page.display()
+            );
+        }
     }
 }

@@ -19,7 +19,7 @@ use hooke::backend::{Backend, BackendError};
 use hooke::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
 
-/// The promise in the README: a stop takes effect within this, whatever the frame's length.
+/// The promise in docs/guide/running.md ("Stopping a run"): a stop takes effect within this, whatever the frame's length.
 const STOP_BOUND: Duration = Duration::from_millis(500);
 
 fn jello_with(replace: &str, with: &str) -> String {

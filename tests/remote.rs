@@ -1,4 +1,4 @@
-//! Live viewing and remote use, on loopback only: a viewer that goes away mid-run (the README's
+//! Live viewing and remote use, on loopback only: a viewer that goes away mid-run (docs/guide/running.md's
 //! rule: with `--save FILE` the run finishes into the file, without it the run stops cleanly),
 //! a viewer that is never there, and `--serve` hosting the web viewer for a machine with no
 //! display.

@@ -43,7 +43,7 @@ pub struct Sink {
     pub delivery: Delivery,
     /// The file being written, when there is one.
     pub saved: Option<PathBuf>,
-    /// The live viewer, watched so that losing it follows the README's rule.
+    /// The live viewer, watched so that losing it follows docs/guide/running.md's rule.
     pub viewer: Option<hooke::run::ViewerWatch>,
     /// Our own `.rrd` writer, where a file is recorded: it reports a full disk.
     pub file: Option<hooke::rrd_file::RrdFile>,

@@ -126,7 +126,7 @@ pub fn send_comparison_blueprint(
         "energy (J)",
         &["compare/energy_total", "compare/energy_balance"],
     ));
-    // Frame 1, with one-off costs, is at compare/first_frame_wall_ms (README); a longer title
+    // Frame 1, with one-off costs, is at compare/first_frame_wall_ms (docs/guide/compare.md); a longer title
     // is cut off in the panel.
     column.push(plot(
         "wall time per frame (ms, from frame 2)",

@@ -1,6 +1,6 @@
 //! The recorder: turns snapshots into Rerun entities on the `frame` and `sim_time` timelines.
 //!
-//! Layout (see ARCHITECTURE.md and the README, "What a recording holds"):
+//! Layout (see ARCHITECTURE.md and docs/guide/recording.md):
 //! - `world/<body>/surface`: a sheet, or a block's outer faces, as a `Mesh3D` coloured by strain
 //!   ([`surface`]); triangle indices logged once, per frame only vertex positions and colours;
 //! - `world/<body>/springs`: line segments coloured by strain with hover values ([`springs`]),

@@ -640,3 +640,41 @@ fn the_readme_is_short_and_its_links_and_the_guides_resolve() {
         }
     }
 }
+
+/// Every sample in the README and the guide that names its command (a fenced block whose first
+/// line is `$ hooke ARGS`) is what that command prints now: the block's text, its lines joined,
+/// appears in the command's output, whitespace aside (the docs wrap what the program prints on
+/// one line). A run's files go to a temporary folder.
+#[test]
+fn documented_samples_are_what_the_commands_print() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut pages = vec![root.join("README.md")];
+    let guide = std::fs::read_dir(root.join("docs/guide")).unwrap_or_else(|e| panic!("{e}"));
+    pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
+    let words = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
+    let dir = temp_dir("samples");
+    let mut samples = 0;
+    for page in pages {
+        let doc = std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{e}"));
+        for block in doc.split("```").skip(1).step_by(2) {
+            // The fence's info string, then the command.
+            let mut lines = block.lines().skip(1);
+            let Some(args) = lines.next().and_then(|l| l.strip_prefix("$ hooke ")) else {
+                continue;
+            };
+            let expected = words(&lines.collect::<Vec<_>>().join("\n"));
+            let out = hooke_command(&args.split_whitespace().collect::<Vec<_>>())
+                .current_dir(&*dir)
+                .output()
+                .unwrap_or_else(|e| panic!("{e}"));
+            let printed = words(&format!("{}{}", text(&out.stdout), text(&out.stderr)));
+            assert!(
+                printed.contains(&expected),
+                "{}: `hooke {args}` no longer prints the sample\n{expected}\nbut\n{printed}",
+                page.display()
+            );
+            samples += 1;
+        }
+    }
+    assert!(samples >= 3, "only {samples} samples name their command");
+}

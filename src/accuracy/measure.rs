@@ -110,14 +110,22 @@ pub fn accuracy(
     progress(&format!("reference: f64 RK4 at dt = {reference_dt:.3e} s"));
     let mut rows = Vec::new();
     let supported = |i| supported(model, i);
+    let estimates = crate::stability::stable_steps(&crate::stability::Modes::of(model));
     for integrator in Integrator::ALL.into_iter().filter(|&i| supported(i)) {
-        for &dt in &ladder {
-            rows.push(row(model, opts, integrator, dt, &reference_x)?);
+        let estimate = estimates
+            .iter()
+            .find(|s| s.integrator == integrator)
+            .and_then(|s| s.finite_dt());
+        let steps = ladder_to_estimate(&ladder, estimate, duration);
+        for &(dt, at_estimate) in &steps {
+            let mut r = row(model, opts, integrator, dt, &reference_x)?;
+            r.at_estimate = at_estimate;
+            rows.push(r);
         }
-        progress(&format!("{integrator}: {} time steps", ladder.len()));
+        progress(&format!("{integrator}: {} time steps", steps.len()));
     }
     let search_time = duration.min(0.5);
-    let stable = crate::stability::stable_steps(&crate::stability::Modes::of(model))
+    let stable = estimates
         .into_iter()
         .filter(|s| supported(s.integrator))
         .map(|step| {
@@ -172,6 +180,28 @@ pub fn step_ladder(scene_dt: f64, opts: &AccuracyOptions, frame_dt: Option<f64>)
     ladder
 }
 
+/// The ladder, largest step first, with the integrator's estimated stable step `estimate` among
+/// it (rounded down to whole steps over `duration`; `true` beside it) where no step of the
+/// ladder lies within 2% of it and it is no finer than the ladder's finest, which the reference
+/// is set from.
+pub fn ladder_to_estimate(
+    ladder: &[f64],
+    estimate: Option<f64>,
+    duration: f64,
+) -> Vec<(f64, bool)> {
+    let mut steps: Vec<(f64, bool)> = ladder.iter().map(|&dt| (dt, false)).collect();
+    let finest = ladder.iter().copied().fold(f64::INFINITY, f64::min);
+    if let Some(e) = estimate.filter(|e| e.is_finite() && *e > 0.0) {
+        let at = duration / (duration / e).ceil().max(1.0);
+        let near = ladder.iter().any(|&dt| (dt / at - 1.0).abs() < 0.02);
+        if !near && at >= finest {
+            steps.push((at, true));
+            steps.sort_by(|a, b| b.0.total_cmp(&a.0));
+        }
+    }
+    steps
+}
+
 /// An integrator that cannot simulate the scene's effects (validation refuses the pair) gets no
 /// rows.
 fn supported(model: &Model, integrator: Integrator) -> bool {
@@ -212,6 +242,7 @@ fn row(
                     dissipated_pct: dissipated_pct(end.balance_change_j, energy_scale(model)),
                     wall_secs_per_sim_sec: end.wall_secs / duration,
                     backend: name,
+                    at_estimate: false,
                 }
             }
             Err(BackendError::Diverged(_)) => Row {
@@ -225,6 +256,7 @@ fn row(
                 dissipated_pct: f64::NAN,
                 wall_secs_per_sim_sec: f64::NAN,
                 backend: format!("{:?}", opts.device.kind).to_lowercase(),
+                at_estimate: false,
             },
             Err(e) => return Err(e.into()),
         },

@@ -33,9 +33,14 @@ pub fn markdown(r: &Accuracy) -> String {
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "| {} | {:.3e} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {:.3e}{} | {} | {} | {} | {} | {} | {} | {} | {} |",
             row.integrator,
             row.dt_secs,
+            if row.at_estimate {
+                " (the estimate)"
+            } else {
+                ""
+            },
             row.steps,
             fmt_num(row.rms_error_m),
             fmt_num(row.max_error_m),
@@ -189,12 +194,12 @@ fn guidance(r: &Accuracy) -> String {
 
 fn csv(r: &Accuracy) -> String {
     let mut s = String::from(
-        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend\n",
+        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend,at_estimate\n",
     );
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\"",
+            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\",{}",
             r.scene,
             row.integrator,
             row.dt_secs,
@@ -205,7 +210,8 @@ fn csv(r: &Accuracy) -> String {
             row.stable,
             row.dissipated_pct,
             row.wall_secs_per_sim_sec,
-            row.backend
+            row.backend,
+            row.at_estimate
         );
     }
     s

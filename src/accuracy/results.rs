@@ -23,6 +23,10 @@ pub struct Row {
     pub wall_secs_per_sim_sec: f64,
     /// Where the run happened.
     pub backend: String,
+    /// A step added at the integrator's estimated stable step (`hooke check`'s, rounded down to
+    /// whole steps), beside the ladder every integrator shares: the cheapest stable answers lie
+    /// near it.
+    pub at_estimate: bool,
 }
 
 #[derive(Debug, Clone)]

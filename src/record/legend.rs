@@ -31,7 +31,8 @@ impl Recorder {
              most strained spring, lit as the viewer lights a mesh. Hover a spring for its strain, \
              kind and rest length (at the start, for plastic springs). Pins are black; the yellow \
              line marks the most strained spring (`stats/max_strain`). A torn spring is no longer \
-             drawn, and its triangles leave the surface.\n\n{bodies}\n{}",
+             drawn, and its triangles leave the surface. Colliders are **sand**, off the strain \
+             scale.\n\n{bodies}\n{}",
             self.plot_key()
         )
     }

@@ -7,7 +7,7 @@ use rerun::RecordingStream;
 
 use super::error::RResult;
 use super::histogram;
-use super::palette::{YELLOW, color};
+use super::palette::{COLLIDER, YELLOW, color};
 use super::recorder::{BodyRec, Recorder, Root};
 use super::series::all_series;
 use crate::model::{Collider, GroundCollider, Model, Shape};
@@ -236,19 +236,19 @@ fn log_ground(rec: &RecordingStream, path: &str, g: &GroundCollider, x: &[Vec3])
 /// (`log_snapshot`). A plane is drawn as a square of lines about its point, as wide as the
 /// scene's starting extent `x`.
 fn log_collider_shape(rec: &RecordingStream, c: &Collider, path: &str, x: &[Vec3]) -> RResult {
-    let blue = rerun::Color::from_rgb(90, 140, 200);
+    let sand = color(COLLIDER.rgb);
     let start = c.path.pose_at(0.0).position_m;
     match c.shape {
         Shape::Sphere { radius_m } => rec.log_static(
             path,
             &rerun::Ellipsoids3D::from_centers_and_radii([start], [radius_m])
-                .with_colors([blue])
+                .with_colors([sand])
                 .with_fill_mode(rerun::FillMode::Solid),
         )?,
         Shape::Box { half_extents_m } => rec.log_static(
             path,
             &rerun::Boxes3D::from_centers_and_half_sizes([start], [half_extents_m])
-                .with_colors([blue])
+                .with_colors([sand])
                 .with_fill_mode(rerun::FillMode::Solid),
         )?,
         Shape::Plane { normal } => {
@@ -268,7 +268,7 @@ fn log_collider_shape(rec: &RecordingStream, c: &Collider, path: &str, x: &[Vec3
             rec.log_static(
                 path,
                 &rerun::LineStrips3D::new(lines)
-                    .with_colors([blue])
+                    .with_colors([sand])
                     .with_radii([0.003]),
             )?
         }

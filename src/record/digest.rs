@@ -17,13 +17,15 @@ use super::surface::BlockStrain;
 #[derive(Debug, Clone)]
 pub struct Digester {
     strain_range: f32,
+    /// The springs the label is taken from ([`super::strain_summary::labelled_springs`]).
+    labelled: Option<std::sync::Arc<[bool]>>,
     /// Per body, its reduced surface's block strains.
     surfaces: Vec<Option<BlockStrain>>,
 }
 
 impl Digester {
     pub fn digest(&self, snap: &mut Snapshot) {
-        let summary = StrainSummary::of(&snap.strain, self.strain_range);
+        let summary = StrainSummary::of(&snap.strain, self.strain_range, self.labelled.as_deref());
         let surfaces = self
             .surfaces
             .iter()
@@ -48,6 +50,7 @@ impl Recorder {
     pub fn digester(&self) -> Digester {
         Digester {
             strain_range: self.strain_range,
+            labelled: self.labelled.clone(),
             surfaces: self
                 .bodies
                 .iter()

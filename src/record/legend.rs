@@ -30,7 +30,7 @@ impl Recorder {
              (stretched); `[view] strain_range` sets it. A surface vertex takes the colour of its \
              most strained spring, lit as the viewer lights a mesh. Hover a spring for its strain, \
              kind and rest length (at the start, for plastic springs). Pins are black; the yellow \
-             line marks the most strained spring (`stats/max_strain`). A torn spring is no longer \
+             line marks the most strained spring of the kind the surfaces show (`stats/max_strain`). A torn spring is no longer \
              drawn, and its triangles leave the surface. Colliders are **sand**, off the strain \
              scale.\n\n{bodies}\n{}",
             self.plot_key()

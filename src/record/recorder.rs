@@ -89,6 +89,8 @@ pub struct Recorder {
     pub(super) rec: RecordingStream,
     pub(super) model: std::sync::Arc<Model>,
     pub(super) strain_range: f32,
+    /// The springs the most strained one is taken from (`strain_summary::labelled_springs`).
+    pub(super) labelled: Option<std::sync::Arc<[bool]>>,
     pub(super) root: Root,
     pub(super) bodies: Vec<BodyRec>,
     /// The implicit integrator's solver statistics are logged too.
@@ -159,6 +161,7 @@ impl Recorder {
             .collect();
         Self {
             rec,
+            labelled: super::strain_summary::labelled_springs(&model),
             model,
             strain_range: opts.strain_range,
             root,
@@ -200,7 +203,7 @@ impl Recorder {
         let (most, counts) = match &snap.digest {
             Some(d) => (d.most, d.histogram.clone()),
             None => {
-                let s = StrainSummary::of(&snap.strain, range);
+                let s = StrainSummary::of(&snap.strain, range, self.labelled.as_deref());
                 (s.most, s.counts)
             }
         };

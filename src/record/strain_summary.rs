@@ -4,25 +4,46 @@
 //! thread, and the answers merged in chunk order, so the result is that of a single pass
 //! whatever the number of threads (the first spring wins a tie, counts are sums).
 
+use std::sync::Arc;
+
 use rayon::prelude::*;
 
 use super::histogram;
+use crate::model::{Model, SpringKindTag};
+
+/// The springs the most strained one is taken from: those of the kind the surfaces are coloured
+/// by (structural, where the model has any: `surface.rs` says why), so that the label names a
+/// spring whose strain the colour under it shows; `None` (every spring) where it has none.
+/// (On the flag the label named a bending spring at −25% over a surface coloured by its
+/// structural springs: issue 48.)
+pub fn labelled_springs(model: &Model) -> Option<Arc<[bool]>> {
+    let structural = |k: &SpringKindTag| *k == SpringKindTag::Structural;
+    model
+        .spring_kind
+        .iter()
+        .any(structural)
+        .then(|| model.spring_kind.iter().map(structural).collect())
+}
 
 /// Strains a chunk holds: 256 KiB of f32.
 const CHUNK: usize = 1 << 16;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct StrainSummary {
-    /// The most strained intact spring and its strain (largest |strain|, the first on a tie).
+    /// The most strained intact spring of those labelled ([`labelled_springs`]) and its strain
+    /// (largest |strain|, the first on a tie).
     pub most: Option<(usize, f32)>,
     /// The histogram's bars ([`histogram::counts`]).
     pub counts: Vec<u64>,
 }
 
 impl StrainSummary {
-    pub fn of(strain: &[f32], range: f32) -> Self {
+    /// The summary of `strain`, its most strained spring taken from those `labelled` marks
+    /// (every spring where `None`).
+    pub fn of(strain: &[f32], range: f32, labelled: Option<&[bool]>) -> Self {
         let chunk = |(k, c): (usize, &[f32])| Self {
-            most: most_of(c).map(|(i, s)| (k * CHUNK + i, s)),
+            most: most_of(c, labelled.map(|l| &l[k * CHUNK..k * CHUNK + c.len()]))
+                .map(|(i, s)| (k * CHUNK + i, s)),
             counts: counts_of(c, range),
         };
         if strain.len() <= CHUNK {
@@ -66,12 +87,25 @@ pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
         })
 }
 
-/// [`most_strained`] of a chunk: the largest |strain| found first in a pass the compiler can
-/// vectorise, then the first spring that has it.
-fn most_of(c: &[f32]) -> Option<(usize, f32)> {
+/// [`most_strained`] of a chunk, among the springs `labelled` marks (all where `None`): the
+/// largest |strain| found first in a pass the compiler can vectorise, then the first spring that
+/// has it.
+fn most_of(c: &[f32], labelled: Option<&[bool]>) -> Option<(usize, f32)> {
     // f32::max ignores NaN, as the broken springs must be.
-    let top = c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs()));
-    c.iter().position(|s| s.abs() == top).map(|i| (i, c[i]))
+    let top = match labelled {
+        None => c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs())),
+        Some(l) => c.iter().zip(l).fold(
+            f32::NEG_INFINITY,
+            |m, (s, &on)| {
+                if on { m.max(s.abs()) } else { m }
+            },
+        ),
+    };
+    let on = |i: usize| labelled.is_none_or(|l| l[i]);
+    c.iter()
+        .enumerate()
+        .position(|(i, s)| on(i) && s.abs() == top)
+        .map(|i| (i, c[i]))
 }
 
 /// [`histogram::counts`] of a chunk: each strain's bar found in blocks (a loop without branches
@@ -109,11 +143,41 @@ mod tests {
                 _ => ((i as f32) * 0.001).sin() * 0.2,
             })
             .collect();
-        let got = StrainSummary::of(&strain, 0.1);
+        let got = StrainSummary::of(&strain, 0.1, None);
         let mut counts = Vec::new();
         histogram::counts(&strain, 0.1, &mut counts);
         assert_eq!(got.counts, counts);
         assert_eq!(got.most, most_strained(&strain));
         assert_eq!(got.most, Some((CHUNK + 9, -0.5)));
+        // Labelled springs only: the two at −0.5 are left out, so the +0.5 spring is the most
+        // strained, in every chunk arrangement.
+        let labelled: Vec<bool> = (0..n)
+            .map(|i| i != 3 * CHUNK + 5 && i != CHUNK + 9)
+            .collect();
+        let got = StrainSummary::of(&strain, 0.1, Some(&labelled));
+        assert_eq!(got.most, Some((4 * CHUNK, 0.5)));
+        assert_eq!(got.counts, counts, "the histogram counts every spring");
+    }
+
+    #[test]
+    fn the_label_takes_the_kind_the_surface_shows() {
+        let mut mb = crate::model::ModelBuilder::new();
+        for i in 0..3 {
+            mb.mass(
+                glam::Vec3::new(i as f32, 0.0, 0.0),
+                glam::Vec3::ZERO,
+                1.0,
+                false,
+            );
+        }
+        mb.spring_with_rest(0, 1, 1.0, 10.0, 0.0, SpringKindTag::Structural);
+        mb.spring_with_rest(1, 2, 1.0, 10.0, 0.0, SpringKindTag::Structural);
+        mb.spring_with_rest(0, 2, 2.0, 1.0, 0.0, SpringKindTag::Bending);
+        let model = mb.build();
+        let labelled = labelled_springs(&model);
+        assert_eq!(labelled.as_deref(), Some(&[true, true, false][..]));
+        let strain = [0.1, -0.2, -0.4];
+        let got = StrainSummary::of(&strain, 0.1, labelled.as_deref());
+        assert_eq!(got.most, Some((1, -0.2)));
     }
 }

@@ -620,9 +620,7 @@ fn the_readme_is_short_and_its_links_and_the_guides_resolve() {
         "README.md has {} lines: move the detail into docs/guide/",
         readme.lines().count()
     );
-    let mut pages = vec![root.join("README.md")];
-    let guide = std::fs::read_dir(root.join("docs/guide")).unwrap_or_else(|e| panic!("{e}"));
-    pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
+    let pages = documented_pages();
     assert!(pages.len() > 5, "the guide's pages: {pages:?}");
     for page in pages {
         let text = std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{e}"));
@@ -647,14 +645,10 @@ fn the_readme_is_short_and_its_links_and_the_guides_resolve() {
 /// one line). A run's files go to a temporary folder.
 #[test]
 fn documented_samples_are_what_the_commands_print() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut pages = vec![root.join("README.md")];
-    let guide = std::fs::read_dir(root.join("docs/guide")).unwrap_or_else(|e| panic!("{e}"));
-    pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
     let words = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
     let dir = temp_dir("samples");
     let mut samples = 0;
-    for page in pages {
+    for page in documented_pages() {
         let doc = std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{e}"));
         for block in doc.split("```").skip(1).step_by(2) {
             // The fence's info string, then the command.
@@ -677,4 +671,13 @@ fn documented_samples_are_what_the_commands_print() {
         }
     }
     assert!(samples >= 3, "only {samples} samples name their command");
+}
+
+/// The README and the guide's pages.
+fn documented_pages() -> Vec<std::path::PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let guide = std::fs::read_dir(root.join("docs/guide")).unwrap_or_else(|e| panic!("{e}"));
+    let mut pages = vec![root.join("README.md")];
+    pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
+    pages
 }

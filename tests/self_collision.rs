@@ -275,13 +275,12 @@ fn run_both(
     frames: u32,
     substeps: u32,
 ) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
-    let cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
-    let gpu = ok(GpuBackend::new(
+    let mut cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
+    let mut gpu = ok(GpuBackend::new(
         model.clone(),
         Step::new(integrator, dt),
         None,
     ));
-    let (mut cpu, mut gpu) = (cpu, gpu);
     run_pair((&mut cpu, &mut gpu), frames, substeps)
 }
 

@@ -82,20 +82,40 @@ peer60() {
   timeout 120 "$H" bench throughput $p/peer-cloth-$n.toml --steps 19000 --batch 1000 --repeat 1 \
     --json 2>/dev/null | head -1 | sed "s/^/{\"label\":\"31-ref\",\"result\":/; s/\$/}/" >>"$rows"
 }
-case $phase in
-x)
-  # (x: not w, which the peers take above.) The thirteenth session's second call, carrying [".gpu/gl", ".gpu/p", ".gpu/t"]: issue 46's
-  # VBD rows for the baseline (hooke-old), the first call's binary (hooke-v1) and this one, then
-  # the implicit families' probe and the GPU test binaries, most telling first, until 330 s.
+# Phases v, t and x: the kit pack.sh made (.gpu/t/kit.tar.xz: this hooke, the baseline's as
+# hooke-old, an earlier one as hooke-v1 where packed, the GPU test binaries), unpacked where the
+# test binaries look: the checkout they were built in (/work/main) and target/release/hooke there.
+# `left S` says whether fewer than S seconds have passed since.
+open_kit() {
   t0=$(date +%s)
-  left() { [ $(($(date +%s) - t0)) -lt "$1" ]; }
   mkdir -p /tmp/t && xz -dc .gpu/t/kit.tar.xz | tar xf - -C /tmp/t
-  for b in hooke hooke-old hooke-v1; do install -m 755 /tmp/t/$b /tmp/$b; done
+  # install, not cp: env.sh, sourced above, left an empty /tmp/hooke without a hooke.gz.
+  for b in /tmp/t/hooke*; do install -m 755 "$b" "/tmp/$(basename "$b")"; done
   H=/tmp/hooke
   nvidia-smi -L
   [ "$PWD" = /work/main ] || { mkdir -p /work && ln -sfn "$PWD" /work/main; }
   mkdir -p target/release && cp /tmp/hooke target/release/hooke
   export HOOKE_CACHE_DIR=/tmp/hooke-cache HOOKE_REQUIRE_ADAPTER=1
+}
+left() { [ $(($(date +%s) - t0)) -lt "$1" ]; }
+# The test binaries named, as `cargo test --release` would run them, until 330 s have passed.
+# TEST_ARGS="--test-threads 1": the H200's hang of 2026-11-28 (BENCHMARKS.md) came with 16.
+run_tests() {
+  for b in "$@"; do
+    left 330 || { echo "skipped $b: out of time" | tee -a $out/tests.txt; continue; }
+    echo "== $b" >>$out/tests.txt
+    timeout 120 /tmp/t/tests/$b ${TEST_ARGS:-} >>$out/tests.txt 2>&1
+    echo "$b: exit $? $(grep -E '^test result' $out/tests.txt | tail -1)"
+  done
+  grep -E "FAILED|panicked" -A2 $out/tests.txt | head -40
+}
+case $phase in
+x)
+  # (x: not w, which the peers take above.) The thirteenth session's second call, carrying
+  # [".gpu/gl", ".gpu/p", ".gpu/t"]: issue 46's
+  # VBD rows for the baseline (hooke-old), the first call's binary (hooke-v1) and this one, then
+  # the implicit families' probe and the GPU test binaries, most telling first, until 330 s.
+  open_kit
   for tag in old v1 new; do
     b=/tmp/hooke-$tag
     [ $tag = new ] && b=$H
@@ -107,14 +127,7 @@ x)
   for i in implicit bdf2; do
     timeout 60 "$H" check cloth --integrator $i --verify 2>&1 | grep -E "^conformance"
   done | tee $out/verify.txt
-  for b in hard_cases gpu_implicit effects self_collision vbd gpu energy gpu_fused xpbd hard_limits; do
-    left 330 || { echo "skipped $b: out of time" | tee -a $out/tests.txt; continue; }
-    echo "== $b" >>$out/tests.txt
-    # TEST_ARGS="--test-threads 1": the H200's hang of 2026-11-28 (BENCHMARKS.md) came with 16.
-    timeout 120 /tmp/t/tests/$b ${TEST_ARGS:-} >>$out/tests.txt 2>&1
-    echo "$b: exit $? $(grep -E '^test result' $out/tests.txt | tail -1)"
-  done
-  grep -E "FAILED|panicked" -A2 $out/tests.txt | head -40
+  run_tests hard_cases gpu_implicit effects self_collision vbd gpu energy gpu_fused xpbd hard_limits
   exit 0
   ;;
 v | t)
@@ -125,18 +138,7 @@ v | t)
   # test binaries, stripped, in one xz stream whose window spans them all (they share most of
   # their code: ten binaries and two hookes in about 10 MB):
   #   bench/device/pack.sh 77e1e67
-  # The test binaries look for the checkout where they were built (/work/main) and for
-  # target/release/hooke there.
-  t0=$(date +%s)
-  left() { [ $(($(date +%s) - t0)) -lt "$1" ]; }
-  mkdir -p /tmp/t && xz -dc .gpu/t/kit.tar.xz | tar xf - -C /tmp/t
-  # install, not cp: env.sh, sourced above, left an empty /tmp/hooke without a hooke.gz.
-  install -m 755 /tmp/t/hooke /tmp/hooke && install -m 755 /tmp/t/hooke-old /tmp/hooke-old
-  H=/tmp/hooke
-  nvidia-smi -L
-  [ "$PWD" = /work/main ] || { mkdir -p /work && ln -sfn "$PWD" /work/main; }
-  mkdir -p target/release && cp /tmp/hooke target/release/hooke
-  export HOOKE_CACHE_DIR=/tmp/hooke-cache HOOKE_REQUIRE_ADAPTER=1
+  open_kit
   # The conformance probe for every integrator's kernel families, as `check` prints it.
   verify_all() {
     for i in semi-implicit euler rk2 rk4 verlet implicit bdf2 xpbd vbd; do
@@ -146,14 +148,8 @@ v | t)
       tee -a $out/verify.txt
   }
   [ "$phase" = t ] || { verify_all; }
-  # The GPU test binaries on this driver, as `cargo test --release` would run them.
-  for b in $(ls /tmp/t/tests); do
-    left 330 || { echo "skipped $b: out of time" | tee -a $out/tests.txt; continue; }
-    echo "== $b" >>$out/tests.txt
-    timeout 120 /tmp/t/tests/$b >>$out/tests.txt 2>&1
-    echo "$b: exit $? $(grep -E '^test result' $out/tests.txt | tail -1)"
-  done
-  grep -E "FAILED|panicked|failures:" $out/tests.txt | head -40
+  # The GPU test binaries on this driver.
+  run_tests $(ls /tmp/t/tests)
   # Submissions that wait for the one before (issue 46) against the baseline, interleaved.
   [ "$phase" = t ] && exit 0
   for r in 1 2; do for tag in old new; do

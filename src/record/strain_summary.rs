@@ -91,21 +91,23 @@ pub fn most_strained(strain: &[f32]) -> Option<(usize, f32)> {
 /// largest |strain| found first in a pass the compiler can vectorise, then the first spring that
 /// has it.
 fn most_of(c: &[f32], labelled: Option<&[bool]>) -> Option<(usize, f32)> {
-    // f32::max ignores NaN, as the broken springs must be.
-    let top = match labelled {
-        None => c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs())),
-        Some(l) => c.iter().zip(l).fold(
-            f32::NEG_INFINITY,
-            |m, (s, &on)| {
-                if on { m.max(s.abs()) } else { m }
-            },
-        ),
+    // f32::max ignores NaN, as the broken springs must be. Each case is its own loop without
+    // a branch on `labelled` inside, which the compiler vectorises.
+    let at = match labelled {
+        None => {
+            let top = c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.abs()));
+            c.iter().position(|s| s.abs() == top)
+        }
+        Some(l) => {
+            let top = c
+                .iter()
+                .zip(l)
+                .map(|(s, &on)| if on { s.abs() } else { f32::NEG_INFINITY })
+                .fold(f32::NEG_INFINITY, f32::max);
+            c.iter().zip(l).position(|(s, &on)| on && s.abs() == top)
+        }
     };
-    let on = |i: usize| labelled.is_none_or(|l| l[i]);
-    c.iter()
-        .enumerate()
-        .position(|(i, s)| on(i) && s.abs() == top)
-        .map(|i| (i, c[i]))
+    at.map(|i| (i, c[i]))
 }
 
 /// [`histogram::counts`] of a chunk: each strain's bar found in blocks (a loop without branches

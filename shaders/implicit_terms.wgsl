@@ -176,7 +176,7 @@ fn block_inverse_at(i: u32) -> mat3x3<f32> {
 // Newton's right-hand side h f − M Δv, the inverted diagonal block of the block-Jacobi
 // preconditioner, and the solve's start from δ = 0: r = b, z = B⁻¹ r, p = z. Returns
 // (r·z, b·b, |h f|², BDF2's residual work: src/cpu/backward.rs's residual_work).
-// (Its parts are summed in f32 here, in f64 on the CPU: near 0 its sign may differ.)
+// (Summed in f32 as the CPU sums them, src/cpu/solver_sums.rs.)
 fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var b = vec3<f32>(0.0);
     var hf = vec3<f32>(0.0);
@@ -196,11 +196,11 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
             let along = t.stiff_along + t.damp_along;
             set_term(2u * e, vec4<f32>(t.n, along));
             set_term(2u * e + 1u, vec4<f32>(t.stiff_across, 0.0, 0.0, 0.0));
-            block += spring_block(t);
+            block = add_spring_block(block, t);
         }
         inv = invert_block(block);
     }
-    let z = inv * b;
+    let z = block_times(inv, b);
     // δ (DV) keeps the last update until the solve starts (newton_halve_at may halve it).
     set_vector(RESIDUAL, i, vec4<f32>(b, 0.0));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
@@ -224,13 +224,15 @@ fn direction_at(j: u32, beta: f32, pending: bool) -> vec3<f32> {
     return vector_at(DIRECTION, j).xyz;
 }
 
-// CSR entry e's spring block times dp, the difference of the operand across it, from the terms
-// implicit_rhs_at stored (multigrid.wgsl's products take it too).
-fn entry_times(e: u32, dp: vec3<f32>) -> vec3<f32> {
+// `out` plus CSR entry e's spring block times dp, the difference of the operand across it, from
+// the terms implicit_rhs_at stored (multigrid.wgsl's products take it too), its two parts added
+// to `out` in turn (src/cpu/system_blocks.rs's SpringTerms::add_times): lavapipe's compiler
+// adds `out + (a + b)` as `(out + a) + b`, so the sum is written in that order on both backends.
+fn add_entry_times(out: vec3<f32>, e: u32, dp: vec3<f32>) -> vec3<f32> {
     let t = term_at(2u * e);
     let stiff_across = term_at(2u * e + 1u).x;
     let dn = dot(t.xyz, dp);
-    return t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
+    return out + t.w * dn * t.xyz + stiff_across * (dp - dn * t.xyz);
 }
 
 // Ap = (M − h D − h² K) p, pinned rows and columns filtered out, p as direction_at gives it.
@@ -244,7 +246,7 @@ fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
         for (var e = offsets[i]; e < end; e++) {
             // The terms implicit_rhs_at stored. A pinned neighbour's p is always 0 (its b is 0 and
             // its row is filtered), so its column drops out without reading its mass.
-            out += entry_times(e, pi - direction_at(neighbors[e].other, beta, pending));
+            out = add_entry_times(out, e, pi - direction_at(neighbors[e].other, beta, pending));
         }
         if (has_contact_terms()) {
             out += contact_times(i, pi);
@@ -258,7 +260,7 @@ fn apply_system_at(i: u32, beta: f32, pending: bool) -> vec4<f32> {
 fn cg_update_at(i: u32, alpha: f32) -> vec4<f32> {
     set_vector(DV, i, vector_at(DV, i) + alpha * vector_at(DIRECTION, i));
     let r = vector_at(RESIDUAL, i).xyz - alpha * vector_at(PRODUCT, i).xyz;
-    let z = block_inverse_at(i) * r;
+    let z = block_times(block_inverse_at(i), r);
     set_vector(RESIDUAL, i, vec4<f32>(r, 0.0));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);

@@ -80,7 +80,7 @@ fn set_value(k: u32, field: u32, n: u32, value: vec3<f32>) {
 
 // ---- the blocks, per Newton iteration ----
 
-// A CSR entry's spring block, from the terms implicit_rhs_at stored (spring_block's).
+// A CSR entry's spring block, from the terms implicit_rhs_at stored (add_spring_block's).
 fn entry_block(e: u32) -> mat3x3<f32> {
     let t = term_at(2u * e);
     let a = term_at(2u * e + 1u).x;
@@ -283,7 +283,7 @@ fn fine_product(i: u32, up: bool) -> vec3<f32> {
     var out = own_mass_term(i) * pi;
     let end = offsets[i + 1u];
     for (var e = offsets[i]; e < end; e++) {
-        out += entry_times(e, pi - fine_operand(neighbors[e].other, up));
+        out = add_entry_times(out, e, pi - fine_operand(neighbors[e].other, up));
     }
     if (has_contact_terms()) {
         out += contact_times(i, pi);
@@ -395,7 +395,7 @@ fn mg_solve_coarsest(@builtin(local_invocation_index) lid: u32) {
 fn prolong_at(k: u32, n: u32) {
     let x = coarse_operand(k, n, true);
     let r = value_at(k, R_B, n) - coarse_product(k, n, true);
-    set_value(k, R_Y, n, x + MG_SMOOTHING * (sym_at(rec(k, R_DIAG) + 2u * n) * r));
+    set_value(k, R_Y, n, x + MG_SMOOTHING * block_times(sym_at(rec(k, R_DIAG) + 2u * n), r));
 }
 
 @compute @workgroup_size(64)
@@ -411,7 +411,7 @@ fn mg_prolong(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 fn fine_up_at(i: u32) -> vec4<f32> {
     let w = fine_operand(i, true);
     let r = vector_at(RESIDUAL, i).xyz;
-    let z = w + MG_SMOOTHING * (block_inverse_at(i) * (r - fine_product(i, true)));
+    let z = w + MG_SMOOTHING * block_times(block_inverse_at(i), r - fine_product(i, true));
     set_vector(PRECONDITIONED, i, vec4<f32>(z, 0.0));
     return vec4<f32>(dot(r, z), dot(r, r), 0.0, 0.0);
 }

@@ -1,6 +1,6 @@
 // system_blocks: mass i's 3 × 3 diagonal block of backward Euler's system M − h D − h² K, as
-// src/cpu/implicit.rs builds it (own_block, SpringTerms::at and ::block, ContactTerms::block,
-// invert_block): implicit Euler's block-Jacobi preconditioner (implicit_terms.wgsl) and VBD's
+// src/cpu/implicit.rs builds it (own_block, SpringTerms::at and ::block, ContactBlock::block,
+// invert_block, block_times): implicit Euler's block-Jacobi preconditioner (implicit_terms.wgsl) and VBD's
 // block solve (vbd.wgsl) both read it.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
@@ -57,14 +57,28 @@ fn outer(n: vec3<f32>) -> mat3x3<f32> {
     return mat3x3<f32>(n * n.x, n * n.y, n * n.z);
 }
 
+// a × b, each product rounded before the difference, as glam's `cross` (the CPU's
+// invert_block). Written out: Mesa's `cross` fuses one product into the difference, so
+// lavapipe's inverted blocks parted from the CPU's at the last bit.
+fn cross_of(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
+}
+
 // The inverse of a symmetric positive definite block by its adjugate (src/cpu/implicit.rs's
 // invert_block).
 fn invert_block(a: mat3x3<f32>) -> mat3x3<f32> {
-    let r0 = cross(a[1], a[2]);
-    let r1 = cross(a[2], a[0]);
-    let r2 = cross(a[0], a[1]);
+    let r0 = cross_of(a[1], a[2]);
+    let r1 = cross_of(a[2], a[0]);
+    let r2 = cross_of(a[0], a[1]);
     let det = dot(a[0], r0);
     return mat3x3<f32>(r0, r1, r2) * (1.0 / det);
+}
+
+// `m` times `v`, its columns weighted and added first to last (src/cpu/system_blocks.rs's
+// block_times). Written out: Mesa's SPIR-V translation adds the columns of `m * v` last to
+// first, so lavapipe and the CPU parted at the last bit of the preconditioned residual.
+fn block_times(m: mat3x3<f32>, v: vec3<f32>) -> vec3<f32> {
+    return m[0] * v.x + m[1] * v.y + m[2] * v.z;
 }
 
 // A symmetric block from its diagonal (xx, yy, zz) and off-diagonal (xy, xz, yz) entries.
@@ -72,9 +86,11 @@ fn symmetric_block(d: vec3<f32>, o: vec3<f32>) -> mat3x3<f32> {
     return mat3x3<f32>(vec3<f32>(d.x, o.x, o.y), vec3<f32>(o.x, d.y, o.z), vec3<f32>(o.y, o.z, d.z));
 }
 
-// A spring's block at either end: (h²k + h c) n nᵀ + h²k·max(0, 1 − L/l)(I − n nᵀ).
-fn spring_block(t: SpringTerms) -> mat3x3<f32> {
+// `block` plus a spring's block at either end, (h²k + h c) n nᵀ + h²k·max(0, 1 − L/l)(I − n nᵀ),
+// its two parts added in turn (src/cpu/system_blocks.rs's SpringTerms::add_block; see
+// add_entry_times in implicit_terms.wgsl for why).
+fn add_spring_block(block: mat3x3<f32>, t: SpringTerms) -> mat3x3<f32> {
     let a = t.stiff_across;
     let across = mat3x3<f32>(vec3<f32>(a, 0.0, 0.0), vec3<f32>(0.0, a, 0.0), vec3<f32>(0.0, 0.0, a));
-    return outer(t.n) * (t.stiff_along + t.damp_along - a) + across;
+    return block + outer(t.n) * (t.stiff_along + t.damp_along - a) + across;
 }

@@ -12,7 +12,7 @@
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params springs mass offsets neighbors x v x_in v_in stage
-// #calls mass_force_beyond_springs own_block symmetric_block invert_block spring_block spring_terms_along
+// #calls mass_force_beyond_springs own_block symmetric_block invert_block block_times add_spring_block spring_terms_along
 
 // One lane's share of a mass's springs: their force, and their part of the system's block.
 struct VbdShare {
@@ -25,7 +25,7 @@ fn vbd_no_share() -> VbdShare {
 }
 
 // Lane `lane`'s share of mass i's springs at the iterate: each spring's force (mass_force's
-// spring term) and block (system_blocks.wgsl's spring_block), from one read of the other end.
+// spring term) and block (system_blocks.wgsl's add_spring_block), from one read of the other end.
 fn vbd_share(i: u32, lane: u32) -> VbdShare {
     var share = vbd_no_share();
     if (mass[i].y == 0.0) {
@@ -48,7 +48,7 @@ fn vbd_share(i: u32, lane: u32) -> VbdShare {
             along += -s.damping * dot(vi - v_in[nb.other].xyz, n);
         }
         share.f += n * along;
-        share.block += spring_block(spring_terms_along(s, d, len));
+        share.block = add_spring_block(share.block, spring_terms_along(s, d, len));
     }
     return share;
 }
@@ -76,7 +76,7 @@ fn vbd_finish(i: u32, share: VbdShare) {
         block += symmetric_block(mf.jac_diag, mf.jac_off);
     }
     block += share.block;
-    let vn = vi + invert_block(block) * b;
+    let vn = vi + block_times(invert_block(block), b);
     v_in[i] = vec4<f32>(vn, 0.0);
     x_in[i] = vec4<f32>(x[i].xyz + h * vn, 0.0);
 }

@@ -1,14 +1,13 @@
 //! The backward schemes' start (`physics::BackwardStep`): BDF2 keeps the last step's start and
 //! blends the step's start from it (the twin of `implicit_blend_at` in
 //! shaders/implicit_terms.wgsl, which keeps the same history in the solver's `work` buffer), and
-//! the work guard on its Newton iterations (`residual_work`, the fourth sum of WGSL's
+//! the work guard on its Newton iterations (`residual_work`, per mass, the fourth sum of WGSL's
 //! `implicit_rhs_at`).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, sum_chunks};
-use crate::model::Model;
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use crate::physics::{BackwardStep, NEWTON_WORK_SHARE};
 
 /// The last step's start (x₋₁, v₋₁), once a step has been taken; empty for implicit Euler.
@@ -66,18 +65,12 @@ fn blend(b: f32, y: &mut [Vec3], last: &mut [Vec3]) {
     }
 }
 
-/// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's
-/// velocities `v`, less `NEWTON_WORK_SHARE` of their kinetic energy: Σ (−v·b − share ½ m v²)
-/// over the movable masses, in f64, summed per chunk and the chunks in order. At most 0 when
-/// BDF2's step may end (`physics::NEWTON_WORK_SHARE`).
-pub fn residual_work(model: &Model, v: &[Vec3], b: &[Vec3]) -> f64 {
-    let share = NEWTON_WORK_SHARE;
-    sum_chunks(v.len(), |r| {
-        r.filter(|&i| model.inv_mass[i] != 0.0)
-            .map(|i| {
-                let m = f64::from(model.mass_kg[i]);
-                -f64::from(v[i].dot(b[i])) - share * 0.5 * m * f64::from(v[i].length_squared())
-            })
-            .sum()
-    })
+/// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's velocity
+/// `v` of a movable mass `m`, less `NEWTON_WORK_SHARE` of its kinetic energy: −v·b − share ½ m v²,
+/// in f32 as the fourth sum of WGSL's `implicit_rhs_at`; summed over the masses
+/// (`solver_sums::group_reduce`), at most 0 when BDF2's step may end
+/// (`physics::NEWTON_WORK_SHARE`).
+#[inline(always)]
+pub fn residual_work(m: f32, v: Vec3, b: Vec3) -> f32 {
+    -v.dot(b) - NEWTON_WORK_SHARE as f32 * 0.5 * m * v.dot(v)
 }

@@ -7,12 +7,19 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair};
+use super::system_blocks::block_times;
 use crate::physics::{CG_FORCING, CG_MAX_ITERATIONS};
 
 /// Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
 /// after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
-pub fn cg_goes_on(residual: f64, iterations: u32) -> bool {
-    residual > CG_FORCING && iterations < CG_MAX_ITERATIONS
+/// (In f32, with CG_FORCING as the shaders' override holds it.)
+pub fn cg_goes_on(residual: f32, iterations: u32) -> bool {
+    residual > CG_FORCING as f32 && iterations < CG_MAX_ITERATIONS
+}
+
+/// A solve whose p·Ap is not positive and finite stops where it is.
+pub fn usable_curvature(pap: f32) -> bool {
+    pap > 0.0 && pap <= f32::MAX
 }
 
 /// δ += α p, r −= α Ap, z = B⁻¹ r (B the block diagonal).
@@ -28,7 +35,7 @@ pub fn cg_update(
             let i = c * CHUNK + k;
             dv[k] += alpha * p[i];
             r[k] -= alpha * ap[i];
-            z[k] = block_inv[i] * r[k];
+            z[k] = block_times(block_inv[i], r[k]);
         }
     };
     if n >= PARALLEL_MIN_MASSES {
@@ -61,4 +68,18 @@ pub(super) fn cg_update_unpreconditioned(
 /// p = z + β p.
 pub fn cg_direction(beta: f32, z: &[Vec3], p: &mut [Vec3]) {
     each_mass(p, |i, p| *p = z[i] + beta * *p);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_solve_stops_at_a_share_of_its_start_or_at_its_cap() {
+        assert!(cg_goes_on(CG_FORCING as f32 * 1.01, 0));
+        assert!(!cg_goes_on(CG_FORCING as f32 * 0.99, 0));
+        assert!(!cg_goes_on(1.0, CG_MAX_ITERATIONS));
+        assert!(!usable_curvature(0.0) && !usable_curvature(f32::INFINITY));
+        assert!(!usable_curvature(f32::NAN) && usable_curvature(1.0));
+    }
 }

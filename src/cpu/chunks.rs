@@ -1,27 +1,13 @@
-//! How the CPU backend splits work over masses: sums over fixed chunks, so that per-chunk
-//! partial sums (and hence the energy ledger) are bit-identical whatever the thread count;
-//! element-wise loops in pieces sized to the pool, which no result depends on.
+//! How the CPU backend splits work over masses: element-wise loops in pieces sized to the pool,
+//! which no result depends on, and fixed chunks for the sums whose per-chunk partials (the
+//! energy ledger's) are then bit-identical whatever the thread count. (The implicit solver's
+//! sums are `solver_sums.rs`'s.)
 
 /// Masses per work item.
 pub const CHUNK: usize = 1024;
 
 /// Below this many masses the thread pool costs more than it saves.
 pub const PARALLEL_MIN_MASSES: usize = 4 * CHUNK;
-
-/// The sum of `part(range)` over the fixed chunks of `len` masses, the chunks' partials added in
-/// order (on the thread pool from `PARALLEL_MIN_MASSES` masses on): the same result on any
-/// number of threads.
-pub fn sum_chunks(len: usize, part: impl Fn(std::ops::Range<usize>) -> f64 + Sync) -> f64 {
-    use rayon::prelude::*;
-    let chunk = |c: usize| part(c * CHUNK..(c * CHUNK + CHUNK).min(len));
-    let chunks = len.div_ceil(CHUNK);
-    if len >= PARALLEL_MIN_MASSES {
-        let partials: Vec<f64> = (0..chunks).into_par_iter().map(chunk).collect();
-        partials.into_iter().sum()
-    } else {
-        (0..chunks).map(chunk).sum()
-    }
-}
 
 /// `f()` on one of the thread pool's workers, so that the parallel loops inside it fork from a
 /// worker. From a thread outside the pool (the simulation thread) each loop is handed to the
@@ -80,21 +66,5 @@ pub fn each_mass_pair<T: Send, U: Send>(
         for (i, (a, b)) in a.iter_mut().zip(b).enumerate() {
             f(i, a, b);
         }
-    }
-}
-
-/// The largest of `part(range)` over the chunks of `len` masses (0 if none; a NaN part is
-/// passed over, as `f64::max` does): a maximum does not depend on the order it is taken in.
-pub fn max_chunks(len: usize, part: impl Fn(std::ops::Range<usize>) -> f64 + Sync) -> f64 {
-    use rayon::prelude::*;
-    let chunk = |c: usize| part(c * CHUNK..(c * CHUNK + CHUNK).min(len));
-    let chunks = len.div_ceil(CHUNK);
-    if len >= PARALLEL_MIN_MASSES {
-        (0..chunks)
-            .into_par_iter()
-            .map(chunk)
-            .reduce(|| 0.0, f64::max)
-    } else {
-        (0..chunks).map(chunk).fold(0.0, f64::max)
     }
 }

@@ -28,6 +28,7 @@ use glam::{DVec3, Mat3, Vec3};
 
 use super::aggregates::Values;
 use super::chunks::each_mass as each;
+use super::system_blocks::block_times;
 use crate::model::Model;
 use crate::physics::hierarchy::{Hierarchy, Level, SMOOTHING};
 
@@ -100,7 +101,9 @@ fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
 
 /// x = ω D⁻¹ b (a sweep from zero).
 fn smooth_from_zero(diag_inv: &[Mat3], b: &[Vec3], x: &mut [Vec3]) {
-    each(x, |i, out| *out = SMOOTHING * (diag_inv[i] * b[i]));
+    each(x, |i, out| {
+        *out = SMOOTHING * block_times(diag_inv[i], b[i])
+    });
 }
 
 /// r = b − A x, given ax = A x.
@@ -110,7 +113,9 @@ fn residual(b: &[Vec3], ax: &[Vec3], r: &mut [Vec3]) {
 
 /// x += ω D⁻¹ r.
 fn smooth(diag_inv: &[Mat3], r: &[Vec3], x: &mut [Vec3]) {
-    each(x, |i, out| *out += SMOOTHING * (diag_inv[i] * r[i]));
+    each(x, |i, out| {
+        *out += SMOOTHING * block_times(diag_inv[i], r[i])
+    });
 }
 
 impl Multigrid {

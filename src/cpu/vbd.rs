@@ -25,7 +25,9 @@ use rayon::prelude::*;
 use super::chunks::PARALLEL_MIN_MASSES;
 use super::forces::{Gather, compute_forces, force_on_mass};
 use super::implicit::SolveStats;
-use super::system_blocks::{ContactTerms, SpringTerms, contacts_at, invert_block, own_block};
+use super::system_blocks::{
+    ContactTerms, SpringTerms, block_times, contacts_at, invert_block, own_block,
+};
 use crate::backend::StopFlags;
 use crate::model::{Model, Pose, poses_at};
 use crate::physics::{MassColouring, VBD_RESIDUAL, vbd_colouring};
@@ -133,11 +135,11 @@ pub fn vbd_solve_mass(
     let mut block = own_block(m, h, e.air_drag_per_s.unwrap_or(0.0));
     for (j, s) in gather.springs_of(i) {
         if !s.is_broken() {
-            block += SpringTerms::at(s, x[i], x[j], h).block();
+            block = SpringTerms::at(s, x[i], x[j], h).add_block(block);
         }
     }
     contacts_at(e, poses, x[i], m, h, |c: ContactTerms| block += c.block());
-    v[i] + invert_block(block) * b
+    v[i] + block_times(invert_block(block), b)
 }
 
 /// One VBD step of `dt`: the guess, `iterations` sweeps over the colours (fewer once `stop` is

@@ -132,6 +132,14 @@ impl BackwardStep {
 /// steps short of their tolerance are (`StepStats::rule`).
 pub const VBD_RESIDUAL: f64 = 0.5;
 
+/// Threads of implicit Euler's one-workgroup step on a CPU adapter (lavapipe), and so the lanes
+/// of the CPU backend's solver sums (`cpu/solver_sums.rs`): each adds the masses lane,
+/// lane + 8, … in f32, and the lanes are added in order, as the workgroup's `reduce_over` adds
+/// them. On lavapipe's SIMD lanes, 8 threads ran hair's step 2x faster than 64
+/// (`gpu/implicit/plan.rs`'s `group_threads`); the CPU takes the same shape so that its steps
+/// and lavapipe's agree bit for bit.
+pub const SUM_LANES: u32 = 8;
+
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;
 

@@ -24,7 +24,7 @@ use super::super::limits::{
 /// and 1 024 threads (BENCHMARKS.md): 1 024 leave each thread 64 registers.
 pub fn group_threads(device: wgpu::DeviceType, mass_count: usize) -> u32 {
     match device {
-        wgpu::DeviceType::Cpu => 8,
+        wgpu::DeviceType::Cpu => crate::physics::SUM_LANES,
         _ => (mass_count.div_ceil(32).clamp(2, 16) * 32) as u32,
     }
 }

@@ -44,6 +44,9 @@ override MG_SMOOTHING: f32 = 0.6666667;
 override GROUP_THREADS: u32 = 64u;
 override SUM_LEVEL: u32 = 8u;
 override SUM_SLOTS: u32 = 64u;
+// Threads of each workgroup of implicit Euler's per-pass kernels (src/gpu/implicit/plan.rs's
+// solver_threads): 64 on a GPU, physics::SUM_LANES on a CPU adapter, whose sums the CPU takes so.
+override SOLVER_THREADS: u32 = 64u;
 // Where the one-workgroup step keeps the solver's vectors and spring terms (implicit_terms.wgsl,
 // src/gpu/implicit/plan.rs's SolverHome), and the workgroup arrays' lengths in vec4s (1 when unused).
 override SOLVER_IN_WORKGROUP: bool = false;

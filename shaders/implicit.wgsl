@@ -64,26 +64,26 @@ fn newton_running(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.converged == 0u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>) {
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         implicit_begin_at(i);
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     if (!newton_running(lid)) {
         return;
     }
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         implicit_iterate_at(i);
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         implicit_final_at(i);
     }
 }
@@ -99,7 +99,7 @@ fn solver_begin() {
 }
 
 // The forces at the iterate and Newton's right-hand side from them, per mass. Partials: (r·z, b·b).
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn forces_and_rhs(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -109,7 +109,7 @@ fn forces_and_rhs(
         return;
     }
     var partial = vec4<f32>(0.0);
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         forces_on(i);
         partial += implicit_rhs_at(i);
     }
@@ -118,7 +118,7 @@ fn forces_and_rhs(
 
 // After forces_and_rhs: r·z, the residual scale (the first iterate's |h f|), and whether to
 // iterate.
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (!newton_running(lid)) {
         return;
@@ -172,7 +172,7 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
 // The first half of a CG iteration (the first of a solve, after cg_begin, with β = 0 and p = z):
 // r·z and |r| from the last pass's partials, whether the solve goes on, β, and Ap for the new
 // p = z + βp. Partials: (p·Ap).
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn cg_apply(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -199,7 +199,7 @@ fn cg_apply(
     sv.beta = select(t.x / sv.rz, 0.0, first);
     sv.rz = t.x;
     var partial = vec4<f32>(0.0);
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         if (first) {
             solve_begin_at(i);
         }
@@ -213,7 +213,7 @@ fn cg_apply(
 
 // The second half of a CG iteration: α = r·z / p·Ap, or the solve stops where it is; then each
 // mass's p = z + βp, δ += αp, r −= αAp, z = B⁻¹r. Partials: (r·z, r·r).
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn cg_advance(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -239,7 +239,7 @@ fn cg_advance(
     }
     let alpha = sv.rz / t.x;
     var partial = vec4<f32>(0.0);
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         cg_direction_at(i, sv.beta);
         partial += cg_update_at(i, alpha);
     }
@@ -255,7 +255,7 @@ const NEWTON_HALVING: u32 = 2u;
 // Once the solve has stopped (after cg_apply: scratch.applied): Δv += δ, or the halving cg_begin
 // chose. A solve that stopped before its first iteration leaves δ = 0 (cg_apply zeroes it on
 // its first). Partials: (max |δ|, max |Δv|).
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn newton_update(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -266,7 +266,7 @@ fn newton_update(
         return;
     }
     var partial = vec4<f32>(0.0);
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         if (sv.newton_pending == NEWTON_HALVING) {
             newton_halve_at(i);
         } else {
@@ -285,7 +285,7 @@ const NEWTON_OVERRAN: u32 = 0x80000000u;
 
 // Whether Newton has converged; the step's solve figures are booked for the snapshot and the
 // frame's budgets. A solve still running here has run out of its budget: the frame halts.
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn newton_end(@builtin(local_invocation_index) lid: u32) {
     let applied = uniform_status(lid, true);
     if (applied.newton_pending == 0u) {

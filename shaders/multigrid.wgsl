@@ -329,12 +329,12 @@ fn finer_residual(k: u32, m: u32) -> vec3<f32> {
 }
 
 // The cycle's start on the masses, over the solver's grid.
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn mg_fine_down(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!solve_running()) {
         return;
     }
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         fine_down_at(i);
     }
 }
@@ -417,7 +417,7 @@ fn fine_up_at(i: u32) -> vec4<f32> {
 }
 
 // The cycle's end on the masses, with partials (r·z, r·r) for cg_apply over the solver's grid.
-@compute @workgroup_size(64)
+@compute @workgroup_size(SOLVER_THREADS)
 fn mg_fine_up(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -427,7 +427,7 @@ fn mg_fine_up(
         return;
     }
     var partial = vec4<f32>(0.0);
-    for (var i = gid.x; i < params.mass_count; i += solver_groups() * WORKGROUP) {
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
         partial += fine_up_at(i);
     }
     store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);

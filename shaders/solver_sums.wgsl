@@ -99,8 +99,9 @@ fn combine(acc: vec4<f32>, value: vec4<f32>, take_max: bool) -> vec4<f32> {
     return select(acc + value, max(acc, value), take_max);
 }
 
+// The sum over a per-pass kernel's workgroup (SOLVER_THREADS threads, at most 64).
 fn workgroup_reduce(lid: u32, value: vec4<f32>, take_max: bool) -> vec4<f32> {
-    return reduce_over(lid, value, take_max, WORKGROUP, 8u);
+    return reduce_over(lid, value, take_max, SOLVER_THREADS, 8u);
 }
 
 // `flag` as read by the workgroup's first thread, the same for every thread (a uniform value for
@@ -128,12 +129,13 @@ fn store_grid_partial(lid: u32, wid: u32, which: u32, value: vec4<f32>, take_max
     }
 }
 
-// The sum (or max) of sums `which` over the grid's workgroups, in workgroup order, the same for
-// every thread of every workgroup.
+// The sum (or max) of sums `which` over the grid's workgroups, the same for every thread of every
+// workgroup: each thread adds a strided share of them, and the shares are summed in order
+// (src/cpu/solver_sums.rs's group_reduce takes it so).
 fn grid_total(lid: u32, which: u32, take_max: bool) -> vec4<f32> {
     let groups = solver_groups();
     var acc = vec4<f32>(0.0);
-    for (var g = lid; g < groups; g += WORKGROUP) {
+    for (var g = lid; g < groups; g += SOLVER_THREADS) {
         acc = combine(acc, scratch.partials[which * groups + g], take_max);
     }
     return workgroup_reduce(lid, acc, take_max);

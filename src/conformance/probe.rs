@@ -22,15 +22,13 @@ pub const PROBE_SCENES: [&str; 4] = ["hair", "cloth", "jello", "flag"];
 pub const PROBE_FRAMES: u32 = 3;
 
 /// Whether `family` on the adapter `info` names is held to bit for bit on lavapipe, where the
-/// tests hold it to the CPU's bits: explicit steps, and implicit Euler's and BDF2's
-/// one-workgroup step preconditioned by block Jacobi, whose sums the CPU takes in lavapipe's
-/// order (`physics::SUM_LANES`). (The per-pass path sums over workgroups, multigrid's coarsest
-/// level is factored in f64 on the CPU, and XPBD's and VBD's sweeps add in their own orders.)
+/// tests hold it to the CPU's bits: explicit steps, and implicit Euler's and BDF2's steps
+/// preconditioned by block Jacobi on either path, whose sums the CPU takes in lavapipe's order
+/// (`physics::SUM_LANES`). (Multigrid's coarsest level is factored in f64 on the CPU, and
+/// XPBD's and VBD's sweeps add in their own orders.)
 fn bitwise(family: KernelFamily, info: &wgpu::AdapterInfo) -> bool {
     let held = match family.integrator {
-        Integrator::Implicit | Integrator::Bdf2 => {
-            family.implicit == Some(crate::gpu::ImplicitPath::InGroup) && !family.multigrid
-        }
+        Integrator::Implicit | Integrator::Bdf2 => !family.multigrid,
         Integrator::Vbd | Integrator::Xpbd => false,
         _ => true,
     };

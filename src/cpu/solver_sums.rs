@@ -1,24 +1,50 @@
-//! The implicit solver's sums over the masses, taken as shaders/solver_sums.wgsl's `reduce_over`
-//! takes them in the one-workgroup step on a CPU adapter (lavapipe): `physics::SUM_LANES`
-//! threads each add the masses lane, lane + SUM_LANES, … in f32, from zero and in order, and the
-//! lanes' sums are then added in order (one level: `dispatch::sum_level` of SUM_LANES threads is
-//! SUM_LANES). Every figure Newton and CG decide on (|b|, p·Ap, r·z, BDF2's residual work) is
-//! such a sum, so the CPU's steps take the same decisions as lavapipe's, bit for bit, where an
-//! f64 sum (as here until the fourteenth session) parted from it at the last bit of α and β.
-//! The lanes are a strided sum over the masses in order: the same on any number of threads.
+//! The implicit solver's sums over the masses, taken as a CPU adapter (lavapipe) takes them on
+//! either of its paths (`physics::SUM_LANES`): `physics::sum_groups(n)` groups of SUM_LANES
+//! threads, each thread adding a strided share of the masses in f32, each group its threads in
+//! order, and the groups' sums in eight strided shares, those in order. Every figure Newton and
+//! CG decide on (|b|, p·Ap, r·z, BDF2's residual work) is such a sum, so the CPU's steps take the
+//! same decisions as lavapipe's, bit for bit, where f64 sums per chunk (as here until the
+//! fourteenth session) parted from them at the last bit of α and β. Each thread's share runs
+//! over the masses in order: the same on any number of the CPU's threads.
 
 use glam::Vec4;
 
-use crate::physics::SUM_LANES;
+use crate::physics::{SUM_LANES, sum_groups};
 
 const LANES: usize = SUM_LANES as usize;
 
-/// Σ `value(i)` over the masses 0..n, per component, as the one-workgroup step sums it.
+/// Σ `value(i)` over the masses 0..n, per component, as lavapipe's solver kernels sum it.
 #[inline(always)]
 pub fn group_reduce(n: usize, value: impl Fn(usize) -> Vec4) -> Vec4 {
-    let mut lanes = [Vec4::ZERO; LANES];
-    let whole = n - n % LANES;
-    for base in (0..whole).step_by(LANES) {
+    let groups = sum_groups(n);
+    if groups == 1 {
+        // One group: its threads' sums added in order are the total (`grid_total` then adds
+        // zeros to it).
+        return in_order(&lane_sums::<LANES>(n, value));
+    }
+    // The threads' sums (the grid's threads stride over the masses), each group's (`reduce_over`
+    // over SUM_LANES threads at one level: in order), then `grid_total`: SUM_LANES shares of the
+    // groups' sums, strided, each from zero, added in order.
+    let threads = lane_sums_dyn(n, groups * LANES, value);
+    let group_sums: Vec<Vec4> = threads.chunks(LANES).map(in_order).collect();
+    let mut shares = [Vec4::ZERO; LANES];
+    for (g, sum) in group_sums.iter().enumerate() {
+        shares[g % LANES] += *sum;
+    }
+    in_order(&shares)
+}
+
+/// Sums from zero, in order (`reduce_over`'s level that one thread adds).
+fn in_order(sums: &[Vec4]) -> Vec4 {
+    sums.iter().fold(Vec4::ZERO, |total, s| total + *s)
+}
+
+/// Thread t's sum of value(t), value(t + L), … for L = `THREADS`.
+#[inline(always)]
+fn lane_sums<const THREADS: usize>(n: usize, value: impl Fn(usize) -> Vec4) -> [Vec4; THREADS] {
+    let mut lanes = [Vec4::ZERO; THREADS];
+    let whole = n - n % THREADS;
+    for base in (0..whole).step_by(THREADS) {
         for (lane, sum) in lanes.iter_mut().enumerate() {
             *sum += value(base + lane);
         }
@@ -26,8 +52,16 @@ pub fn group_reduce(n: usize, value: impl Fn(usize) -> Vec4) -> Vec4 {
     for (lane, sum) in lanes.iter_mut().enumerate().take(n - whole) {
         *sum += value(whole + lane);
     }
-    // reduce_over's second level: the first thread adds the lanes' sums from zero, in order.
-    lanes.iter().fold(Vec4::ZERO, |total, lane| total + *lane)
+    lanes
+}
+
+/// `lane_sums` for a number of threads known at run time.
+fn lane_sums_dyn(n: usize, threads: usize, value: impl Fn(usize) -> Vec4) -> Vec<Vec4> {
+    let mut lanes = vec![Vec4::ZERO; threads];
+    for i in 0..n {
+        lanes[i % threads] += value(i);
+    }
+    lanes
 }
 
 /// The largest `value(i)` per component (non-negative figures): order does not matter to a
@@ -64,6 +98,29 @@ mod tests {
             "the order should matter here"
         );
         assert_eq!(group_reduce(0, |_| Vec4::ONE), Vec4::ZERO);
+        // Beyond one group: 3 groups of 8 threads striding by 24, each group's threads in
+        // order, then the groups' sums in 8 strided shares (3 < 8: one each), in order.
+        let n = 2 * crate::physics::SUM_GROUP_MASSES + 7;
+        let big: Vec<f32> = (0..n)
+            .map(|i| {
+                if i % 97 == 0 {
+                    3.0e7
+                } else {
+                    0.1 * (i % 13) as f32
+                }
+            })
+            .collect();
+        let got = group_reduce(n, |i| Vec4::splat(big[i])).x;
+        let mut threads = [0.0f32; 24];
+        for (i, v) in big.iter().enumerate() {
+            threads[i % 24] += v;
+        }
+        let groups: Vec<f32> = threads
+            .chunks(8)
+            .map(|t| t.iter().fold(0.0f32, |a, b| a + b))
+            .collect();
+        let want = groups.iter().fold(0.0f32, |a, b| a + b);
+        assert_eq!(got.to_bits(), want.to_bits());
         assert_eq!(group_max(3, |i| Vec4::splat(i as f32)), Vec4::splat(2.0));
     }
 }

@@ -119,7 +119,7 @@ const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 /// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), where the fused steps'
 /// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused) and
 /// whether grid bodies take their springs from stencils (`stencils.rs`); the
-/// one-workgroup implicit step's threads and, when it keeps its solver vectors and spring terms in
+/// one-workgroup implicit step's threads and the per-pass kernels' (`implicit::solver_threads`) and, when it keeps its solver vectors and spring terms in
 /// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
 /// the one-workgroup fused steps (`dispatch::frame_threads`) and of VBD's sweeps in one workgroup
 /// (`dispatch::vbd_threads`) and the lanes it shares a mass among (`dispatch::vbd_lanes`), how far apart the stage slots
@@ -129,7 +129,7 @@ pub fn constants(
     model: &Model,
     (integrator, dt_secs): (Integrator, f64),
     (kind_shift, stencils): (u32, bool),
-    (group_threads, in_workgroup): (u32, Option<[u32; 2]>),
+    ((group_threads, solver_threads), in_workgroup): ((u32, u32), Option<[u32; 2]>),
     ((frame_threads, (vbd_threads, vbd_lanes)), stage_stride_words, frame_state): (
         (u32, (u32, u32)),
         u32,
@@ -181,6 +181,7 @@ pub fn constants(
             f64::from(crate::physics::hierarchy::SMOOTHING),
         ),
         ("GROUP_THREADS", f64::from(group_threads)),
+        ("SOLVER_THREADS", f64::from(solver_threads)),
         (
             "SUM_LEVEL",
             f64::from(super::dispatch::sum_level(group_threads)),

@@ -155,7 +155,10 @@ pub(super) fn specialise(
         model,
         (step.integrator, step.dt_secs),
         (kind_shift, stencils),
-        (group_threads, home.workgroup_arrays()),
+        (
+            (group_threads, implicit::solver_threads(device)),
+            home.workgroup_arrays(),
+        ),
         (
             (frame_threads, (vbd_threads_wanted, lanes)),
             (stage_stride / 4) as u32,

@@ -132,13 +132,25 @@ impl BackwardStep {
 /// steps short of their tolerance are (`StepStats::rule`).
 pub const VBD_RESIDUAL: f64 = 0.5;
 
-/// Threads of implicit Euler's one-workgroup step on a CPU adapter (lavapipe), and so the lanes
-/// of the CPU backend's solver sums (`cpu/solver_sums.rs`): each adds the masses lane,
-/// lane + 8, … in f32, and the lanes are added in order, as the workgroup's `reduce_over` adds
-/// them. On lavapipe's SIMD lanes, 8 threads ran hair's step 2x faster than 64
-/// (`gpu/implicit/plan.rs`'s `group_threads`); the CPU takes the same shape so that its steps
-/// and lavapipe's agree bit for bit.
+/// How implicit Euler's and BDF2's sums over the masses are taken on a CPU adapter (lavapipe),
+/// and so on the CPU backend (`cpu/solver_sums.rs`), so that the two take every decision alike
+/// and agree bit for bit: `sum_groups(n)` workgroups of `SUM_LANES` threads, thread t adding
+/// the masses t, t + T, t + 2T, … (T the threads of all the groups) in f32 from zero, each
+/// workgroup adding its threads' sums in order, and the workgroups' sums added in eight strided
+/// shares, those in order (shaders/solver_sums.wgsl's `store_grid_partial` and `grid_total`).
+/// A system the one-workgroup step takes (at most `gpu::limits::IN_GROUP_MAX_MASSES`) is one
+/// group, whose step's sums are then the same. On lavapipe's SIMD lanes 8 threads ran hair's
+/// step 2x faster than 64 (`gpu/implicit/plan.rs`'s `group_threads`).
 pub const SUM_LANES: u32 = 8;
+
+/// Masses per workgroup of those sums, and the most workgroups (see `SUM_LANES`).
+pub const SUM_GROUP_MASSES: usize = 2048;
+pub const SUM_GROUPS_MOST: usize = 64;
+
+/// Workgroups of the sums over `masses` masses on a CPU adapter (see `SUM_LANES`).
+pub fn sum_groups(masses: usize) -> usize {
+    masses.div_ceil(SUM_GROUP_MASSES).clamp(1, SUM_GROUPS_MOST)
+}
 
 /// Iteration cap: a step that needs more is taken with the last iterate, and its residual says so.
 pub const CG_MAX_ITERATIONS: u32 = 200;

@@ -8,6 +8,6 @@ mod solve;
 pub use super::kernels::Path;
 pub use plan::{
     BEGIN, CG_ITERATION, END, IN_GROUP, NEWTON_BEGIN, NEWTON_END, SolverHome, group_threads,
-    passes, path, solver_groups,
+    passes, path, solver_groups, solver_threads,
 };
 pub use solve::{Budgets, ImplicitStep};

@@ -96,26 +96,38 @@ pub fn path(model: &Model) -> Path {
     }
 }
 
-/// The most workgroups of the per-pass kernels' grid on a CPU adapter (lavapipe), and on a
-/// GPU. Every workgroup of a pass sums the partials of all (the grid's size squared, in
-/// loads): a CPU runs few workgroups at once, and each load of a partial costs it a
-/// descriptor read and a bounds check; a GPU needs enough threads in flight to hide memory
-/// latency, and reads the partials from its cache.
-const SOLVER_GROUPS_CPU: u32 = 64;
+/// The most workgroups of the per-pass kernels' grid on a GPU, which needs enough threads in
+/// flight to hide memory latency, and reads the partials that every workgroup of a pass sums
+/// from its cache.
 const SOLVER_GROUPS_GPU: u32 = 1024;
 
-/// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL): one per 64 masses, at
-/// most the device's cap.
+/// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL). On a GPU, one per 64
+/// masses, at most SOLVER_GROUPS_GPU. On a CPU adapter (lavapipe), `physics::sum_groups`: one
+/// per 2 048 masses, at most 64, each of `physics::SUM_LANES` threads, as the CPU backend takes
+/// its sums (`cpu/solver_sums.rs`), so that the two agree bit for bit; a CPU runs few
+/// workgroups at once, and each load of a partial costs it a descriptor read and a bounds check.
 pub fn solver_groups(masses: usize, device: wgpu::DeviceType) -> u32 {
-    let cap = match device {
-        wgpu::DeviceType::Cpu => SOLVER_GROUPS_CPU,
-        _ => SOLVER_GROUPS_GPU,
-    };
+    if device == wgpu::DeviceType::Cpu {
+        return crate::physics::sum_groups(masses) as u32;
+    }
     let wanted = masses
         .div_ceil(super::super::shaders::WORKGROUP as usize)
         .max(1);
-    u32::try_from(wanted).map_or(cap, |w| w.min(cap))
+    u32::try_from(wanted).map_or(SOLVER_GROUPS_GPU, |w| w.min(SOLVER_GROUPS_GPU))
 }
+
+/// Threads of each workgroup of the per-pass kernels' grid (`SOLVER_THREADS` in WGSL): 64 on a
+/// GPU, `physics::SUM_LANES` on a CPU adapter (see `solver_groups`).
+pub fn solver_threads(device: wgpu::DeviceType) -> u32 {
+    match device {
+        wgpu::DeviceType::Cpu => crate::physics::SUM_LANES,
+        _ => super::super::shaders::WORKGROUP,
+    }
+}
+
+// A system the one-workgroup step takes is one group of the per-pass grid on a CPU adapter, so
+// both paths sum alike there.
+const _: () = assert!(IN_GROUP_MAX_MASSES <= crate::physics::SUM_GROUP_MASSES);
 
 const fn at(k: Kernel) -> Dispatch {
     Dispatch::at(k, 0)

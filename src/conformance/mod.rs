@@ -2,8 +2,8 @@
 //! family by kernel family (`gpu::KernelFamily`: the integrator and the path its steps take).
 //! A family is stepped on a few small built-in scenes (`probe`) on the GPU and on the CPU, and
 //! the states compared: bit for bit where the adapter is lavapipe and the family is one the tests
-//! hold to the CPU's bits there (explicit steps; implicit Euler's and BDF2's with block Jacobi),
-//! within `TOLERANCE_M` everywhere else. The verdict is kept per adapter,
+//! hold to the CPU's bits there (every family but multigrid's), within `TOLERANCE_M` everywhere
+//! else. The verdict is kept per adapter,
 //! driver, binary and family in a small file in the user's cache directory (`cache`), so a run
 //! probes only the families it uses that have no verdict yet, and later runs pay nothing. A
 //! family that disagrees is refused with one message (`Disagrees`); `--no-verify` skips the

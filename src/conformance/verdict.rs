@@ -15,8 +15,7 @@ pub struct Verdict {
     /// The family's name as `check` prints it.
     pub name: String,
     pub agrees: bool,
-    /// Bit for bit was asked (lavapipe: explicit steps, implicit Euler's and BDF2's with block
-    /// Jacobi), and held where `agrees`.
+    /// Bit for bit was asked (lavapipe, every family but multigrid's), and held where `agrees`.
     pub bitwise: bool,
     /// The largest distance of a mass from the CPU's, over the scenes probed.
     pub worst_m: f64,

@@ -18,14 +18,6 @@ pub struct SpringTerms {
     pub damp_along: f32,
 }
 
-/// One contact's share: h²k_c and h c_c along its normal.
-#[derive(Debug, Clone, Copy)]
-pub struct ContactTerms {
-    pub n: Vec3,
-    pub stiff: f32,
-    pub damp: f32,
-}
-
 impl SpringTerms {
     /// Spring `s`'s share of the system at positions `xa`, `xb` of its ends, scaled by h (none
     /// for a spring too short to have a direction).
@@ -69,44 +61,6 @@ impl SpringTerms {
     pub fn block(&self) -> Mat3 {
         outer(self.n) * (self.stiff_along + self.damp_along - self.stiff_across)
             + Mat3::from_diagonal(Vec3::splat(self.stiff_across))
-    }
-}
-
-impl ContactTerms {
-    /// A penalty contact along `n` on a mass `m`: its spring and dashpot, scaled by h.
-    #[inline(always)]
-    pub fn at(n: Vec3, c: &ContactModel, m: f32, h: f32) -> Self {
-        ContactTerms {
-            n,
-            stiff: h * h * c.stiffness_n_per_m,
-            damp: h * 2.0 * c.damping_ratio * (c.stiffness_n_per_m * m).sqrt(),
-        }
-    }
-
-    /// Its 3 × 3 block: (h²k_c + h c_c) n nᵀ.
-    #[inline(always)]
-    pub fn block(&self) -> Mat3 {
-        outer(self.n) * (self.stiff + self.damp)
-    }
-}
-
-/// The contacts mass `i` (of mass `m`) is in at `x`, each with its terms: the ground, then the
-/// colliders in order.
-pub fn contacts_at(
-    effects: &Effects,
-    poses: &[Pose],
-    x: Vec3,
-    m: f32,
-    h: f32,
-    mut each: impl FnMut(ContactTerms),
-) {
-    if let Some(g) = effects.ground.as_ref().filter(|g| g.height_m - x.y > 0.0) {
-        each(ContactTerms::at(Vec3::Y, &g.contact, m, h));
-    }
-    for (c, pose) in effects.colliders.iter().zip(poses) {
-        if let Some((_, n)) = c.shape.penetration(pose.position_m, x) {
-            each(ContactTerms::at(n, &c.contact, m, h));
-        }
     }
 }
 

@@ -19,15 +19,13 @@
 //! |h f − M Δv| relative to |h f| is reported as the solver's residual, and the energy ledger
 //! shows what the unmet part does to the energy.
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::chunks::PARALLEL_MIN_MASSES;
 use super::forces::{Gather, compute_forces, force_on_mass};
 use super::implicit::SolveStats;
-use super::system_blocks::{
-    ContactTerms, SpringTerms, block_times, contacts_at, invert_block, own_block,
-};
+use super::system_blocks::{ContactBlock, SpringTerms, block_times, invert_block, own_block};
 use crate::backend::StopFlags;
 use crate::model::{Model, Pose, poses_at};
 use crate::physics::{MassColouring, VBD_RESIDUAL, vbd_colouring};
@@ -132,14 +130,19 @@ pub fn vbd_solve_mass(
     let (a, _) = force_on_mass::<true>(model, gather, poses, x, v, i, h);
     let b = h * m * a - m * (v[i] - v0);
     let e = &model.effects;
-    let mut block = own_block(m, h, e.air_drag_per_s.unwrap_or(0.0));
+    // Added as vbd_finish adds them: its own block, its contacts', then its springs' summed apart
+    // (the share of one lane, vbd_mass.wgsl), so that the two agree bit for bit on lavapipe.
+    let mut springs = Mat3::ZERO;
     for (j, s) in gather.springs_of(i) {
         if !s.is_broken() {
-            block = SpringTerms::at(s, x[i], x[j], h).add_block(block);
+            springs = SpringTerms::at(s, x[i], x[j], h).add_block(springs);
         }
     }
-    contacts_at(e, poses, x[i], m, h, |c: ContactTerms| block += c.block());
-    v[i] + block_times(invert_block(block), b)
+    let mut block = own_block(m, h, e.air_drag_per_s.unwrap_or(0.0));
+    if e.ground.is_some() || !e.colliders.is_empty() {
+        block += ContactBlock::at(e, poses, x[i], m, h).block();
+    }
+    v[i] + block_times(invert_block(block + springs), b)
 }
 
 /// One VBD step of `dt`: the guess, `iterations` sweeps over the colours (fewer once `stop` is

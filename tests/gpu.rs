@@ -524,14 +524,43 @@ fn the_loop_probe_finds_the_drivers_cap_and_a_run_keeps_clear_of_it() {
         ok(gpu.advance(1));
     }
     let (c, g) = (ok(cpu.state()), ok(gpu.state()));
-    let worst = hooke::conformance::Apart::of(&c, &g).farthest_m;
+    let apart = hooke::conformance::Apart::of(&c, &g);
+    let worst = apart.farthest_m;
     assert!(
         worst < 5e-4,
         "the GPU's jello ends {worst} m from the CPU's"
     );
+    // Lavapipe sums as the CPU does on either path: the same bits.
+    assert!(
+        apart.same_bits || !common::parity::gpu_rounds_as_the_cpu(),
+        "lavapipe's jello ends {worst} m from the CPU's"
+    );
     let mean_y = |x: &[glam::Vec3]| x.iter().map(|p| f64::from(p.y)).sum::<f64>() / x.len() as f64;
     let fell = mean_y(&model.initial.x) - mean_y(&g.x);
     assert!(fell > 0.05, "the GPU's jello fell only {fell} m");
+    // `check` names the passes this adapter steps with where they are not a discrete GPU's.
+    let out = common::hooke_command(&[
+        "check",
+        "jello",
+        "--integrator",
+        "implicit",
+        "--dt",
+        "1/60",
+        "--no-verify",
+    ])
+    .output()
+    .unwrap_or_else(|e| panic!("{e}"));
+    let said = common::text(&out.stdout);
+    let here = said
+        .lines()
+        .find(|l| l.starts_with("GPU step passes on this adapter: "));
+    match budget.runs_long_loops() {
+        true => assert!(here.is_none(), "{said}"),
+        false => assert!(
+            here.is_some_and(|l| l.contains("cg_apply") && !l.contains("implicit_step")),
+            "{said}"
+        ),
+    }
 }
 
 /// The conformance probe end to end, through the binary: `check --verify` probes the family a

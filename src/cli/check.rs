@@ -73,6 +73,11 @@ fn conformance(
             return Ok(());
         }
     };
+    // The report above lists a discrete GPU's passes; a driver that caps loops steps otherwise.
+    let here = hooke::gpu::adapter_step_passes(&gpu, model, settings.integrator);
+    if here != hooke::gpu::step_passes(model, settings.step()).0 {
+        println!("GPU step passes on this adapter: {}", here.join(" → "));
+    }
     let family = gpu.kernel_family();
     if device.no_verify {
         println!("conformance: {family} not probed (--no-verify)");

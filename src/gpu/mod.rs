@@ -64,7 +64,7 @@ pub use layout::NEIGHBOUR_SLOTS;
 pub use limits::MULTIGRID_FACTOR_WORKGROUP_BYTES;
 pub use limits::adapter_report;
 pub use loop_budget::{LOOP_BUDGET_WGSL, LoopBudget, PROBE_ITERATIONS};
-pub use passes::step_passes;
+pub use passes::{adapter_step_passes, step_passes};
 pub use plan::ONE_GROUP_BUILD_MASSES;
 pub use plan::{DispatchCount, ExplicitPath, dispatches_per_step, explicit_path};
 pub use shaders::{missing, program_groups, programs, unmet};

@@ -1,6 +1,7 @@
 //! What `hooke check` shows of a GPU step: its passes in order, why a run does not take the fused
 //! path, and the effects compiled into the kernels, from the plans in `plan.rs`.
 
+use super::backend::GpuBackend;
 use super::dispatch::{Sweeps, sweeps_in_one_group};
 use super::implicit;
 use super::plan::{explicit_path, steady_step_plan};
@@ -48,4 +49,25 @@ pub fn step_passes(model: &Model, step: Step) -> (Vec<String>, Option<String>, V
         .map(|(name, _)| name)
         .collect();
     (passes, why, effects)
+}
+
+/// The kernels one step of `gpu`'s run dispatches on its adapter, in order: `step_passes`'
+/// list for the paths the adapter gave it (a driver that caps loops takes no step in one
+/// workgroup, so its steps may differ from a discrete GPU's).
+pub fn adapter_step_passes(gpu: &GpuBackend, model: &Model, integrator: Integrator) -> Vec<String> {
+    let mut passes = match gpu.implicit_path() {
+        Some(path) => vec![implicit::passes(path, gpu.multigrid_levels())],
+        None => Vec::new(),
+    };
+    let one_sweep = Sweeps {
+        colours: 1,
+        iterations: 1,
+        one_group: gpu.sweeps_in_group(),
+    };
+    let plan = steady_step_plan(model, integrator, gpu.explicit_path(), one_sweep);
+    passes.extend(plan.into_iter().map(|d| match d.colour {
+        Some(_) => format!("[iterations × colours: {}]", d.kernel.name()),
+        None => d.kernel.name().to_owned(),
+    }));
+    passes
 }

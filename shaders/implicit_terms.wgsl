@@ -47,7 +47,7 @@ fn set_term(slot: u32, value: vec4<f32>) {
     }
 }
 
-// ---- the stopping rules, as src/cpu/implicit.rs's ----
+// ---- the stopping rules, as src/cpu/newton_rules.rs's and src/cpu/cg.rs's ----
 
 // Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
 // after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
@@ -72,7 +72,7 @@ fn newton_done(residual: f32, scale: f32) -> bool {
     return residual <= NEWTON_RESIDUAL * scale;
 }
 
-// Newton's residual has stalled at the floor of f32 forces (src/cpu/implicit.rs's newton_stalled):
+// Newton's residual has stalled at the floor of f32 forces (src/cpu/newton_rules.rs's newton_stalled):
 // below NEWTON_FLOOR of |h f| (physics::newton_floor of the step), and not halved since the last
 // iterate's.
 fn newton_stalled(residual: f32, last: f32, scale: f32) -> bool {
@@ -92,7 +92,7 @@ fn book_solve(iterations: u32, residual: f32) {
 }
 
 // `residual` as a share of the step's momentum change `scale`, 0 where nothing moves
-// (src/physics/solver.rs's relative).
+// (src/cpu/newton_rules.rs's relative).
 fn relative(residual: f32, scale: f32) -> f32 {
     return select(0.0, residual / scale, scale > 0.0);
 }
@@ -274,7 +274,7 @@ fn cg_direction_at(i: u32, beta: f32) {
 // Δv += δ. Returns (|δ|, |Δv|), to be maxed.
 // Whether the last update left Newton's residual above NEWTON_OVERSHOOT times the one it started
 // from (`last`), with fewer than NEWTON_BACKTRACKS halvings of it so far
-// (src/cpu/implicit.rs's newton_overshot).
+// (src/cpu/newton_rules.rs's newton_overshot).
 fn newton_overshot(residual: f32, last: f32, halvings: u32) -> bool {
     return residual > NEWTON_OVERSHOOT * last && halvings < NEWTON_BACKTRACKS;
 }

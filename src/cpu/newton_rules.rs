@@ -53,7 +53,7 @@ pub fn newton_converged(step: f32, size: f32) -> bool {
 }
 
 /// `residual` as a share of the step's momentum change `scale`, 0 where nothing moves
-/// (`physics::relative` in f32, as the shaders' `relative`).
+/// (the shaders' `relative`).
 pub fn relative(residual: f32, scale: f32) -> f32 {
     if scale > 0.0 { residual / scale } else { 0.0 }
 }

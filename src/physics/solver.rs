@@ -59,12 +59,6 @@ pub fn newton_floor(h_secs: f64, order: u32) -> f64 {
     NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs, order))
 }
 
-/// `residual` as a share of the step's momentum change `scale`, 0 where nothing moves (the
-/// shaders' `relative`, implicit_terms.wgsl).
-pub fn relative(residual: f64, scale: f64) -> f64 {
-    if scale > 0.0 { residual / scale } else { 0.0 }
-}
-
 /// Newton's residual tolerance at step `h_secs` for a scheme of order `order`, relative to
 /// |h f|: `NEWTON_RESIDUAL` at one step per frame, and as (h / (1/60 s))^order below it. The
 /// scheme's own error per step falls as h^(order + 1) and |h f| as h, so the solver's error

@@ -58,8 +58,10 @@ fn lane_sums<const THREADS: usize>(n: usize, value: impl Fn(usize) -> Vec4) -> [
 /// `lane_sums` for a number of threads known at run time.
 fn lane_sums_dyn(n: usize, threads: usize, value: impl Fn(usize) -> Vec4) -> Vec<Vec4> {
     let mut lanes = vec![Vec4::ZERO; threads];
-    for i in 0..n {
-        lanes[i % threads] += value(i);
+    for base in (0..n).step_by(threads) {
+        for (lane, sum) in lanes.iter_mut().enumerate().take(n - base) {
+            *sum += value(base + lane);
+        }
     }
     lanes
 }

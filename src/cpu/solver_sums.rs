@@ -3,8 +3,8 @@
 //! threads, each thread adding a strided share of the masses in f32, each group its threads in
 //! order, and the groups' sums in eight strided shares, those in order. Every figure Newton and
 //! CG decide on (|b|, p·Ap, r·z, BDF2's residual work) is such a sum, so the CPU's steps take the
-//! same decisions as lavapipe's, bit for bit, where f64 sums per chunk (as here until the
-//! fourteenth session) parted from them at the last bit of α and β. Each thread's share runs
+//! same decisions as lavapipe's, bit for bit, where f64 sums per chunk (as here before) parted
+//! from them at the last bit of α and β. Each thread's share runs
 //! over the masses in order: the same on any number of the CPU's threads.
 
 use glam::Vec4;

@@ -14,7 +14,7 @@ use crate::error::{Error, RerunError, Result};
 use crate::model::Model;
 use crate::record::{RecordOptions, Recorder};
 use crate::settings::Settings;
-use crate::state::{Snapshot, StepStats};
+use crate::state::Snapshot;
 
 /// Frames recorded in one batch to measure a small scene's frame: a run's recording batches
 /// many frames of an entity into one chunk, which spreads the chunk's own overhead thin.
@@ -51,9 +51,6 @@ fn spread(i: u64, salt: u64) -> f32 {
 fn sample_frame(model: &Model, frame: u64, strain_range: f32, spacing: f32) -> Snapshot {
     let wobble = 0.05 * spacing;
     Snapshot {
-        frame,
-        time_secs: frame as f64 / 60.0,
-        steps: frame,
         positions: model
             .initial
             .x
@@ -68,16 +65,13 @@ fn sample_frame(model: &Model, frame: u64, strain_range: f32, spacing: f32) -> S
         strain: (0..model.spring_count() as u64)
             .map(|s| 1.2 * strain_range * spread(s, frame + 1000))
             .collect(),
-        energies: Default::default(),
-        stats: StepStats::default(),
         collider_positions: model
             .effects
             .colliders
             .iter()
             .map(|c| c.path.pose_at(frame as f64 / 60.0).position_m)
             .collect(),
-        digest: None,
-        notes: Vec::new(),
+        ..Snapshot::at(frame, frame as f64 / 60.0, frame)
     }
 }
 

@@ -279,11 +279,6 @@ mod tests {
 
     fn frame(frame: u64, unmet_steps: u32, kinetic_j: f64) -> Snapshot {
         Snapshot {
-            frame,
-            time_secs: 0.0,
-            steps: frame,
-            positions: Vec::new(),
-            strain: Vec::new(),
             energies: Energies {
                 kinetic_j,
                 ..Energies::default()
@@ -296,9 +291,7 @@ mod tests {
                 }),
                 ..StepStats::default()
             },
-            collider_positions: Vec::new(),
-            digest: None,
-            notes: Vec::new(),
+            ..Snapshot::at(frame, 0.0, frame)
         }
     }
 

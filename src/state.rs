@@ -291,6 +291,23 @@ pub struct StrainDigest {
 }
 
 impl Snapshot {
+    /// Frame `frame` at `time_secs` after `steps` steps, with nothing in it yet: the start of
+    /// every snapshot a backend, a benchmark or a test makes (`Snapshot { positions, ..at(…) }`).
+    pub fn at(frame: u64, time_secs: f64, steps: u64) -> Self {
+        Snapshot {
+            frame,
+            time_secs,
+            steps,
+            positions: Vec::new(),
+            strain: Vec::new(),
+            energies: Energies::default(),
+            stats: StepStats::default(),
+            collider_positions: Vec::new(),
+            digest: None,
+            notes: Vec::new(),
+        }
+    }
+
     /// Largest |strain| of the intact springs.
     pub fn max_abs_strain(&self) -> f32 {
         self.strain

@@ -271,16 +271,8 @@ impl Backend for Slow {
     }
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
         self.pending.push_back(Snapshot {
-            frame,
-            time_secs: 0.0,
-            steps: self.steps,
-            positions: Vec::new(),
-            strain: Vec::new(),
-            energies: Default::default(),
             stats,
-            collider_positions: Vec::new(),
-            digest: None,
-            notes: Vec::new(),
+            ..Snapshot::at(frame, 0.0, self.steps)
         });
         Ok(())
     }

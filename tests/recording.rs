@@ -516,16 +516,9 @@ fn a_frame_digested_on_the_simulation_thread_records_exactly_as_one_the_recorder
                 .map(|x| *x + Vec3::Z * 0.002 * (x.x * 40.0 + k as f32).sin())
                 .collect();
             Snapshot {
-                frame: k,
-                time_secs: k as f64 / 60.0,
-                steps: k,
                 strain: model.springs.iter().map(|s| s.strain(&positions)).collect(),
                 positions,
-                energies: Default::default(),
-                stats: Default::default(),
-                collider_positions: Vec::new(),
-                digest: None,
-                notes: Vec::new(),
+                ..Snapshot::at(k, k as f64 / 60.0, k)
             }
         })
         .collect();

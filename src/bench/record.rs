@@ -109,19 +109,13 @@ fn bench_frames(model: &Model, frame_rate_hz: f64, count: usize) -> Vec<crate::s
                 .collect();
             let strain = model.springs.iter().map(|s| s.strain(&positions)).collect();
             crate::state::Snapshot {
-                frame: k as u64,
-                time_secs: k as f64 / frame_rate_hz,
-                steps: k as u64,
                 positions,
                 strain,
-                energies: Default::default(),
-                stats: Default::default(),
                 collider_positions: crate::model::poses_at(&model.effects.colliders, 0.0)
                     .iter()
                     .map(|p| p.position_m)
                     .collect(),
-                digest: None,
-                notes: Vec::new(),
+                ..crate::state::Snapshot::at(k as u64, k as f64 / frame_rate_hz, k as u64)
             }
         })
         .collect()

@@ -188,16 +188,8 @@ impl Backend for CpuBackend {
     fn request_snapshot(&mut self, frame: u64, stats: StepStats) -> Result<(), BackendError> {
         let t = self.state.time_secs;
         let mut snap = self.spare.pop().unwrap_or_else(|| Snapshot {
-            frame,
-            time_secs: t,
-            steps: 0,
-            positions: Vec::new(),
-            strain: Vec::new(),
-            energies: Default::default(),
             stats,
-            collider_positions: Vec::new(),
-            digest: None,
-            notes: Vec::new(),
+            ..Snapshot::at(frame, t, 0)
         });
         snap.digest = None;
         snap.notes.clear();

@@ -376,9 +376,6 @@ impl GpuBackend {
                 .map(|col| col.path.pose_at(p.time_secs).position_m),
         );
         Snapshot {
-            frame: p.frame,
-            time_secs: p.time_secs,
-            steps: p.steps,
             energies: Energies {
                 kinetic_j: rb.energy[0],
                 elastic_j: rb.energy[1],
@@ -395,8 +392,7 @@ impl GpuBackend {
                 ..self.with_solve(p.stats, rb.solve)
             },
             collider_positions,
-            digest: None,
-            notes: Vec::new(),
+            ..Snapshot::at(p.frame, p.time_secs, p.steps)
         }
     }
 }

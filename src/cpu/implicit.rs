@@ -66,8 +66,6 @@ pub struct SolveStats {
 pub struct Linearisation {
     pub(super) springs: Vec<SpringTerms>,
     contacts: Vec<ContactBlock>,
-    /// Whether the model has a ground or colliders (the shaders' `has_contact_terms`).
-    has_contacts: bool,
 }
 
 impl Linearisation {
@@ -75,7 +73,6 @@ impl Linearisation {
         Linearisation {
             springs: vec![SpringTerms::default(); model.spring_count()],
             contacts: vec![ContactBlock::default(); model.mass_count()],
-            has_contacts: model.effects.ground.is_some() || !model.effects.colliders.is_empty(),
         }
     }
 }
@@ -163,7 +160,7 @@ fn system_times(
         let t = lin.springs[nb.spring as usize];
         out = t.add_times(out, pi - pj);
     }
-    if lin.has_contacts {
+    if model.effects.has_contact() {
         out += lin.contacts[i].times(pi);
     }
     out
@@ -334,6 +331,7 @@ pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32, work: bool) -> 
         lin,
         acc,
         b,
+        z,
         block_inv,
         dv_total,
         vk,
@@ -355,14 +353,17 @@ pub fn implicit_rhs(model: &Model, w: &mut ImplicitWork, h: f32, work: bool) -> 
             invert_block(block_of_mass(model, lin, h, drag, i))
         };
     });
-    let (b, block_inv, vk) = (&*b, &*block_inv, &*vk);
+    // Block Jacobi's z = B⁻¹b, the solve's start (the multigrid cycle makes its own).
+    let (b, block_inv) = (&*b, &*block_inv);
+    each_mass(z, |i, z| *z = block_times(block_inv[i], b[i]));
+    let (z, vk) = (&*z, &*vk);
     group_reduce(b.len(), |i| {
         if model.inv_mass[i] == 0.0 {
             return Vec4::ZERO;
         }
         let (bi, m) = (b[i], model.mass_kg[i]);
         let hf = h * m * acc[i];
-        let z = block_times(block_inv[i], bi);
+        let z = z[i];
         let w = if work {
             residual_work(m, vk[i], bi)
         } else {
@@ -438,10 +439,8 @@ fn solve(
             z,
         );
         rz = sum(r, z);
-    } else {
-        let (r, block_inv) = (&*r, &*block_inv);
-        each_mass(z, |i, z| *z = block_times(block_inv[i], r[i]));
     }
+    // Block Jacobi's z = B⁻¹r is implicit_rhs's, r being b.
     p.copy_from_slice(z);
     let mut residual = 1.0f32;
     let mut iterations = 0;
@@ -486,7 +485,7 @@ pub(super) fn own_and_contacts(
     i: usize,
 ) -> Mat3 {
     let own = own_block(model.mass_kg[i], h, drag);
-    if lin.has_contacts {
+    if model.effects.has_contact() {
         own + lin.contacts[i].block()
     } else {
         own

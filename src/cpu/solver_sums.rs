@@ -9,7 +9,7 @@
 
 use glam::Vec4;
 
-use crate::physics::{SUM_LANES, sum_groups};
+use crate::physics::{SUM_GROUPS_MOST, SUM_LANES, sum_groups};
 
 const LANES: usize = SUM_LANES as usize;
 
@@ -20,16 +20,20 @@ pub fn group_reduce(n: usize, value: impl Fn(usize) -> Vec4) -> Vec4 {
     if groups == 1 {
         // One group: its threads' sums added in order are the total (`grid_total` then adds
         // zeros to it).
-        return in_order(&lane_sums::<LANES>(n, value));
+        let mut lanes = [Vec4::ZERO; LANES];
+        lane_sums_into(n, &mut lanes, value);
+        return in_order(&lanes);
     }
     // The threads' sums (the grid's threads stride over the masses), each group's (`reduce_over`
     // over SUM_LANES threads at one level: in order), then `grid_total`: SUM_LANES shares of the
-    // groups' sums, strided, each from zero, added in order.
-    let threads = lane_sums_dyn(n, groups * LANES, value);
-    let group_sums: Vec<Vec4> = threads.chunks(LANES).map(in_order).collect();
+    // groups' sums, strided, each from zero, added in order. On the stack: no allocation in the
+    // CG loop.
+    let mut threads = [Vec4::ZERO; SUM_GROUPS_MOST * LANES];
+    let threads = &mut threads[..groups * LANES];
+    lane_sums_into(n, threads, value);
     let mut shares = [Vec4::ZERO; LANES];
-    for (g, sum) in group_sums.iter().enumerate() {
-        shares[g % LANES] += *sum;
+    for (g, group) in threads.chunks(LANES).enumerate() {
+        shares[g % LANES] += in_order(group);
     }
     in_order(&shares)
 }
@@ -39,31 +43,15 @@ fn in_order(sums: &[Vec4]) -> Vec4 {
     sums.iter().fold(Vec4::ZERO, |total, s| total + *s)
 }
 
-/// Thread t's sum of value(t), value(t + L), … for L = `THREADS`.
+/// Each of as many threads as `lanes` holds adds value(t), value(t + L), … (L threads) into
+/// its lane, in order.
 #[inline(always)]
-fn lane_sums<const THREADS: usize>(n: usize, value: impl Fn(usize) -> Vec4) -> [Vec4; THREADS] {
-    let mut lanes = [Vec4::ZERO; THREADS];
-    let whole = n - n % THREADS;
-    for base in (0..whole).step_by(THREADS) {
-        for (lane, sum) in lanes.iter_mut().enumerate() {
-            *sum += value(base + lane);
-        }
-    }
-    for (lane, sum) in lanes.iter_mut().enumerate().take(n - whole) {
-        *sum += value(whole + lane);
-    }
-    lanes
-}
-
-/// `lane_sums` for a number of threads known at run time.
-fn lane_sums_dyn(n: usize, threads: usize, value: impl Fn(usize) -> Vec4) -> Vec<Vec4> {
-    let mut lanes = vec![Vec4::ZERO; threads];
-    for base in (0..n).step_by(threads) {
+fn lane_sums_into(n: usize, lanes: &mut [Vec4], value: impl Fn(usize) -> Vec4) {
+    for base in (0..n).step_by(lanes.len()) {
         for (lane, sum) in lanes.iter_mut().enumerate().take(n - base) {
             *sum += value(base + lane);
         }
     }
-    lanes
 }
 
 /// The largest `value(i)` per component (non-negative figures): order does not matter to a

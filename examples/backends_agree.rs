@@ -1,6 +1,6 @@
 //! A scene stepped on the GPU (the run's default paths on this adapter) and on the CPU
 //! reference, frame by frame: where every mass ends on each, how far apart, and whether every
-//! bit agrees. The runs issue 49 asked to end where the CPU ends on every driver
+//! bit agrees. The runs that end where the CPU ends on every driver
 //! (docs/drivers.md, BENCHMARKS.md "Correct or a clear error on Mesa 22.3"):
 //!
 //! `cargo run --release --example backends_agree -- SCENE [INTEGRATOR] [DT] [FRAMES] [SWEEPS]`

@@ -43,8 +43,9 @@ pub enum Integrator {
 /// by aggregation multigrid (`cpu/multigrid.rs`, `gpu/multigrid.rs`) unless the run names a
 /// preconditioner. Below it the cycle saves no time on the CPU: on the eleven scenes of 100 to
 /// 1 444 masses at 1/60 s, two cores, it took 3–6× fewer CG iterations and ran 0.75–1.49×
-/// block Jacobi's speed (BENCHMARKS.md, eighth session). Whether it pays in the GPU's
-/// one-workgroup step is for a GPU to measure (`bench/device/session.sh mg`).
+/// block Jacobi's speed (BENCHMARKS.md, "Multigrid in the one-workgroup step, and a
+/// preconditioner to choose"). Whether it pays in the GPU's one-workgroup step is for a GPU to
+/// measure (`bench/device/gpu_rows.sh mg`).
 pub const MULTIGRID_MIN_MASSES: usize = 4096;
 
 /// The system's stiffness against the step (`physics::stiffness_against_step`: the largest

@@ -65,7 +65,7 @@ pub fn realtime_factor(sim_secs: f64, wall_secs: f64) -> String {
         format!("{f:.3}")
     } else {
         // Slower still, as a power of ten: cloth-1024 on two cores runs at about 3e-4× real
-        // time, which three decimals showed as 0.000× (issue 48).
+        // time, which three decimals showed as 0.000×.
         format!("{f:.2e}")
     }
 }

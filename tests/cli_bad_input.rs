@@ -7,7 +7,7 @@ mod common;
 use common::{hooke_within_memory, temp_dir, text};
 
 /// Every bad input here runs under a 2 GB address space (`ulimit -v`): one whose refusal needed
-/// more would fail its test, not the machine (issue 46).
+/// more would fail its test, not the machine.
 fn hooke(args: &[&str]) -> std::process::Output {
     hooke_within_memory(args, 2 << 30)
 }
@@ -299,7 +299,7 @@ fn bad_command_line_values_are_clear_errors() {
     ] {
         expect_failure(&args, 1, says);
     }
-    // `--dt` takes a fraction, as `--compare` does (issue 48); a broken one says what it takes.
+    // `--dt` takes a fraction, as `--compare` does; a broken one says what it takes.
     expect_failure(
         &["check", "hair", "--dt", "1/x"],
         2,
@@ -326,7 +326,7 @@ fn expect_failure(args: &[&str], code: i32, says: &str) {
     );
 }
 
-/// Issue 46's misleading or silent cases: a value past f32's range says so (not "got inf"),
+/// Misleading or silent cases once: a value past f32's range says so (not "got inf"),
 /// `frames` with `duration_secs` is refused like `substeps` with `dt_secs`, options that do
 /// nothing in context are refused or noted, `--compare` has a cap that says why, `--steps 0`
 /// and an `--out` that is not a folder are errors.
@@ -348,7 +348,7 @@ fn options_and_values_that_would_do_nothing_or_mislead_are_refused_or_noted() {
         "3:",
         "either `frames` or `duration_secs`, not both",
     );
-    // 4e9 sweeps a step could not be stopped in time (issue 46); 100 000 are allowed.
+    // 4e9 sweeps a step could not be stopped in time; 100 000 are allowed.
     expect_scene_error(
         "vbd-sweeps-4e9",
         &with_table("[solver]\nintegrator = \"vbd\"\nvbd_iterations = 4000000000\n"),

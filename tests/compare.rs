@@ -317,7 +317,7 @@ fn a_realtime_comparison_never_runs_ahead_of_the_wall_clock() {
     let took = start.elapsed().as_secs_f64();
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(took >= 0.2, "12 frames in {took:.3} s");
-    // Frame 1's time, with what a backend does once, is kept out of the plot (issue 48).
+    // Frame 1's time, with what a backend does once, is kept out of the plot.
     let rec = read_rrd(&path);
     assert_eq!(
         rec.frames_of("/compare/wall_ms/verlet"),

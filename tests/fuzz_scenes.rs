@@ -4,7 +4,7 @@
 //! a scene or one clear error, never a panic, and a scene that validates must build its model. The mutator
 //! is a fixed-seed xorshift, so a failure reproduces exactly; CI runs it in a few seconds.
 //!
-//! Issue 46's adversarial cases run under a 2 GB address space, so that one that grows with its
+//! The adversarial cases run under a 2 GB address space, so that one that grows with its
 //! input fails its test instead of the machine: here absurd extents, memory beyond the machine,
 //! non-finite ledgers, impacts too fast for the step and buried bodies; in `cli_bad_input.rs`
 //! (the same cap) the misleading messages, options that do nothing, the sweep cap and steps f32
@@ -313,7 +313,7 @@ fn random_and_mutated_meshes_never_panic() {
     );
 }
 
-/// The memory a bad input may take on its way to a refusal or a run (issue 46: none may abort or
+/// The memory a bad input may take on its way to a refusal or a run (none may abort or
 /// exceed 2 GB).
 const MEMORY_CAP: u64 = 2 << 30;
 

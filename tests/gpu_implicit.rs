@@ -92,7 +92,7 @@ fn gpu_bdf2_matches_the_cpu_on_both_paths() {
     }
 }
 
-/// Issue 49's runs at one step per frame: implicit Euler on the cloth for 60 frames, through its
+/// Runs at one step per frame (docs/drivers.md): implicit Euler on the cloth for 60 frames, through its
 /// fall onto the sphere and the ground, where some steps end without meeting Newton's rule
 /// (`unmet` below, reported in the run's output), and BDF2 on the jello. The cloth is chaotic there: the CPU from a
 /// start moved by one f32 step parts from itself by centimetres within 40 frames, at any step

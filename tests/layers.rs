@@ -328,7 +328,7 @@ fn backends_import_nothing_from_each_other() {
 }
 
 /// No file of the library or its shaders grows past 600 lines: a longer one holds more than one
-/// concern and should be split by what it holds (the rule issue 29 set).
+/// concern and should be split by what it holds.
 #[test]
 fn no_source_file_exceeds_600_lines() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

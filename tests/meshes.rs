@@ -210,7 +210,7 @@ fn pins_by_vertex_by_region_and_by_group() {
     // By vertex index: the mesh's own numbering (the order faces first use them).
     let m = model(&dir, &scene_text("flag.obj", "pins = [[0], [1]]"));
     assert_eq!(pinned(&m).len(), 2);
-    // The same as a flat list (issue 48: `pins = [0, 10]` said "invalid type: integer").
+    // The same as a flat list (`pins = [0, 10]` once said "invalid type: integer").
     let flat = model(&dir, &scene_text("flag.obj", "pins = [0, 1]"));
     assert_eq!(pinned(&flat), pinned(&m));
     refused(
@@ -495,7 +495,7 @@ fn a_gltf_that_would_crash_its_reader_is_refused_with_what_is_wrong() {
             "8 bytes long",
         ],
     );
-    // Files with no triangles say which part gave none and why (issue 46: three broken files
+    // Files with no triangles say which part gave none and why (three broken files
     // all said "it has no triangles"; a primitive without POSITION is the reader's own error).
     let good = triangle_gltf(5123, 3, r#"[{"mesh":0}]"#);
     for (name, from, to, says) in [

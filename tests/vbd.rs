@@ -189,8 +189,8 @@ fn gpu_vbd_matches_the_cpu() {
 /// integrate.wgsl): each frame's largest residual |h f − M Δv| / |h f| agrees to f32 rounding
 /// (the GPU adds it in f32 by workgroups of 64 masses, the CPU in f64 mass by mass), and the same
 /// steps are counted short of `VBD_RESIDUAL`, on both sweep paths. The small pinned jello of
-/// issue 49 at 40 steps a frame and 200 sweeps meets the rule (residual about 1e-4); jello at
-/// one step per frame with ten sweeps leaves most of each step unmet (0.97 at frame 1). A frame
+/// `bench/scenes/jello-4-pinned.toml` at 40 steps a frame and 200 sweeps meets the rule
+/// (residual about 1e-4); jello at one step per frame with ten sweeps leaves most of each step unmet (0.97 at frame 1). A frame
 /// of the pinned jello a dispatch per colour is 104 000 dispatches, more than one submission may
 /// hold on Mesa 25's lavapipe, which crashed on it (`encode::MOST_DISPATCHES_PER_SUBMISSION`).
 #[test]

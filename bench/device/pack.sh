@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What `session.sh v` carries in .gpu/t: this checkout's hooke, a baseline's (the commit given)
+# What `gpu_rows.sh v` carries in .gpu/t: this checkout's hooke, a baseline's (the commit given)
 # and the GPU test binaries, stripped, in one xz stream with a window wide enough to span them
 # all. From the project root, after `cargo test --release --locked --no-run`:
 #   bench/device/pack.sh 77e1e67

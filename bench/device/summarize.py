@@ -1,4 +1,4 @@
-"""Tables of bench/device/session.sh's JSON lines (and those of the retired issue29.sh), any number of files:
+"""Tables of bench/device/gpu_rows.sh's JSON lines (and those of the retired issue29.sh), any number of files:
 every row's median steps/s, spring updates/s, traffic and where it ended; then, for issue 29,
 each configuration's baseline ("old") against this binary ("new") over the rounds run."""
 import json

@@ -164,7 +164,7 @@ fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
             r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="2"/>"#,
             path.join(" ")
         );
-        // Each point names its step (issue 48: the points carried no dt).
+        // Each point names its step.
         for (x, y, dt) in &points {
             let _ = writeln!(
                 s,

@@ -128,7 +128,7 @@ At one step per frame (dt = {frame_dt:.3e} s), cheapest first:
 const ERROR_LEVELS_M: [f64; 7] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
 
 /// Costs within this share of the cheapest are a tie: timing noise on a busy machine is about
-/// that large, and must not decide the answer (issue 48).
+/// that large, and must not decide the answer.
 pub const TIE_SHARE: f64 = 0.10;
 
 /// For each error level, the cheapest runs (least wall time per simulated second) that stayed
@@ -170,8 +170,8 @@ fn guidance(r: &Accuracy) -> String {
                 .collect::<Vec<_>>()
                 .join(" = ")
         };
-        // A step above `check`'s estimate is said where it is recommended (issue 48: Verlet at
-        // 8.3e-4 s on the jello was, above its estimated 4.27e-4 s, without a word).
+        // A step above `check`'s estimate is said where it is recommended (Verlet at 8.3e-4 s on
+        // the jello was recommended, above its estimated 4.27e-4 s, without a word).
         let above = |row: &Row| {
             r.stable
                 .iter()

@@ -161,7 +161,7 @@ fn masses_and_springs(s: &mut String, model: &Model) {
     }
 }
 
-/// Where a body's pins landed, the first few by position (issue 48: a mesh's vertex numbers
+/// Where a body's pins landed, the first few by position (a mesh's vertex numbers
 /// follow the order its faces use them, so `pins = [0, 10]` may not be the corners one meant).
 fn pinned(s: &mut String, model: &Model, masses: std::ops::Range<u32>) {
     const SHOWN: usize = 6;
@@ -340,8 +340,8 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
             .limit
             .map(|l| format!(", {} limit", l.name()))
             .unwrap_or_default();
-        // The run's integrator, with the step it takes against this limit (issue 48: the arrow
-        // beside a limit read as the step chosen).
+        // The run's integrator, with the step it takes against this limit (an arrow beside
+        // a limit alone read as the step chosen).
         let mark = match (i == settings.integrator, dt) {
             (false, _) => String::new(),
             (true, Some(limit)) if limit.is_finite() && limit > 0.0 => format!(

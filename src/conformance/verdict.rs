@@ -1,7 +1,7 @@
 //! What the probe concludes for one kernel family on one adapter, and the rule it judges by.
 
 /// How far a mass may end from the CPU's after the probe's frames, where the two are not held to
-/// bit for bit: 0.1 mm (issue 49). A GPU sums implicit Euler's figures over its own threads and
+/// bit for bit: 0.1 mm. A GPU sums implicit Euler's figures over its own threads and
 /// workgroups, not in the CPU's lanes, so its solves may stop an iteration apart; over the
 /// probe's three frames at one step per frame that left about 1e-6 m on lavapipe before its sums
 /// were the CPU's, and 4.4e-6 m on an H100.

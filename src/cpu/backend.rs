@@ -181,7 +181,8 @@ impl Backend for CpuBackend {
             }
         };
         // Below PARALLEL_MIN_MASSES every loop runs on this thread, and the trip to the pool
-        // would cost an advance of one hair step 20–35% (BENCHMARKS.md, ninth session).
+        // would cost an advance of one hair step 20–35% (BENCHMARKS.md, "The CPU's loops on
+        // the pool, and the preconditioner by stiffness against the step").
         if parallel { in_pool(go) } else { go() }
     }
 

@@ -154,7 +154,7 @@ impl Dispatcher<'_> {
 
 /// The most dispatches one submission of steps records. Mesa 25.0.7's lavapipe crashes (a
 /// segfault in its queue thread) on a command buffer of more than about 65 000 dispatches: VBD on
-/// the small pinned jello of issue 49 (13 colours, a dispatch per colour and sweep, 200 sweeps)
+/// the small pinned jello, `bench/scenes/jello-4-pinned.toml` (13 colours, a dispatch per colour and sweep, 200 sweeps)
 /// ran 25 steps in one submission (65 100 dispatches) and crashed at 26 (67 704). A frame's steps
 /// beyond this many go in several submissions, in order (docs/drivers.md).
 pub const MOST_DISPATCHES_PER_SUBMISSION: usize = 16_384;

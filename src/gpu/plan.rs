@@ -379,7 +379,7 @@ mod tests {
         Integrator::Rk4,
     ];
 
-    /// The fused steps keep issue 13's bounds (at most 2 dispatches per step, RK4 5), each
+    /// The fused steps keep their bounds (at most 2 dispatches per step, RK4 5), each
     /// dispatch reads the state the one before wrote, and a step starts from A and returns to it
     /// (Euler and semi-implicit Euler every second step).
     #[test]
@@ -409,7 +409,7 @@ mod tests {
 
     /// The grid stencil brings a fused semi-implicit step at cloth-256 under 18 B of compulsory
     /// traffic per spring update (x and v read and written, each mass's mass and ledger; nothing
-    /// per spring; with links it was 34 B, issues 13 and 29); the general passes move four times
+    /// per spring; with links it was 34 B); the general passes move four times
     /// that.
     #[test]
     fn a_fused_cloth_256_step_moves_at_most_18_bytes_per_spring() {
@@ -441,7 +441,7 @@ mod tests {
         );
     }
 
-    /// Implicit Euler's per-pass path keeps issue 13's bound: at most 2 dispatches per CG
+    /// Implicit Euler's per-pass path keeps its bound: at most 2 dispatches per CG
     /// iteration, and no kernel of a CG iteration runs on one workgroup alone (each sums the
     /// partials it needs itself).
     #[test]

@@ -1,7 +1,7 @@
 //! The fused steps' grid stencils: a grid body's masses find their springs from their cell and
 //! one table of slots (the other end's step across the grid, the spring's rest length and
-//! constants), so that a step reads x and v and no link per spring (issue 29: 214 MB a step at
-//! cloth-1024 with links). A body takes its stencil only where the stencil reproduces every one
+//! constants), so that a step reads x and v and no link per spring (with a link
+//! per spring a step at cloth-1024 moved 214 MB). A body takes its stencil only where the stencil reproduces every one
 //! of its masses' CSR entries bit for bit and in order (the order the force gather sums in), so
 //! the stencil step is the linked one's arithmetic exactly; other bodies (meshes, bodies past the
 //! table's room) keep their links.

@@ -8,7 +8,8 @@ use crate::spring_kind::{SpringKindTag, kind_offsets};
 /// Peak bytes a run takes per mass and per spring, apart from the springs: the model, the CPU
 /// backend's state and work vectors, the recorder's frames. Measured as the peak resident size of
 /// `hooke run … --backend cpu --frames 1 --save` on square cloths of 250 000 to 2.25 million
-/// masses (dev-2c, eleventh session): 457 MB a million masses with structural springs only, 892
+/// masses (dev-2c; BENCHMARKS.md, "VBD judged on the GPU, long frames in several submissions, bad input
+/// bounded"): 457 MB a million masses with structural springs only, 892
 /// MB with all three kinds; rounded up.
 pub const BYTES_PER_MASS: u64 = 260;
 /// See `BYTES_PER_MASS`: (892 − 457) MB over 4 million more springs, rounded up.

@@ -389,7 +389,7 @@ impl CompareRecorder {
             &rerun::Scalars::single(balance),
         )?;
         // Frame 1's time holds what a backend does once (a GPU driver compiling its kernels at
-        // their first dispatch: over a second, issue 48), which would flatten the plot of every
+        // their first dispatch: over a second on lavapipe), which would flatten the plot of every
         // later frame: it goes beside the plot, not in it.
         let wall = match snap.frame {
             1 => "first_frame_wall_ms",

@@ -77,6 +77,6 @@ pub(super) const ENTRY_COLORS: [Rgb; 6] = [WHITE, ORANGE, CYAN, VIOLET, GREEN, P
 pub(super) const YELLOW: Rgb = rgb(255, 200, 0, "yellow");
 /// Colliders: sand, off the strain scale (blue, grey, red) and the gap scale (blue-grey, amber,
 /// red), so that a table or sphere showing through a cloth never reads as compressed springs
-/// (issue 48: the tablecloth's table, in the blue it was, looked like compression).
+/// (the tablecloth's table, in the blue it once had, looked like compression).
 pub(super) const COLLIDER: Rgb = rgb(176, 150, 104, "sand");
 pub(super) const GREY: Rgb = rgb(150, 150, 150, "grey");

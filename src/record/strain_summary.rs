@@ -15,7 +15,7 @@ use crate::model::{Model, SpringKindTag};
 /// by (structural, where the model has any: `surface.rs` says why), so that the label names a
 /// spring whose strain the colour under it shows; `None` (every spring) where it has none.
 /// (On the flag the label named a bending spring at −25% over a surface coloured by its
-/// structural springs: issue 48.)
+/// structural springs.)
 pub fn labelled_springs(model: &Model) -> Option<Arc<[bool]>> {
     let structural = |k: &SpringKindTag| *k == SpringKindTag::Structural;
     model

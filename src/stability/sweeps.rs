@@ -1,7 +1,7 @@
 //! Whether a fixed number of Gauss–Seidel sweeps a step (XPBD's over the springs, VBD's over the
 //! masses) converges the springs at the chosen step, or leaves an answer that is fast and wrong:
 //! stable, but a body far softer than its springs (XPBD at 1/60 s on the peer cloth ends 20 times
-//! lower than the fine-step reference, issue 31).
+//! lower than the fine-step reference).
 //!
 //! Both solve, each step, a system whose matrix scaled by the masses is I + s L: s = h² k / m the
 //! springs' stiffness over a step, L the graph Laplacian of a body's springs (XPBD's compliance

@@ -9,11 +9,11 @@
 #     strip -o /tmp/hooke-old /tmp/bt/release/hooke && xz -6 -c /tmp/hooke-old >.gpu/old/hooke.xz
 #   ../shared/gpu/kit.sh --peers && gunzip -c .gpu/bin/hooke.gz | xz -6 >.gpu/bin/hooke.xz &&
 #     rm .gpu/bin/hooke.gz
-#   1. carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/w1"]:  bash bench/device/session.sh a
-#      (or, for the peers alone, carrying [".gpu/bin", ".gpu/gl", ".gpu/w1"]: session.sh w, then
+#   1. carrying [".gpu/bin", ".gpu/gl", ".gpu/old", ".gpu/w1"]:  bash bench/device/gpu_rows.sh a
+#      (or, for the peers alone, carrying [".gpu/bin", ".gpu/gl", ".gpu/w1"]: gpu_rows.sh w, then
 #      [".gpu/w2"]: w, then [".gpu/w3", ".gpu/p"]: c)
-#   2. carrying [".gpu/w2"]:                                       bash bench/device/session.sh b
-#   3. carrying [".gpu/w3"]:                                       bash bench/device/session.sh c
+#   2. carrying [".gpu/w2"]:                                       bash bench/device/gpu_rows.sh b
+#   3. carrying [".gpu/w3"]:                                       bash bench/device/gpu_rows.sh c
 # a: issue 29's rows, this binary against the baseline (round 1), issue 31's rows at 1/60 s;
 # b: issue 29's round 2, issue 27's recordings, issue 31's thread scaling;
 # c: the peers (Warp with CUDA graphs, Taichi CUDA) and this binary on the peer cloth, 2 rounds;
@@ -111,7 +111,7 @@ run_tests() {
 }
 case $phase in
 x)
-  # (x: not w, which the peers take above.) The thirteenth session's second call, carrying
+  # (x: not w, which the peers take above.) The second call of 2026-11-28 (an H200), carrying
   # [".gpu/gl", ".gpu/p", ".gpu/t"]: issue 46's
   # VBD rows for the baseline (hooke-old), the first call's binary (hooke-v1) and this one, then
   # the implicit families' probe and the GPU test binaries, most telling first, until 330 s.
@@ -232,7 +232,7 @@ l)
   fi
   ;;
 mg)
-  # Multigrid on the GPU (issue 31, seventh session), one short call carrying [".gpu/bin",
+  # Multigrid on the GPU (issue 31), one short call carrying [".gpu/bin",
   # ".gpu/gl", ".gpu/old", ".gpu/ex", ".gpu/p"], .gpu/ex holding preconditioners.xz:
   #   strip -o /tmp/pc target/release/examples/preconditioners && mkdir -p .gpu/ex &&
   #     xz -6 -c /tmp/pc >.gpu/ex/preconditioners.xz
@@ -262,7 +262,7 @@ mg)
   done
   row "31-own" $H cloth-256 --integrator implicit --steps 400 --batch 20
   # Issue 31: the implicit CPU path from 1 to 16 threads on cloth-256 (goal >= 6x), at its own
-  # step and at one step per frame (multigrid by size; the ninth session's loops on the pool).
+  # step and at one step per frame (multigrid by size; the CPU's loops on the pool).
   for t in 1 16; do
     export RAYON_NUM_THREADS=$t
     row "31-cpu-t$t" $H cloth-256 --integrator implicit --backend cpu --steps 40 --batch 20
@@ -284,7 +284,7 @@ mg)
     f=0.016666666666666666
     timeout 120 /tmp/preconditioners bench/scenes/cloth-256-60hz.toml $f 30 2 both implicit gpu
     timeout 120 /tmp/preconditioners /tmp/peer-cloth-256-60hz.toml $f 60 2 both bdf2 gpu
-    # The one-workgroup step with each preconditioner (issue 31, eighth session: the cycle in
+    # The one-workgroup step with each preconditioner (issue 31: the cycle in
     # one workgroup, mg_implicit_step), the small scenes at one step per frame.
     for s in jello cloth hair jello-sphere; do
       timeout 60 /tmp/preconditioners $s $f 60 3 both implicit gpu group

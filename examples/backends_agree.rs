@@ -19,9 +19,9 @@ fn main() -> anyhow::Result<()> {
     let Some(scene) = args.first() else {
         anyhow::bail!("usage: backends_agree SCENE [INTEGRATOR] [DT] [FRAMES] [SWEEPS]");
     };
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = hooke::prepare::planned(scene)?;
+    } = hooke::run::prepare::planned(scene)?;
     let integrator = match args.get(1) {
         Some(name) => Integrator::ALL
             .into_iter()

@@ -23,9 +23,9 @@ fn main() -> anyhow::Result<()> {
     };
     let steps: u64 = args.get(1).map_or(Ok(200), |s| s.parse())?;
     let rounds: usize = args.get(2).map_or(Ok(3), |s| s.parse())?;
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = hooke::prepare::planned(scene)?;
+    } = hooke::run::prepare::planned(scene)?;
     let integrator = Integrator::SemiImplicit;
     let only = args.get(3).map_or("", String::as_str);
     let kernels: Vec<_> = [

@@ -33,10 +33,14 @@ fn main() -> anyhow::Result<()> {
         args
     };
     for scene in &scenes {
-        let hooke::prepare::Planned {
+        let hooke::run::prepare::Planned {
             settings, model, ..
-        } = hooke::prepare::planned(scene)?;
-        let n = if model.mass_count() > 20_000 { 3 } else { steps };
+        } = hooke::run::prepare::planned(scene)?;
+        let n = if model.mass_count() > 20_000 {
+            3
+        } else {
+            steps
+        };
         for integrator in Integrator::ALL {
             if integrator.supports(&model.effects).is_err() {
                 continue;

@@ -5,15 +5,15 @@
 
 use hooke::integrator::Step;
 
-use hooke::select::{self, BackendKind};
+use hooke::run::select::{self, BackendKind};
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let name = args.next().unwrap_or_else(|| "jello".to_owned());
     let every: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(30);
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = hooke::prepare::planned(&name)?;
+    } = hooke::run::prepare::planned(&name)?;
     let mut be = select::create(
         BackendKind::Cpu,
         model.clone(),

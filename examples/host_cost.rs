@@ -18,7 +18,7 @@ fn main() -> anyhow::Result<()> {
         anyhow::bail!("usage: host_cost SCENE [STEPS]");
     };
     let steps: u32 = args.get(1).map_or(Ok(1000), |s| s.parse())?;
-    let planned = hooke::prepare::planned(scene)?;
+    let planned = hooke::run::prepare::planned(scene)?;
     let mut gpu =
         hooke::gpu::GpuBackend::new(planned.model.clone(), planned.settings.step(), None)?;
     // Warm-up: pipelines compiled, buffers grown to the submission's size.

@@ -28,9 +28,9 @@ fn main() -> anyhow::Result<()> {
     let Some(scene) = args.first() else {
         anyhow::bail!("usage: large_steps SCENE [DT] [STEPS] [ROUNDS] [THREADS,…]");
     };
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = hooke::prepare::planned(scene)?;
+    } = hooke::run::prepare::planned(scene)?;
     let dt: f64 = args.get(1).map_or(Ok(1.0 / 60.0), |s| s.parse())?;
     let steps: u64 = args.get(2).map_or(Ok(60), |s| s.parse())?;
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;

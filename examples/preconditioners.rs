@@ -37,7 +37,7 @@ fn main() -> anyhow::Result<()> {
             "usage: preconditioners SCENE [DT] [STEPS] [ROUNDS] [multigrid|block-jacobi|both] [implicit|bdf2] [cpu|gpu] [passes|group]"
         );
     };
-    let hooke::prepare::Planned { model, .. } = hooke::prepare::planned(scene)?;
+    let hooke::run::prepare::Planned { model, .. } = hooke::run::prepare::planned(scene)?;
     let dt: f64 = args.get(1).map_or(Ok(1.0 / 60.0), |s| s.parse())?;
     let steps: u32 = args.get(2).map_or(Ok(30), |s| s.parse())?;
     let rounds: usize = args.get(3).map_or(Ok(2), |s| s.parse())?;

@@ -32,7 +32,7 @@ override NEWTON_BACKTRACKS: u32 = 2u;
 override NEWTON_OVERSHOOT: f32 = 1.1;
 override CG_FORCING: f32 = 0.1;
 // How many times its allowed depth a mass may sink in a step before its projection counts as
-// deep (src/contact_law.rs's DEEP_SHARE).
+// deep (src/laws/contact_law.rs's DEEP_SHARE).
 override DEEP_SHARE: f32 = 2.0;
 // VBD's sweeps count as having solved a step below this residual (src/physics/solver.rs).
 override VBD_RESIDUAL: f32 = 0.5;

@@ -1,14 +1,14 @@
 //! The seam between the simulation thread and whatever steps the model: the [`Backend`] trait
 //! that the CPU reference (`cpu/`) and the wgpu compute backend (`gpu/`) implement, the error
 //! they stop with, and what every backend shares (the divergence check). Which backend a run
-//! gets is chosen above both, in [`crate::select`]; everything above that is backend-agnostic.
+//! gets is chosen above both, in [`crate::run::select`]; everything above that is backend-agnostic.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use crate::divergence::{Divergence, Fault, StrainedSpring, Unconverged, Unphysical};
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::stability::divergence::{Divergence, Fault, StrainedSpring, Unconverged, Unphysical};
 use crate::stability::{Modes, stable_step};
 use crate::state::{Snapshot, State, StepStats};
 

@@ -7,10 +7,10 @@ use rerun::sink::SinkFlushError;
 
 use crate::backend::BackendError;
 use crate::record::RecordError;
-use crate::rrd_file::{CreateError, WriteFailure};
+use crate::record::rrd_file::{CreateError, WriteFailure};
+use crate::record::viewer::{ConnectError, Gone};
 use crate::scene::LoadError;
-use crate::settings::SettingsError;
-use crate::viewer::{ConnectError, Gone};
+use crate::scene::settings::SettingsError;
 // Where they have always been found, beside the library's other errors.
 pub use crate::scene::{SceneError, SceneOrigin};
 
@@ -42,7 +42,7 @@ pub enum Error {
         /// Counted from 1.
         position: usize,
         text: String,
-        why: crate::compare_entry::EntryError,
+        why: crate::scene::compare_entry::EntryError,
     },
 
     /// An entry of a comparison refused before anything runs.

@@ -131,7 +131,7 @@ pub const DEFAULT_XPBD_ITERATIONS: u32 = 1;
 pub const DEFAULT_VBD_ITERATIONS: u32 = 10;
 
 /// How a backend steps: the integrator, its step and its options. Both backends take one; a
-/// run's comes from its [`Settings`](crate::settings::Settings).
+/// run's comes from its [`Settings`](crate::scene::settings::Settings).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step {
     pub integrator: Integrator,

@@ -10,9 +10,9 @@ const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bench/scenes");
 fn warp_cloth_scenes_load_build_and_match_warps_cloth() {
     for d in [32usize, 64, 128] {
         let path = format!("{DIR}/warp-cloth-{d}.toml");
-        let hooke::prepare::Planned {
+        let hooke::run::prepare::Planned {
             settings, model, ..
-        } = hooke::prepare::planned(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+        } = hooke::run::prepare::planned(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
         assert!(
             (settings.dt_secs - 1.0 / 960.0).abs() < 1e-12,
             "{path}: dt {}",

@@ -10,12 +10,12 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use common::{hooke, ok, read_rrd, temp_dir, text};
-use hooke::compare_entry::CompareEntry;
-use hooke::comparison::{ComparisonSummary, run_comparison};
-use hooke::prepare::{Request, prepare_comparison};
 use hooke::record::{ColourBy, CompareLayout};
-use hooke::select::Device;
-use hooke::settings::Overrides;
+use hooke::run::comparison::{ComparisonSummary, run_comparison};
+use hooke::run::prepare::{Request, prepare_comparison};
+use hooke::run::select::Device;
+use hooke::scene::compare_entry::CompareEntry;
+use hooke::scene::settings::Overrides;
 
 /// `scene` compared under `entries` on the CPU backend for `frames` frames, into a recording
 /// that goes nowhere.

@@ -196,7 +196,7 @@ fn a_spring_breaks_past_its_limit_and_then_exerts_nothing() {
 }
 
 fn tear_model() -> (Arc<Model>, f64, u32) {
-    let planned = ok(hooke::prepare::planned("tear"));
+    let planned = ok(hooke::run::prepare::planned("tear"));
     (
         planned.model,
         planned.settings.dt_secs,
@@ -480,9 +480,9 @@ fn every_collider_bounces_a_mass_back_with_its_restitution() {
 fn the_ramp_cube_yields_where_it_hits() {
     // The built-in scene that uses plasticity: the cube's impact on the block squeezes springs
     // past yield, and the energy their flow let go is in the ledger.
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = ok(hooke::prepare::planned("ramp"));
+    } = ok(hooke::run::prepare::planned("ramp"));
     assert!(model.effects.plasticity);
     let mut be = CpuBackend::new(model, Step::new(settings.integrator, settings.dt_secs));
     ok(be.advance(settings.substeps * settings.frames as u32));

@@ -13,7 +13,7 @@ use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{Model, ModelBuilder};
-use hooke::select::BackendKind;
+use hooke::run::select::BackendKind;
 
 fn patch(damping: f32, drag: Option<f32>) -> Arc<Model> {
     let n = 8u32;
@@ -223,10 +223,10 @@ fn to_the_end(name: &str, kind: BackendKind) {
             .iter()
             .find(|b| b.name == name)
             .unwrap_or_else(|| panic!("no scene {name}"));
-        let hooke::prepare::Planned {
+        let hooke::run::prepare::Planned {
             settings, model, ..
-        } = hooke::prepare::planned(b.name).unwrap_or_else(|e| panic!("{e}"));
-        let mut be = hooke::select::create(
+        } = hooke::run::prepare::planned(b.name).unwrap_or_else(|e| panic!("{e}"));
+        let mut be = hooke::run::select::create(
             kind,
             model.clone(),
             Step::new(settings.integrator, settings.dt_secs),

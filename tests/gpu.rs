@@ -261,12 +261,12 @@ fn a_diverging_gpu_run_delivers_its_good_frames_and_names_the_mass() {
         None,
     ));
     let (tx, rx) = crossbeam_channel::unbounded();
-    let out = hooke::sim::simulate(
+    let out = hooke::run::sim::simulate(
         &mut be,
         300,
         20,
         &tx,
-        hooke::sim::Delivery::Lossless,
+        hooke::run::sim::Delivery::Lossless,
         &std::sync::atomic::AtomicBool::new(false),
         None,
     );
@@ -414,12 +414,12 @@ fn a_lost_device_ends_the_run_clearly_and_keeps_the_frames_before_it() {
     };
     let (tx, rx) = crossbeam_channel::unbounded();
     let cancel = std::sync::atomic::AtomicBool::new(false);
-    let out = hooke::sim::simulate(
+    let out = hooke::run::sim::simulate(
         &mut be,
         100,
         5,
         &tx,
-        hooke::sim::Delivery::Lossless,
+        hooke::run::sim::Delivery::Lossless,
         &cancel,
         None,
     );

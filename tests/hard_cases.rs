@@ -15,7 +15,7 @@ use glam::Vec3;
 use hooke::backend::Backend;
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
-use hooke::select::BackendKind;
+use hooke::run::select::BackendKind;
 
 fn backends() -> Vec<BackendKind> {
     if gpu_available() {
@@ -59,7 +59,7 @@ fn survive(
         frames,
         substeps,
     } = stepping;
-    let mut be: Box<dyn Backend> = ok(hooke::select::create(
+    let mut be: Box<dyn Backend> = ok(hooke::run::select::create(
         kind,
         model.clone(),
         Step::new(integrator, dt),
@@ -339,9 +339,9 @@ fn a_cube_compressed_to_near_inversion_springs_back_without_blowing_up() {
 
 #[test]
 fn a_long_run_stays_finite_and_bounded() {
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = ok(hooke::prepare::planned("hair"));
+    } = ok(hooke::run::prepare::planned("hair"));
     for kind in backends() {
         // One simulated hour on the CPU (4,320,000 steps of 1/1200 s); 100,000 steps on a
         // software GPU.
@@ -473,7 +473,7 @@ fn hold_stiff_chain(
             0 => format!("{kind:?}"),
             _ => format!("{kind:?} from nudged start {seed}"),
         };
-        let mut be = ok(hooke::select::create(
+        let mut be = ok(hooke::run::select::create(
             kind,
             common::parity::nudged(&model, seed),
             Step::new(integrator, dt).with_options(options),

@@ -16,7 +16,7 @@ use common::{
     verified_rrd, verified_rrd_without_index,
 };
 use hooke::backend::{Backend, BackendError};
-use hooke::select::BackendKind;
+use hooke::run::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
 
 /// The promise in docs/guide/running.md ("Stopping a run"): a stop takes effect within this, whatever the frame's length.
@@ -302,17 +302,17 @@ fn the_simulation_stops_within_a_chunk_and_drops_the_frame_in_progress() {
             pending: Default::default(),
             stop: Some((stop_at, cancel.clone())),
         };
-        let out = hooke::sim::simulate(
+        let out = hooke::run::sim::simulate(
             &mut be,
             10,
             substeps,
             &tx,
-            hooke::sim::Delivery::Lossless,
+            hooke::run::sim::Delivery::Lossless,
             &*cancel,
             None,
         );
         assert!(out.cancelled && out.failed.is_none());
-        let chunk_max = (hooke::sim::CHUNK_SECS / 1e-3).ceil() as u64;
+        let chunk_max = (hooke::run::sim::CHUNK_SECS / 1e-3).ceil() as u64;
         let after = be.steps - stop_at;
         assert!(
             after <= chunk_max,
@@ -419,7 +419,7 @@ fn chunked_frames_step_exactly_like_whole_ones() {
     let model = Arc::new(hooke::model::build(&loaded.scene));
     for kind in kinds {
         let run = |chunks: &[u32]| {
-            let mut be = hooke::select::create(
+            let mut be = hooke::run::select::create(
                 kind,
                 model.clone(),
                 Step::new(hooke::integrator::Integrator::Rk4, 1.0 / 2400.0),

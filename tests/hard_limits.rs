@@ -20,7 +20,7 @@ use glam::Vec3;
 use hooke::backend::{Backend, BackendError};
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
-use hooke::select::BackendKind;
+use hooke::run::select::BackendKind;
 use hooke::stability::{Limit, Modes, Source, stable_step};
 use hooke::state::Snapshot;
 
@@ -92,7 +92,7 @@ fn run_checked(
     tolerance: Option<f64>,
     each_frame: &mut dyn FnMut(&Snapshot),
 ) -> (Snapshot, Option<BackendError>) {
-    let mut be: Box<dyn Backend> = ok(hooke::select::create(
+    let mut be: Box<dyn Backend> = ok(hooke::run::select::create(
         kind,
         model.clone(),
         Step::new(Integrator::SemiImplicit, dt),

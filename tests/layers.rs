@@ -311,7 +311,7 @@ fn files_of_a_folder_import_one_way() {
 
 /// The two backends compute from the same physics core (`src/physics/`) and neither imports the
 /// other: what both need lives below them, and the check that every GPU kernel has a CPU
-/// namesake (`src/twins.rs`) sits above both.
+/// namesake (`src/conformance/twins.rs`) sits above both.
 #[test]
 fn backends_import_nothing_from_each_other() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");

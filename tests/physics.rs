@@ -395,7 +395,7 @@ springs.shear = { stiffness_n_per_m = 100.0 }
 #[test]
 fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
     use hooke::backend::BackendError;
-    use hooke::sim::{Delivery, simulate};
+    use hooke::run::sim::{Delivery, simulate};
     let model = oscillator();
     for (dt, expect_divergence) in [(1e-3, false), (0.05, true)] {
         // Forward Euler grows by √(1 + (ωdt)²) a step: at ωdt ≈ 0.31 it runs away after ~20 frames.
@@ -442,7 +442,7 @@ fn simulation_delivers_every_good_frame_in_order_and_stops_at_divergence() {
 /// its probe is within the tolerance asked for (with a factor 2 for the estimate's own error).
 #[test]
 fn auto_dt_meets_the_requested_accuracy() {
-    use hooke::settings::{Overrides, Settings};
+    use hooke::scene::settings::{Overrides, Settings};
     let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
     let model = Arc::new(hooke::model::build(&loaded.scene));
     for (integrator, tolerance) in [(Integrator::SemiImplicit, 1e-4), (Integrator::Verlet, 1e-5)] {
@@ -454,13 +454,17 @@ fn auto_dt_meets_the_requested_accuracy() {
             },
         )
         .unwrap_or_else(|e| panic!("{e}"));
-        let auto =
-            hooke::auto_dt::choose(&model, &settings, &hooke::select::Device::cpu(), tolerance)
-                .unwrap_or_else(|e| panic!("{e}"));
+        let auto = hooke::run::auto_dt::choose(
+            &model,
+            &settings,
+            &hooke::run::select::Device::cpu(),
+            tolerance,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         assert!(auto.estimated_error_m <= tolerance, "{integrator}: {auto}");
         let steps = (auto.probe_secs / auto.dt_secs).round() as u64;
         let s = run(&model, integrator, auto.dt_secs, steps);
-        let mut reference = hooke::reference::Reference::new(model.clone());
+        let mut reference = hooke::accuracy::reference::Reference::new(model.clone());
         reference.advance_to(s.time_secs, auto.dt_secs / 8.0);
         let sq: f64 =
             s.x.iter()

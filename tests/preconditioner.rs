@@ -121,7 +121,7 @@ fn an_unknown_preconditioner_is_refused_with_the_names_that_would_do() {
 #[test]
 fn both_backends_take_the_preconditioner_a_scene_asks_for() {
     let cg = |file: &str, gpu: bool| -> (Preconditioner, u64) {
-        let planned = ok(hooke::prepare::planned(file));
+        let planned = ok(hooke::run::prepare::planned(file));
         let (model, step) = (planned.model, planned.settings.step());
         let dt = 1.0 / 60.0;
         let step = hooke::integrator::Step {

@@ -183,11 +183,11 @@ fn a_sheet_and_a_block_record_their_surface_with_the_snapshot_positions_and_stra
 #[test]
 fn a_torn_spring_removes_its_triangles_from_the_surface() {
     // tear: the sphere breaks the cloth's springs within its first second.
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         loaded,
         settings,
         model,
-    } = hooke::prepare::planned("tear").unwrap_or_else(|e| panic!("{e}"));
+    } = hooke::run::prepare::planned("tear").unwrap_or_else(|e| panic!("{e}"));
     let mut be = hooke::cpu::CpuBackend::new(
         model.clone(),
         Step::new(settings.integrator, settings.dt_secs),

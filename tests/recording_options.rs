@@ -82,15 +82,15 @@ fn a_large_sheet_leaves_its_springs_out_by_default_and_masses_are_on_demand() {
 
 #[test]
 fn realtime_never_delivers_a_frame_before_its_time() {
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
-    } = hooke::prepare::planned("hair").unwrap_or_else(|e| panic!("{e}"));
+    } = hooke::run::prepare::planned("hair").unwrap_or_else(|e| panic!("{e}"));
     let be = Box::new(hooke::cpu::CpuBackend::new(
         model,
         Step::new(settings.integrator, settings.dt_secs),
     ));
-    let pacer = hooke::pacing::Pacer::start(settings.frame_rate_hz);
-    let mut paced = hooke::pacing::paced(be, pacer);
+    let pacer = hooke::run::pacing::Pacer::start(settings.frame_rate_hz);
+    let mut paced = hooke::run::pacing::paced(be, pacer);
     let (tx, rx) = crossbeam_channel::bounded(64);
     let frames = 12;
     let cancel = std::sync::atomic::AtomicBool::new(false);
@@ -100,12 +100,12 @@ fn realtime_never_delivers_a_frame_before_its_time() {
                 .map(|snap: Snapshot| (snap.frame, pacer.started().elapsed()))
                 .collect::<Vec<_>>()
         });
-        let out = hooke::sim::simulate(
+        let out = hooke::run::sim::simulate(
             paced.as_mut(),
             frames,
             settings.substeps,
             &tx,
-            hooke::sim::Delivery::Lossless,
+            hooke::run::sim::Delivery::Lossless,
             &cancel,
             None,
         );

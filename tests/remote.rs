@@ -238,7 +238,7 @@ fn serve_hosts_the_web_viewer_and_the_recording() {
 /// display and counted, every frame is accounted for, and a file (lossless) gets every frame.
 #[test]
 fn a_slow_viewer_never_stalls_the_simulation_and_a_file_drops_nothing() {
-    use hooke::sim::{Delivery, simulate};
+    use hooke::run::sim::{Delivery, simulate};
     let loaded = hooke::scene::load("hair").unwrap_or_else(|e| panic!("{e}"));
     let model = std::sync::Arc::new(hooke::model::build(&loaded.scene));
     let frames = 200u64;

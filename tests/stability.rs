@@ -74,8 +74,9 @@ fn cloth_1024s_step_is_below_its_damped_estimate() {
 #[test]
 fn no_built_in_scene_warns_about_its_own_step() {
     for b in hooke::scene::BUILT_IN {
-        let request = hooke::prepare::Request::named(b.name, hooke::select::Device::cpu());
-        let planned = common::ok(hooke::prepare::plan(&request, &mut |_| {}));
+        let request =
+            hooke::run::prepare::Request::named(b.name, hooke::run::select::Device::cpu());
+        let planned = common::ok(hooke::run::prepare::plan(&request, &mut |_| {}));
         let warning = hooke::stability::dt_warning(&planned.model, &planned.settings);
         assert!(warning.is_none(), "{}: {warning:?}", b.name);
     }

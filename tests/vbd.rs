@@ -110,16 +110,16 @@ fn vbd_is_stable_at_one_step_per_frame_and_warns_where_its_sweeps_fall_short() {
         .collect();
     let (mut ran, mut kept) = (0, 0);
     for name in names {
-        let request = hooke::prepare::Request {
-            overrides: hooke::settings::Overrides {
+        let request = hooke::run::prepare::Request {
+            overrides: hooke::scene::settings::Overrides {
                 integrator: Some(Integrator::Vbd),
                 dt_secs: Some(FRAME_DT),
                 ..Default::default()
             },
-            ..hooke::prepare::Request::named(name, hooke::select::Device::cpu())
+            ..hooke::run::prepare::Request::named(name, hooke::run::select::Device::cpu())
         };
         // Self-collision is refused (below).
-        let Ok(planned) = hooke::prepare::plan(&request, &mut |_| {}) else {
+        let Ok(planned) = hooke::run::prepare::plan(&request, &mut |_| {}) else {
             continue;
         };
         let (model, settings) = (planned.model, planned.settings);

@@ -95,7 +95,7 @@ fn xpbd_error_against_the_reference_falls_as_substeps_grow() {
         .into_iter()
         .map(|dt| {
             let x = positions_after(&model, dt, duration, 1);
-            let mut reference = hooke::reference::Reference::new(model.clone());
+            let mut reference = hooke::accuracy::reference::Reference::new(model.clone());
             reference.advance_to(duration, dt / 16.0);
             let sum: f64 = x
                 .iter()

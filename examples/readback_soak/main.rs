@@ -19,7 +19,7 @@ use raw::Raw;
 
 use hooke::backend::{Backend, BackendError};
 use hooke::gpu::GpuBackend;
-use hooke::select::BackendKind;
+use hooke::run::select::BackendKind;
 use hooke::state::{Snapshot, State, StepStats};
 
 const VARIANTS: &[(&str, &str)] = &[
@@ -108,12 +108,12 @@ fn resident_bytes() -> u64 {
     pages * 4096
 }
 
-fn hair_planned() -> hooke::prepare::Planned {
-    hooke::prepare::planned("hair").expect("loading the hair scene")
+fn hair_planned() -> hooke::run::prepare::Planned {
+    hooke::run::prepare::planned("hair").expect("loading the hair scene")
 }
 
 fn hair() -> (GpuBackend, u32) {
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         settings, model, ..
     } = hair_planned();
     let be = GpuBackend::new(
@@ -220,7 +220,7 @@ impl Backend for Metered {
 /// The whole pipeline of `hooke run` (simulation and recorder threads), `iterations` frames of
 /// the hair scene, recorded to a file in the temporary directory or to a disabled stream.
 fn run_pipeline(variant: &str, iterations: u64) {
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         loaded,
         mut settings,
         model,
@@ -231,7 +231,7 @@ fn run_pipeline(variant: &str, iterations: u64) {
     } else {
         BackendKind::Gpu
     };
-    let inner = hooke::select::create(
+    let inner = hooke::run::select::create(
         kind,
         model.clone(),
         Step::new(settings.integrator, settings.dt_secs),
@@ -266,7 +266,7 @@ fn run_pipeline(variant: &str, iterations: u64) {
     };
     // Rerun's own file sink on purpose (no `RrdFile`): this bisects Rerun's memory use, not ours.
     let opts = hooke::run::RunOptions::unattended(None);
-    let prepared = hooke::prepare::Prepared {
+    let prepared = hooke::run::prepare::Prepared {
         loaded,
         settings,
         model,

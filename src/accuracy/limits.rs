@@ -6,8 +6,8 @@ use std::fmt::Write as _;
 
 use crate::error::Result;
 use crate::integrator::{Integrator, Step};
-use crate::prepare::{self, Request};
-use crate::select::Device;
+use crate::run::prepare::{self, Request};
+use crate::run::select::Device;
 use crate::stability::{Modes, stable_step};
 
 use super::results::Found;

@@ -5,14 +5,14 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
+use crate::accuracy::reference::Reference;
 use crate::backend::{self, BackendError};
 use crate::error::{Error, Result};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
-use crate::prepare::{self, Request};
-use crate::reference::Reference;
-use crate::select::Device;
-use crate::settings::SettingsError;
+use crate::run::prepare::{self, Request};
+use crate::run::select::Device;
+use crate::scene::settings::SettingsError;
 
 use super::report;
 use super::results::{Accuracy, Row, StableDt};

@@ -6,6 +6,7 @@
 mod chart;
 mod limits;
 mod measure;
+pub mod reference;
 mod report;
 mod results;
 mod stable_dt;

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use crate::backend::{self, Backend, BackendError};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
-use crate::select::Device;
+use crate::run::select::Device;
 
 use super::results::Found;
 

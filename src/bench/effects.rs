@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 
 use crate::error::Result;
-use crate::prepare::SceneSource;
+use crate::run::prepare::SceneSource;
 use crate::scene::{self, Scene};
 
 use super::throughput::{Throughput, ThroughputOptions, throughput_of};
@@ -80,7 +80,7 @@ fn effect_variants(s: &Scene) -> Vec<(&'static str, Scene)> {
 /// --effects`). Removing an effect can change the motion too (no gravity, no falling), so the
 /// difference is the cost of the effect's passes and terms on this scene, not a universal price.
 pub fn effect_costs(scene_arg: &str, opts: &ThroughputOptions) -> Result<EffectCosts> {
-    let scene = crate::prepare::planned(scene_arg)?.loaded.scene;
+    let scene = crate::run::prepare::planned(scene_arg)?.loaded.scene;
     // Differences of a few percent drown in run-to-run noise: each configuration runs
     // `EFFECT_REPEATS` times, interleaved, and keeps its fastest run.
     let variants = effect_variants(&scene);

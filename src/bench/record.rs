@@ -6,10 +6,10 @@ use std::time::Instant;
 
 use crate::error::{RerunError, Result};
 use crate::model::Model;
-use crate::prepare::{self, Planned, Request};
 use crate::record::{RecordOptions, Recorder};
-use crate::select::Device;
-use crate::settings::Overrides;
+use crate::run::prepare::{self, Planned, Request};
+use crate::run::select::Device;
+use crate::scene::settings::Overrides;
 
 /// `hooke bench record`: what to record, and how many frames.
 #[derive(Debug, Clone)]
@@ -165,7 +165,7 @@ pub fn record(scene_arg: &str, opts: &RecordBenchOptions) -> Result<RecordBench>
     let mut threads = 1;
     loop {
         let rec = builder().buffered().map_err(RerunError::from)?;
-        let (sink, file) = crate::rrd_file::create(&opts.save, true)?;
+        let (sink, file) = crate::record::rrd_file::create(&opts.save, true)?;
         rec.set_sink(Box::new(sink));
         passes.push(bench.pass("file", threads, &rec, opts.frames, || {
             file.finish().map_err(crate::Error::WriteRecording)

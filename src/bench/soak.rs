@@ -7,9 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use crate::error::{RerunError, Result};
-use crate::prepare::{self, Request};
-use crate::select::Device;
-use crate::settings::Overrides;
+use crate::run::prepare::{self, Request};
+use crate::run::select::Device;
+use crate::scene::settings::Overrides;
 
 /// Resident memory of this process (Linux: /proc/self/statm), in bytes.
 pub fn resident_bytes() -> Option<u64> {
@@ -68,7 +68,7 @@ pub fn soak(
     let rec = rerun::RecordingStreamBuilder::new("hooke-soak")
         .buffered()
         .map_err(|e| crate::Error::rerun_while("starting the recording", RerunError::from(e)))?;
-    let (sink, file) = crate::rrd_file::create(rrd, footer)?;
+    let (sink, file) = crate::record::rrd_file::create(rrd, footer)?;
     rec.set_sink(Box::new(sink));
     let done = Arc::new(AtomicBool::new(false));
     let start = Instant::now();

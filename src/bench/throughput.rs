@@ -11,9 +11,9 @@ use crate::error::Result;
 use crate::gpu::DispatchCount;
 use crate::integrator::Integrator;
 use crate::model::Model;
-use crate::prepare::{self, Prepared, Request, SceneSource};
-use crate::select::{BackendKind, Device};
-use crate::settings::{Overrides, Settings};
+use crate::run::prepare::{self, Prepared, Request, SceneSource};
+use crate::run::select::{BackendKind, Device};
+use crate::scene::settings::{Overrides, Settings};
 
 #[derive(Debug, Clone)]
 pub struct ThroughputOptions {

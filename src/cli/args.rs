@@ -5,9 +5,9 @@ use clap::{Args, Parser, Subcommand};
 
 use hooke::conformance::Verify;
 use hooke::integrator::Integrator;
-use hooke::prepare::{DtChoice, Request, SceneSource};
-use hooke::select::{BackendKind, Device};
-use hooke::settings::Overrides;
+use hooke::run::prepare::{DtChoice, Request, SceneSource};
+use hooke::run::select::{BackendKind, Device};
+use hooke::scene::settings::Overrides;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -324,7 +324,7 @@ fn parse_dt(s: &str) -> Result<Dt, String> {
     if s == "auto" {
         return Ok(Dt::Auto);
     }
-    hooke::compare_entry::seconds(s)
+    hooke::scene::compare_entry::seconds(s)
         .map(Dt::Secs)
         .ok_or_else(|| format!("expected seconds (like 0.001 or 1/60) or `auto`, got '{s}'"))
 }

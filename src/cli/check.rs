@@ -3,9 +3,9 @@
 use std::fmt::Write as _;
 
 use hooke::model::{BodyShape, Collider, MeshVertices, Model, Path, Shape, SpringKindTag};
-use hooke::prepare::Planned;
-use hooke::select::BackendKind;
-use hooke::settings::Settings;
+use hooke::run::prepare::Planned;
+use hooke::run::select::BackendKind;
+use hooke::scene::settings::Settings;
 use hooke::stability::{Modes, dt_warning, stable_steps, sweep_warning};
 
 use super::args::DeviceArgs;
@@ -31,11 +31,11 @@ pub fn check(planned: &Planned, device: &DeviceArgs) -> anyhow::Result<()> {
         );
     }
     let record = hooke::record::RecordOptions::default().for_scene(&loaded.scene);
-    let size = hooke::recording_size::estimate(model, settings, record)?;
+    let size = hooke::run::recording_size::estimate(model, settings, record)?;
     println!(
         "recording (estimated from sample frames, default --springs and --surface): about {} per frame, {} for all {} frames",
-        hooke::rrd_file::human_bytes(size.bytes_per_frame),
-        hooke::rrd_file::human_bytes(size.total(settings.frames)),
+        hooke::record::rrd_file::human_bytes(size.bytes_per_frame),
+        hooke::record::rrd_file::human_bytes(size.total(settings.frames)),
         settings.frames + 1
     );
     for line in hooke::record::describe(model, &record) {

@@ -6,8 +6,8 @@ use std::io::IsTerminal as _;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use hooke::compare_entry::CompareEntry;
-use hooke::prepare::{self, Prepared};
+use hooke::run::prepare::{self, Prepared};
+use hooke::scene::compare_entry::CompareEntry;
 
 use super::args::{CompareArgs, DeviceArgs, OutputArgs, RecordingArgs, SolverArgs};
 use super::sink::{self, Sink};
@@ -45,10 +45,15 @@ pub fn run(args: &RunArgs<'_>) -> anyhow::Result<Outcome> {
     let interrupts = Interrupts::install();
     let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
     if let Some(file) = &sink.file {
-        let size = hooke::recording_size::estimate(&prepared.model, &prepared.settings, record)?;
+        let size =
+            hooke::run::recording_size::estimate(&prepared.model, &prepared.settings, record)?;
         eprintln!(
             "{}",
-            hooke::recording_size::describe_for_file(&size, prepared.settings.frames, file.path())
+            hooke::run::recording_size::describe_for_file(
+                &size,
+                prepared.settings.frames,
+                file.path()
+            )
         );
     }
     let result = hooke::run::run(prepared, sink.rec.clone(), &opts, interrupts.cancel.clone());
@@ -73,7 +78,7 @@ fn open(
     let sink = sink::open_sink(args.rerun, args.output, args.matches, scene)?;
     let opts = hooke::run::RunOptions {
         delivery: sink.delivery,
-        progress: hooke::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
+        progress: hooke::run::progress::ProgressMode::for_stderr(std::io::stderr().is_terminal()),
         realtime: args.recording.realtime,
         record,
         viewer: sink.viewer.clone(),
@@ -191,7 +196,7 @@ fn run_comparison(
     }
     let interrupts = Interrupts::install();
     let (sink, opts) = open(args, &prepared.loaded.scene.name, record)?;
-    let result = hooke::comparison::run_comparison(
+    let result = hooke::run::comparison::run_comparison(
         prepared,
         sink.rec.clone(),
         &opts,
@@ -311,7 +316,7 @@ impl Interrupts {
                     eprintln!(
                         "second interrupt: exiting without finishing the recording (its whole frames keep the file's name, without an index)"
                     );
-                    hooke::rrd_file::rename_unfinished();
+                    hooke::record::rrd_file::rename_unfinished();
                     std::process::exit(130);
                 }
                 eprintln!(

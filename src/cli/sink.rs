@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 
-use hooke::sim::Delivery;
+use hooke::run::sim::Delivery;
 
 use super::args::OutputArgs;
 
@@ -46,7 +46,7 @@ pub struct Sink {
     /// The live viewer, watched so that losing it follows docs/guide/running.md's rule.
     pub viewer: Option<hooke::run::ViewerWatch>,
     /// Our own `.rrd` writer, where a file is recorded: it reports a full disk.
-    pub file: Option<hooke::rrd_file::RrdFile>,
+    pub file: Option<hooke::record::rrd_file::RrdFile>,
     /// `--serve`: the web viewer's server, kept up after the run until Ctrl-C.
     pub serving: Option<Serving>,
 }
@@ -61,7 +61,7 @@ impl Sink {
     fn stream(
         rec: rerun::RecordingStream,
         saved: Option<PathBuf>,
-        file: Option<hooke::rrd_file::RrdFile>,
+        file: Option<hooke::record::rrd_file::RrdFile>,
     ) -> Self {
         Self {
             rec,
@@ -113,9 +113,9 @@ pub fn file_stem_of(name: &str) -> String {
 fn file_recording(
     path: &std::path::Path,
     footer: bool,
-) -> anyhow::Result<(rerun::RecordingStream, hooke::rrd_file::RrdFile)> {
+) -> anyhow::Result<(rerun::RecordingStream, hooke::record::rrd_file::RrdFile)> {
     let rec = buffered()?;
-    let (sink, file) = hooke::rrd_file::create(path, footer)?;
+    let (sink, file) = hooke::record::rrd_file::create(path, footer)?;
     rec.set_sink(Box::new(sink));
     Ok((rec, file))
 }
@@ -188,11 +188,11 @@ pub fn open_sink(
             }
         }
     };
-    let (link, viewer_sink) = hooke::viewer::ViewerLink::connect(&url, save.is_some())?;
+    let (link, viewer_sink) = hooke::record::viewer::ViewerLink::connect(&url, save.is_some())?;
     let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = vec![viewer_sink];
     let mut file = None;
     if let Some(path) = &save {
-        let (sink, handle) = hooke::rrd_file::create(path, !output.no_rrd_footer)?;
+        let (sink, handle) = hooke::record::rrd_file::create(path, !output.no_rrd_footer)?;
         sinks.push(Box::new(sink));
         file = Some(handle);
     }

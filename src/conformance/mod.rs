@@ -13,6 +13,7 @@
 
 mod cache;
 mod probe;
+mod twins;
 mod verdict;
 
 pub use cache::{Cache, cache_path};

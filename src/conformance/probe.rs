@@ -11,7 +11,7 @@ use crate::gpu::{GpuBackend, KernelFamily};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::physics::Preconditioner;
-use crate::settings::{Overrides, Settings};
+use crate::scene::settings::{Overrides, Settings};
 use crate::state::State;
 
 /// The probe's scenes: masses on a line, a grid and a 3D grid, a mesh body; contacts with a

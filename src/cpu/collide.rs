@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use crate::contact_law::DEEP_SHARE;
+use crate::laws::contact_law::DEEP_SHARE;
 use crate::model::{Model, poses_at};
 use crate::state::State;
 

@@ -502,9 +502,9 @@ mod tests {
     /// it in a few.
     #[test]
     fn newton_stops_at_the_floor_of_f32_forces_on_hair() {
-        let crate::prepare::Planned {
+        let crate::run::prepare::Planned {
             settings, model, ..
-        } = crate::prepare::planned("hair").expect("the built-in hair scene is planned");
+        } = crate::run::prepare::planned("hair").expect("the built-in hair scene is planned");
         let mut gather = Gather::new(&model);
         let mut work = ImplicitWork::new(&model, Preconditioner::BlockJacobi);
         let mut state = model.initial.clone();

@@ -296,8 +296,8 @@ mod tests {
         Multigrid,
         Vec<Mat3>,
     ) {
-        let crate::prepare::Planned { model, .. } =
-            crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
+        let crate::run::prepare::Planned { model, .. } =
+            crate::run::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let h = 1.0 / 60.0;
         let spacing = model.springs[0].rest_m;
         let x: Vec<Vec3> = model
@@ -411,8 +411,8 @@ mod tests {
     /// the pool.
     #[test]
     fn multigrid_cuts_cg_iterations_and_keeps_the_answer() {
-        let crate::prepare::Planned { model, .. } =
-            crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
+        let crate::run::prepare::Planned { model, .. } =
+            crate::run::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let h = 1.0 / 60.0;
         let run = |p: Preconditioner| {
             let mut gather = Gather::new(&model);

@@ -23,9 +23,9 @@ use super::tuning::{Tuning, specialise};
 use crate::backend::{
     Backend, BackendError, Internal, RUNAWAY_SPEED_M_PER_S, StopFlags, find_divergence,
 };
-use crate::divergence::Divergence;
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
+use crate::stability::divergence::Divergence;
 use crate::state::{Energies, Ledger, Snapshot, State, StepStats};
 
 /// Frames whose records implicit Euler's budgets follow (per-pass path).

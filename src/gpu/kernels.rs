@@ -3,7 +3,7 @@
 //! `src/cpu/` computing the same thing, of the same name) or why it has none, and, for the
 //! kernels a step plan holds, the compulsory memory traffic of one dispatch. The `Kernel` enum,
 //! the pipelines (`pipelines.rs`) and the dispatch plans (`plan.rs`) follow from it; the build
-//! fails if a namesake is missing (`crate::twins`), and `tests/shaders.rs` checks the table against the WGSL.
+//! fails if a namesake is missing (`crate::conformance::twins`), and `tests/shaders.rs` checks the table against the WGSL.
 
 use super::bindings::Group;
 use super::programs::Program;

@@ -243,8 +243,8 @@ mod tests {
         };
         let (needed, roomy) = (MULTIGRID_STORAGE_BUFFERS_NEEDED, 32 * 1024);
         let short = adapter(needed - 1, roomy);
-        let crate::prepare::Planned { model, .. } =
-            crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
+        let crate::run::prepare::Planned { model, .. } =
+            crate::run::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let why = multigrid_unbound(&model, at(Integrator::Implicit), &short);
         assert!(why.is_some_and(|w| w.contains("block Jacobi") && w.contains("storage buffers")));
         assert!(multigrid_unbound(&model, at(Integrator::Bdf2), &short).is_some());
@@ -255,8 +255,8 @@ mod tests {
         // The per-pass path fits WebGPU's least workgroup memory.
         let least = adapter(needed, 16 * 1024);
         assert!(multigrid_unbound(&model, at(Integrator::Implicit), &least).is_none());
-        let crate::prepare::Planned { model, .. } =
-            crate::prepare::planned("jello").expect("the built-in jello is planned");
+        let crate::run::prepare::Planned { model, .. } =
+            crate::run::prepare::planned("jello").expect("the built-in jello is planned");
         assert!(multigrid_unbound(&model, at(Integrator::Implicit), &short).is_none());
         let asked = at(Integrator::Implicit).with_options(StepOptions {
             preconditioner: Some(Preconditioner::Multigrid),

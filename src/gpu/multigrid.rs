@@ -277,8 +277,8 @@ mod tests {
     /// level's sources CSR entries at a free end, each level's values apart.
     #[test]
     fn the_levels_lay_out_within_their_buffers() {
-        let crate::prepare::Planned { model, .. } =
-            crate::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
+        let crate::run::prepare::Planned { model, .. } =
+            crate::run::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let h = Hierarchy::new(&model).expect("a sheet has coarse levels");
         let layout = Layout::new(&model, &h);
         let t = &layout.topology;

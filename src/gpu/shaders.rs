@@ -175,7 +175,10 @@ pub fn constants(
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
         ("VBD_RESIDUAL", crate::physics::VBD_RESIDUAL),
-        ("DEEP_SHARE", f64::from(crate::contact_law::DEEP_SHARE)),
+        (
+            "DEEP_SHARE",
+            f64::from(crate::laws::contact_law::DEEP_SHARE),
+        ),
         (
             "MG_SMOOTHING",
             f64::from(crate::physics::hierarchy::SMOOTHING),

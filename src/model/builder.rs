@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::spring_kind::SpringKindTag;
+use crate::laws::spring_kind::SpringKindTag;
 use crate::state::State;
 
 use super::colliders::Effects;

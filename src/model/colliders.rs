@@ -5,8 +5,8 @@ use std::ops::{Div, Mul, Sub};
 
 use glam::Vec3;
 
-use crate::contact_law::damping_ratio_for_restitution;
 use crate::integrator::AskedEffects;
+use crate::laws::contact_law::damping_ratio_for_restitution;
 use crate::real::{Real, Vector};
 use crate::scene;
 

@@ -12,9 +12,9 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use crate::laws::spring_kind::{SpringKindTag, kind_offsets};
 use crate::mesh::{Edges, Lattice, TriMesh, morton_order};
 use crate::scene::{self, Fill, SpringKind};
-use crate::spring_kind::{SpringKindTag, kind_offsets};
 
 use super::builder::ModelBuilder;
 use super::system::{BodyShape, MeshShape, MeshVertices};

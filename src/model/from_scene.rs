@@ -2,8 +2,8 @@
 
 use glam::Vec3;
 
+use crate::laws::spring_kind::{SpringKindTag, kind_offsets};
 use crate::scene::{self, Scene};
-use crate::spring_kind::{SpringKindTag, kind_offsets};
 
 use super::builder::ModelBuilder;
 use super::colliders::{Collider, ContactModel, Effects, GroundCollider, MassContact, Path, Shape};

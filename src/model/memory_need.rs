@@ -2,8 +2,8 @@
 //! cannot fit is refused with the numbers, not left to abort inside an allocation (a 8192 × 8192
 //! grid, under the mass limit, asked for about 20 GB and aborted under a 4 GB cap).
 
+use crate::laws::spring_kind::{SpringKindTag, kind_offsets};
 use crate::scene::{Body, Scene};
-use crate::spring_kind::{SpringKindTag, kind_offsets};
 
 /// Peak bytes a run takes per mass and per spring, apart from the springs: the model, the CPU
 /// backend's state and work vectors, the recorder's frames. Measured as the peak resident size of

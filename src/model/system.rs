@@ -1,6 +1,6 @@
 //! The model a backend steps: masses, springs, adjacency, bodies and effects, all static.
 
-use crate::spring_kind::SpringKindTag;
+use crate::laws::spring_kind::SpringKindTag;
 use crate::state::State;
 
 use super::colliders::Effects;

@@ -16,7 +16,7 @@ use super::palette::{ENTRY_COLORS, Rgb, color, gap_color};
 use super::recorder::{Recorder, Root};
 use super::surface;
 use crate::model::Model;
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
 use crate::state::Snapshot;
 
 /// Which colouring a non-reference copy shows when the recording opens; the other is logged

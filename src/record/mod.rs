@@ -28,12 +28,14 @@ mod legend;
 mod options;
 pub mod palette;
 mod recorder;
+pub mod rrd_file;
 mod scalars;
 pub mod series;
 pub mod springs;
 mod statics;
 mod strain_summary;
 pub mod surface;
+pub mod viewer;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
 pub use compare::{ColourBy, CompareLayout, CompareRecorder, EntryTally};

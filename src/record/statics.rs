@@ -11,7 +11,7 @@ use super::palette::{COLLIDER, YELLOW, color};
 use super::recorder::{BodyRec, Recorder, Root};
 use super::series::all_series;
 use crate::model::{Collider, GroundCollider, Model, Shape};
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
 
 impl Recorder {
     /// Everything that does not change over the run.

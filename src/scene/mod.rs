@@ -5,6 +5,7 @@
 //! [`from_toml`] after validation has checked every value, so the model builder can trust it.
 
 mod builtin;
+pub mod compare_entry;
 mod error;
 mod format;
 mod load;
@@ -12,6 +13,7 @@ mod locate;
 mod mesh_checks;
 mod mesh_file;
 mod rules;
+pub mod settings;
 mod validate;
 
 pub use builtin::{BUILT_IN, BUILT_IN_MESHES, BuiltIn};

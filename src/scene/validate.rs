@@ -57,7 +57,7 @@ fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Chec
     non_negative(&format!("{field}.friction"), f64::from(friction))?;
     let r = f64::from(restitution);
     finite(&format!("{field}.restitution"), r)?;
-    let least = crate::contact_law::MIN_RESTITUTION;
+    let least = crate::laws::contact_law::MIN_RESTITUTION;
     if !(f64::from(least)..=1.0).contains(&r) {
         return fail(
             format!("{field}.restitution"),
@@ -98,7 +98,7 @@ fn compare(scene: &Scene, c: &super::format::Compare) -> Check {
     }
     for (i, text) in c.entries.iter().enumerate() {
         let field = format!("compare.entries[{i}]");
-        let entry = crate::compare_entry::CompareEntry::parse(text)
+        let entry = crate::scene::compare_entry::CompareEntry::parse(text)
             .or_else(|e| fail(&field, e.to_string()))?;
         if let Err(why) = entry.integrator.supports(&scene.effects) {
             return fail(
@@ -478,12 +478,15 @@ fn geometry(f: &str, b: &Body, spacing: f32) -> Check {
     let ulp = far * F32_EPSILON;
     let kinds = [
         (
-            crate::spring_kind::SpringKindTag::Structural,
+            crate::laws::spring_kind::SpringKindTag::Structural,
             b.springs.structural,
         ),
-        (crate::spring_kind::SpringKindTag::Shear, b.springs.shear),
         (
-            crate::spring_kind::SpringKindTag::Bending,
+            crate::laws::spring_kind::SpringKindTag::Shear,
+            b.springs.shear,
+        ),
+        (
+            crate::laws::spring_kind::SpringKindTag::Bending,
             b.springs.bending,
         ),
     ];
@@ -491,7 +494,7 @@ fn geometry(f: &str, b: &Body, spacing: f32) -> Check {
         if params.is_none() {
             continue;
         }
-        for off in crate::spring_kind::kind_offsets(tag) {
+        for off in crate::laws::spring_kind::kind_offsets(tag) {
             if off.iter().enumerate().any(|(a, &o)| {
                 o != 0 && (a >= dim || u32::try_from(o.abs()).is_ok_and(|o| o >= b.grid[a]))
             }) {

@@ -2,7 +2,7 @@
 
 use crate::integrator::{Integrator, Unsupported};
 use crate::model::Model;
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
 
 use super::estimate::{Limit, stable_step, stable_steps};
 use super::modes::Modes;

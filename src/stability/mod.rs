@@ -5,6 +5,7 @@
 //! whether the step is large enough for f32 positions to move at all (`resolution`).
 
 mod advice;
+pub mod divergence;
 mod estimate;
 mod modes;
 mod resolution;

@@ -18,8 +18,8 @@
 
 use std::fmt;
 
+use crate::laws::spring_kind::SpringKindTag;
 use crate::model::Model;
-use crate::spring_kind::SpringKindTag;
 
 /// What a mode's stiffness or damping comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

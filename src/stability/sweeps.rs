@@ -19,7 +19,7 @@ use std::collections::VecDeque;
 
 use crate::integrator::Integrator;
 use crate::model::Model;
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
 
 /// Below this share of the slowest stretch corrected per step, the sweeps are too few.
 pub const SWEEPS_ENOUGH: f64 = 1.0 / 3.0;
@@ -236,7 +236,7 @@ mod tests {
     use super::*;
 
     fn shortfall(scene: &str, integrator: Integrator, dt: f64) -> Option<SweepShortfall> {
-        let planned = crate::prepare::planned(scene).expect("a built-in scene");
+        let planned = crate::run::prepare::planned(scene).expect("a built-in scene");
         let settings = Settings {
             integrator,
             dt_secs: dt,
@@ -247,7 +247,7 @@ mod tests {
 
     #[test]
     fn one_sweep_at_the_scenes_own_step_is_enough_and_at_a_frame_is_not() {
-        let own = crate::prepare::planned("hair")
+        let own = crate::run::prepare::planned("hair")
             .expect("hair")
             .settings
             .dt_secs;
@@ -264,7 +264,7 @@ mod tests {
 
     #[test]
     fn a_strings_pinned_end_is_found_by_its_springs() {
-        let planned = crate::prepare::planned("hair").expect("hair");
+        let planned = crate::run::prepare::planned("hair").expect("hair");
         let b = &bodies(&planned.model)[0];
         let n = planned.model.bodies[0].masses.len() as u32;
         // A strand pinned at its top: its last mass n − 1 structural springs away.

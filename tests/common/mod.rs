@@ -93,7 +93,7 @@ pub fn model_of(toml: &str) -> std::sync::Arc<hooke::model::Model> {
 
 /// A built-in scene's model and its own dt, prepared as `hooke run` prepares it.
 pub fn scene_model(name: &str) -> (std::sync::Arc<hooke::model::Model>, f64) {
-    let planned = ok(hooke::prepare::planned(name));
+    let planned = ok(hooke::run::prepare::planned(name));
     (planned.model, planned.settings.dt_secs)
 }
 

@@ -73,11 +73,11 @@ pub fn at_frame<'a>(
 
 /// A scene's model, stepped `frames` frames on the CPU, and the snapshots of frame 0 and the last.
 pub fn stepped(scene: &str, frames: u64) -> (hooke::scene::LoadedScene, Arc<Model>, Vec<Snapshot>) {
-    let hooke::prepare::Planned {
+    let hooke::run::prepare::Planned {
         loaded,
         settings,
         model,
-    } = hooke::prepare::planned(scene).unwrap_or_else(|e| panic!("{e}"));
+    } = hooke::run::prepare::planned(scene).unwrap_or_else(|e| panic!("{e}"));
     let mut be = hooke::cpu::CpuBackend::new(
         model.clone(),
         Step::new(settings.integrator, settings.dt_secs),
@@ -103,7 +103,7 @@ pub fn record(
     opts: RecordOptions,
     path: &Path,
 ) {
-    let settings = hooke::settings::Settings::resolve(&loaded.scene, &Default::default())
+    let settings = hooke::scene::settings::Settings::resolve(&loaded.scene, &Default::default())
         .unwrap_or_else(|e| panic!("{e}"));
     let rec = rerun::RecordingStreamBuilder::new("hooke-test")
         .save(path)

@@ -13,7 +13,7 @@ use glam::Vec3;
 use crate::error::{Error, RerunError, Result};
 use crate::model::Model;
 use crate::record::{RecordOptions, Recorder};
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
 use crate::state::Snapshot;
 
 /// Frames recorded in one batch to measure a small scene's frame: a run's recording batches
@@ -160,7 +160,7 @@ pub fn folder_of(path: &std::path::Path) -> std::path::PathBuf {
 /// One line for the start of a run that saves to `path`: the estimate, and a warning when it
 /// exceeds the free space there.
 pub fn describe_for_file(size: &RecordingSize, frames: u64, path: &std::path::Path) -> String {
-    use crate::rrd_file::human_bytes;
+    use crate::record::rrd_file::human_bytes;
     let total = size.total(frames);
     let line = format!(
         "recording: about {} per frame, about {} for {} frames (estimated)",

@@ -17,11 +17,11 @@
 //! warn of (`stability::sweep_warning`).
 
 use crate::backend::{Backend, BackendError, Then};
-use crate::divergence::{Unconverged, Unphysical};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::physics::{VBD_RESIDUAL, newton_residual};
-use crate::settings::Settings;
+use crate::scene::settings::Settings;
+use crate::stability::divergence::{Unconverged, Unphysical};
 use crate::stability::sweep_shortfall;
 use crate::state::{FrameNote, Snapshot};
 

@@ -1,4 +1,4 @@
-//! `hooke run` as a library call: given a prepared scene (see [`crate::prepare`]), start the
+//! `hooke run` as a library call: given a prepared scene (see [`crate::run::prepare`]), start the
 //! simulation thread and the recorder thread, join them, and say how it went.
 
 use std::sync::Arc;
@@ -8,15 +8,15 @@ use crossbeam_channel::Sender;
 
 use crate::backend::{Backend, StopFlags};
 use crate::error::{Error, Result};
-use crate::pacing::{LongFrames, Pacer, RecorderPace, SimPace, paced};
-use crate::prepare::Prepared;
-use crate::progress::{Progress, ProgressMode};
+use crate::record::rrd_file::RrdFile;
+use crate::record::viewer::{LinkState, ViewerLink};
 use crate::record::{RecordError, RecordOptions, Recorder, digesting};
-use crate::rrd_file::RrdFile;
-use crate::sim::{self, Delivery};
-use crate::solver_watch::{SolverWatch, watching};
+use crate::run::pacing::{LongFrames, Pacer, RecorderPace, SimPace, paced};
+use crate::run::prepare::Prepared;
+use crate::run::progress::{Progress, ProgressMode};
+use crate::run::sim::{self, Delivery};
+use crate::run::solver_watch::{SolverWatch, watching};
 use crate::state::Snapshot;
-use crate::viewer::{LinkState, ViewerLink};
 
 /// Snapshots in flight between the threads: enough to smooth out a slow log call, small enough
 /// that a large scene's snapshots do not pile up in memory.
@@ -346,7 +346,7 @@ impl Recording<'_> {
 mod tests {
     use super::*;
     use crate::backend::BackendError;
-    use crate::settings::Overrides;
+    use crate::scene::settings::Overrides;
     use crate::state::{State, StepStats};
 
     /// A backend with a bug: it panics on its first step.
@@ -376,15 +376,16 @@ mod tests {
 
     #[test]
     fn a_panicking_simulation_thread_is_reported_as_one_with_its_message() {
-        let request = crate::prepare::Request {
+        let request = crate::run::prepare::Request {
             overrides: Overrides {
                 frames: Some(2),
                 substeps: Some(3),
                 ..Overrides::default()
             },
-            ..crate::prepare::Request::named("hair", crate::select::Device::cpu())
+            ..crate::run::prepare::Request::named("hair", crate::run::select::Device::cpu())
         };
-        let planned = crate::prepare::plan(&request, &mut |_| {}).expect("the hair scene plans");
+        let planned =
+            crate::run::prepare::plan(&request, &mut |_| {}).expect("the hair scene plans");
         let (rec, _storage) = rerun::RecordingStreamBuilder::new("hooke-test")
             .memory()
             .expect("an in-memory recording");

@@ -5,7 +5,7 @@
 use std::fmt;
 
 use crate::integrator::Integrator;
-use crate::spring_kind::SpringKindTag;
+use crate::laws::spring_kind::SpringKindTag;
 use crate::stability::{Limit, Source, StableStep};
 
 /// What was wrong with the mass's state.

@@ -9,8 +9,8 @@ use crate::backend;
 use crate::error::Result;
 use crate::integrator::Step;
 use crate::model::Model;
-use crate::select::Device;
-use crate::settings::Settings;
+use crate::run::select::Device;
+use crate::scene::settings::Settings;
 use crate::stability::stable_dts;
 
 /// What `--dt auto` picked, and why.

@@ -5,14 +5,14 @@
 
 use std::sync::Arc;
 
-use crate::auto_dt::{self, AutoDt};
 use crate::backend::Backend;
-use crate::compare_entry::CompareEntry;
 use crate::error::{Error, Result};
 use crate::model::{self, Model};
+use crate::run::auto_dt::{self, AutoDt};
+use crate::run::select::Device;
+use crate::scene::compare_entry::CompareEntry;
+use crate::scene::settings::{Overrides, Settings};
 use crate::scene::{LoadedScene, Scene, SceneOrigin};
-use crate::select::Device;
-use crate::settings::{Overrides, Settings};
 use crate::stability::{Modes, Refusal, stable_step};
 
 /// Where the scene comes from.
@@ -114,7 +114,7 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         say(Notice::Note(n.clone()));
     }
     // Before anything that grows with the scene is allocated.
-    let on_gpu = request.device.kind == crate::select::BackendKind::Gpu;
+    let on_gpu = request.device.kind == crate::run::select::BackendKind::Gpu;
     crate::model::memory_need::check(&loaded.scene, on_gpu)?;
     let model = Arc::new(model::build(&loaded.scene));
     if let Some(b) = model::buried(&model) {

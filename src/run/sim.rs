@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::backend::{Backend, BackendError, StopFlags};
-use crate::pacing::SimPace;
+use crate::run::pacing::SimPace;
 use crate::state::{Snapshot, StepStats};
 
 /// Wall time one chunk of substeps aims at: a stop waits for at most the chunk in progress

@@ -1,5 +1,5 @@
 //! `hooke run --compare` as a library call: a prepared comparison (see
-//! [`crate::prepare::prepare_comparison`]) stepped in lockstep on the simulation thread and
+//! [`crate::run::prepare::prepare_comparison`]) stepped in lockstep on the simulation thread and
 //! recorded on the recorder thread into one recording, each entry under its own name
 //! ([`crate::record::CompareRecorder`]). An entry that stops (a divergence, a device fault)
 //! stops alone; what it recorded stays.
@@ -10,15 +10,15 @@ use std::sync::atomic::AtomicBool;
 use crossbeam_channel::Sender;
 
 use crate::backend::{Backend, BackendError};
-use crate::compare_entry::CompareEntry;
 use crate::error::{Error, Result};
-use crate::pacing::{Pacer, paced};
-use crate::prepare::PreparedComparison;
-use crate::progress::Progress;
 use crate::record::{CompareLayout, CompareRecorder, EntryTally};
+use crate::run::pacing::{Pacer, paced};
+use crate::run::prepare::PreparedComparison;
+use crate::run::progress::Progress;
+use crate::run::sim::{self, ComparedFrame};
+use crate::run::solver_watch::{SolverWatch, watching};
 use crate::run::{RunOptions, Threads, end_recording};
-use crate::sim::{self, ComparedFrame};
-use crate::solver_watch::{SolverWatch, watching};
+use crate::scene::compare_entry::CompareEntry;
 
 /// How one entry's run went.
 #[derive(Debug)]

@@ -8,23 +8,23 @@
 //! top: docs/ARCHITECTURE.md draws the layers, and `tests/layers.rs` keeps them.
 
 // In layer order, bottom first: each module imports only those listed before it.
-pub mod accuracy;
-pub mod backend;
-pub mod bench;
-pub mod conformance;
-pub mod cpu;
-pub mod error;
-pub mod gpu;
-pub mod integrator;
-pub mod laws;
-pub mod mesh;
-pub mod model;
-pub mod physics;
 pub mod real;
-pub mod record;
-pub mod run;
-pub mod scene;
-pub mod stability;
 pub mod state;
+pub mod laws;
+pub mod integrator;
+pub mod mesh;
+pub mod scene;
+pub mod model;
+pub mod stability;
+pub mod physics;
+pub mod backend;
+pub mod cpu;
+pub mod gpu;
+pub mod conformance;
+pub mod record;
+pub mod error;
+pub mod run;
+pub mod accuracy;
+pub mod bench;
 
 pub use error::{Error, Result};

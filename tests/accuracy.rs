@@ -1,9 +1,7 @@
 //! What `hooke bench accuracy` claims about stability is measured: implicit Euler's largest
 //! stable step is searched like the others', and damping is not mistaken for divergence.
 
-mod common;
-
-use common::scene_model;
+use crate::common::scene_model;
 
 use hooke::accuracy::{
     Found, IMPLICIT_SEARCH_UP_TO_SECS, is_stable, search_range, search_stable_dt,

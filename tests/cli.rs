@@ -2,12 +2,14 @@
 //! decoder, a run with no viewer or no GPU, a diverging run and an interrupted one. Bad input is
 //! in `cli_bad_input.rs`, the benchmarks in `cli_bench.rs`.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use common::{cpu_run, file_size, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text};
+use crate::common::{
+    cpu_run, file_size, hooke, hooke_command, read_rrd, save_cpu_run, temp_dir, text,
+};
 
 #[test]
 fn scenes_lists_every_built_in_with_a_description() {

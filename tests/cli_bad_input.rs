@@ -2,9 +2,7 @@
 //! with what is allowed, a collider or spring effect that cannot work, a command-line value out
 //! of range, and an integrator the scene cannot use.
 
-mod common;
-
-use common::{hooke_within_memory, temp_dir, text};
+use crate::common::{hooke_within_memory, temp_dir, text};
 
 /// Every bad input here runs under a 2 GB address space (`ulimit -v`): one whose refusal needed
 /// more would fail its test, not the machine.

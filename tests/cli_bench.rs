@@ -1,9 +1,7 @@
 //! `hooke bench accuracy` and `--dt auto` end to end: the table, chart and stable-step search a
 //! benchmark writes, and the step `--dt auto` picks for a tolerance.
 
-mod common;
-
-use common::{hooke, temp_dir, text};
+use crate::common::{hooke, temp_dir, text};
 
 /// `hooke bench accuracy hair` on the CPU over 0.1 s into `dir`, with `rest`: its stdout and CSV.
 fn hair_accuracy(dir: &std::path::Path, rest: &[&str]) -> (String, String) {

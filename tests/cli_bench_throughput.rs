@@ -2,9 +2,7 @@
 //! can parse, as many timed runs as asked, their median and spread consistent with the run times,
 //! and on the GPU the dispatches one step records.
 
-mod common;
-
-use common::{gpu_available, hooke, ok, text};
+use crate::common::{gpu_available, hooke, ok, text};
 use serde_json::Value;
 
 fn json_lines(args: &[&str]) -> Vec<Value> {

@@ -4,12 +4,12 @@
 //! scene's `[compare]` table runs as `--compare` does; and bad entries get one clear error each,
 //! before anything runs.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use common::{hooke, ok, read_rrd, temp_dir, text};
+use crate::common::{hooke, ok, read_rrd, temp_dir, text};
 use hooke::record::{ColourBy, CompareLayout};
 use hooke::run::comparison::{ComparisonSummary, run_comparison};
 use hooke::run::prepare::{Request, prepare_comparison};

@@ -3,11 +3,11 @@
 //! and the energy they let go kept in the ledger. GPU cases skip without an adapter unless
 //! HOOKE_REQUIRE_ADAPTER=1 (CI), where a missing adapter fails.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
-use common::{gpu_available, ok};
+use crate::common::{gpu_available, ok};
 
 use glam::Vec3;
 use hooke::backend::Backend;

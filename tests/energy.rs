@@ -3,11 +3,11 @@
 //! implicit Euler's and BDF2's loss beyond their ledger, and contact and balance in every
 //! built-in scene.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
-use common::gravity;
+use crate::common::gravity;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;

@@ -3,11 +3,9 @@
 //! (`compute_forces`, then the update): the same bits for every kernel, every integrator it
 //! serves, serial and threaded, through a collapsed spring and up to divergence.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::{model_of, ok};
+use crate::common::{model_of, ok};
 use glam::Vec3;
 use hooke::backend::{Backend as _, BackendError};
 use hooke::cpu::{CpuBackend, Simd};

@@ -12,7 +12,7 @@
 //! runs share and full disks; in `meshes.rs` the glTF files that crashed their reader or had no
 //! triangles. Every recording they make is read by `rerun rrd verify` and scanned for NaN.
 
-mod common;
+use crate::common;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 

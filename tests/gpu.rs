@@ -2,12 +2,12 @@
 //! bit-for-bit determinism, and clear errors. On CI (HOOKE_REQUIRE_ADAPTER=1, Mesa lavapipe) a
 //! missing adapter fails these tests; on a developer machine without one they skip, saying so.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
-use common::parity::{assert_parity, parity_dt, run_both, run_both_with};
-use common::{gpu_available, ok, scene_model};
+use crate::common::parity::{assert_parity, parity_dt, run_both, run_both_with};
+use crate::common::{gpu_available, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
@@ -570,7 +570,7 @@ fn the_loop_probe_finds_the_drivers_cap_and_a_run_keeps_clear_of_it() {
 /// verdict; `--no-verify` runs anyway.
 #[test]
 fn a_family_found_to_disagree_is_refused_and_no_verify_runs_it() {
-    use common::{hooke_command, temp_dir, text};
+    use crate::common::{hooke_command, temp_dir, text};
     if !gpu_available() {
         return;
     }

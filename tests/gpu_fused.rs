@@ -7,11 +7,9 @@
 //! over odd and even numbers of steps per submission; and the runs the fused steps cannot serve
 //! take the general passes, saying why.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::{gpu_available, model_of, ok, scene_model};
+use crate::common::{gpu_available, model_of, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::gpu::{ExplicitPath, FrameState, GpuBackend, ImplicitPath};
 use hooke::integrator::{Integrator, Step};

@@ -2,9 +2,9 @@
 //! workgroup for small systems without contacts, a dispatch per pass otherwise). On CI
 //! (HOOKE_REQUIRE_ADAPTER=1, Mesa lavapipe) a missing adapter fails these tests.
 
-mod common;
+use crate::common;
 
-use common::{gpu_available as have_adapter, ok, scene_model};
+use crate::common::{gpu_available as have_adapter, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
@@ -143,7 +143,7 @@ fn the_cloth_and_the_jello_at_one_step_per_frame_end_where_the_cpu_ends() {
 /// bits on lavapipe, on whichever path the driver allows, as the tests above do, and says so.
 #[test]
 fn check_verify_holds_implicit_steps_to_the_cpus_bits_on_lavapipe() {
-    use common::{hooke_command, temp_dir, text};
+    use crate::common::{hooke_command, temp_dir, text};
     if !have_adapter() || !common::parity::gpu_rounds_as_the_cpu() {
         return;
     }

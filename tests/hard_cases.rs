@@ -5,11 +5,11 @@
 //! and nothing tunnelling through a collider. GPU runs skip only where no adapter exists and
 //! HOOKE_REQUIRE_ADAPTER is unset (CI sets it).
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
-use common::{gpu_available, ok};
+use crate::common::{gpu_available, ok};
 
 use glam::Vec3;
 use hooke::backend::Backend;

@@ -2,7 +2,7 @@
 //! a disk that fills during a recording, geometry too small for f32, and error chains that must
 //! say each cause once. GPU cases run on lavapipe in CI (HOOKE_REQUIRE_ADAPTER=1).
 
-mod common;
+use crate::common;
 
 use hooke::integrator::Step;
 use std::path::Path;
@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use common::{
+use crate::common::{
     cpu_run, file_size, gpu_available, hooke, hooke_command, save_cpu_run, temp_dir, text,
     verified_rrd, verified_rrd_without_index,
 };
@@ -710,7 +710,7 @@ fn parse_size(s: &str) -> f64 {
 /// its frame (`notes`).
 #[test]
 fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
-    use common::record::{at_frame, read_components};
+    use crate::common::record::{at_frame, read_components};
     use rerun::Loggable as _;
     let dir = temp_dir("solver-short");
     for backend in common::backends() {

@@ -10,11 +10,9 @@
 //! GPU runs skip only where no adapter exists and HOOKE_REQUIRE_ADAPTER is unset (CI sets it).
 //! One hour of hair is in `hard_cases.rs` (`a_long_run_stays_finite_and_bounded`).
 
-mod common;
-
 use std::sync::Arc;
 
-use common::{gpu_available, model_of, ok};
+use crate::common::{gpu_available, model_of, ok};
 
 use glam::Vec3;
 use hooke::backend::{Backend, BackendError};

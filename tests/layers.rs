@@ -171,14 +171,13 @@ fn top_module(src: &Path, file: &Path) -> String {
     first.unwrap_or_default().trim_end_matches(".rs").to_owned()
 }
 
-#[test]
-fn modules_import_one_way() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+/// Each top-level module of the library with the top-level modules it reaches through `crate::`.
+fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     // The binary's own files use the library as `hooke::`, from above.
     let binary = ["lib", "main", "cli"];
     let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for file in rust_files(&src) {
-        let module = top_module(&src, &file);
+    for file in rust_files(src) {
+        let module = top_module(src, &file);
         if binary.contains(&module.as_str()) {
             continue;
         }
@@ -186,6 +185,13 @@ fn modules_import_one_way() {
         let entry = graph.entry(module.clone()).or_default();
         entry.extend(uses.into_iter().filter(|u| *u != module));
     }
+    graph
+}
+
+#[test]
+fn modules_import_one_way() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut graph = module_graph(&src);
     for (module, uses) in &graph {
         for u in uses {
             assert!(
@@ -343,5 +349,61 @@ fn no_source_file_exceeds_600_lines() {
             "{} has {lines} lines: split it by what it holds",
             file.display()
         );
+    }
+}
+
+/// `src/lib.rs` names the library's modules in layer order, bottom first: each reaches only
+/// modules named before it, so the list reads as docs/ARCHITECTURE.md's layers do.
+#[test]
+fn lib_lists_modules_in_layer_order() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lib = std::fs::read_to_string(root.join("src/lib.rs")).unwrap_or_else(|e| panic!("{e}"));
+    let order: Vec<&str> = lib
+        .lines()
+        .filter_map(|l| {
+            l.strip_prefix("pub mod ")
+                .or_else(|| l.strip_prefix("mod "))
+        })
+        .map(|l| l.trim_end_matches(';'))
+        .collect();
+    let graph = module_graph(&root.join("src"));
+    let mut listed: Vec<&String> = graph.keys().collect();
+    listed.retain(|m| !order.contains(&m.as_str()));
+    assert!(listed.is_empty(), "src/lib.rs does not name {listed:?}");
+    for (at, module) in order.iter().enumerate() {
+        for used in graph.get(*module).into_iter().flatten() {
+            let used = if used == "Error" || used == "Result" {
+                "error"
+            } else {
+                used.as_str()
+            };
+            let later = order[at + 1..].contains(&used);
+            assert!(
+                !later,
+                "src/lib.rs names {module} before {used}, which it imports: move {used} up"
+            );
+        }
+    }
+}
+
+/// Every file of `tests/` is a module of the one test binary (`tests/suite.rs`): one that is
+/// not would compile into nothing and never run.
+#[test]
+fn every_test_file_is_in_the_suite() {
+    let tests = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let suite = std::fs::read_to_string(tests.join("suite.rs")).unwrap_or_else(|e| panic!("{e}"));
+    for entry in std::fs::read_dir(&tests).unwrap_or_else(|e| panic!("{e}")) {
+        let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+        let Some(stem) = path.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
+            continue;
+        };
+        let module = path.extension().is_some_and(|e| e == "rs") || path.join("mod.rs").is_file();
+        if module && stem != "suite" {
+            assert!(
+                suite.lines().any(|l| l == format!("mod {stem};")),
+                "tests/suite.rs does not name `mod {stem};`, so {} never runs",
+                path.display()
+            );
+        }
     }
 }

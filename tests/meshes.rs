@@ -5,12 +5,12 @@
 //! run to their end with a flat energy balance in tests/energy.rs and match across backends in
 //! tests/gpu.rs, like every built-in scene.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 
-use common::record::{at_frame, read_components, record, stepped};
-use common::{hooke, ok, temp_dir, text};
+use crate::common::record::{at_frame, read_components, record, stepped};
+use crate::common::{hooke, ok, temp_dir, text};
 use glam::Vec3;
 use hooke::mesh::{Format, MAX_TRIANGLES};
 use hooke::model::{BodyShape, MeshVertices, Model, SpringKindTag};

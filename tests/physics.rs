@@ -3,11 +3,9 @@
 //! distance; the CPU backend's determinism, the simulation thread's delivery, and `--dt auto`'s
 //! accuracy. Energy conservation and balance are in tests/energy.rs.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::{G, gravity};
+use crate::common::{G, gravity};
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;

@@ -2,9 +2,7 @@
 //! `solver.preconditioner` or `--preconditioner` (the command line wins), by the system's size
 //! when neither says; both backends take the same one, and `hooke check` says which and why.
 
-mod common;
-
-use common::{gpu_available as have_adapter, hooke, ok, temp_dir, text};
+use crate::common::{gpu_available as have_adapter, hooke, ok, temp_dir, text};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;

@@ -3,13 +3,13 @@
 //! spring lines and their hover values, the strain histogram, and the documented vertex strain.
 //! What the recording options give is in tests/recording_options.rs.
 
-mod common;
+use crate::common;
 
 use hooke::integrator::Step;
 use std::collections::{BTreeMap, HashSet};
 
-use common::record::{Rows, at_frame, read_components, record, stepped};
-use common::temp_dir;
+use crate::common::record::{Rows, at_frame, read_components, record, stepped};
+use crate::common::temp_dir;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::model::Model;

@@ -3,13 +3,11 @@
 //! default layout's plots (no legend inside them, a colour of its own for every series). What a
 //! surface and its springs hold is in tests/recording.rs.
 
-mod common;
-
 use hooke::integrator::Step;
 use std::collections::BTreeSet;
 
-use common::record::{at_frame, read_components, record, stepped};
-use common::{hooke, save_cpu_run, temp_dir};
+use crate::common::record::{at_frame, read_components, record, stepped};
+use crate::common::{hooke, save_cpu_run, temp_dir};
 use hooke::record::{MORE_SERIES, Plot, RecordOptions, SERIES, SpringSelection};
 use hooke::state::Snapshot;
 use rerun::external::arrow::array::{Array as _, ArrayRef, BooleanArray, StringArray, UInt32Array};

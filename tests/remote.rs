@@ -6,14 +6,12 @@
 //! The "viewer" here is a stand-in: this test binary re-run as a child process that serves
 //! Rerun's gRPC endpoint (what a viewer listens on) and is killed to make it go away.
 
-mod common;
-
 use hooke::integrator::Step;
 use std::io::{Read as _, Write as _};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use common::{Running, cpu_run, file_size, free_port, read_rrd, wait_for};
+use crate::common::{Running, cpu_run, file_size, free_port, read_rrd, wait_for};
 
 const STUB_PORT_ENV: &str = "HOOKE_TEST_STUB_VIEWER_PORT";
 
@@ -36,8 +34,13 @@ fn stub_viewer_process() {
 
 fn start_stub_viewer(port: u16) -> Child {
     let exe = std::env::current_exe().unwrap_or_else(|e| panic!("{e}"));
+    // The helper's name as the harness knows it: its module path within the suite.
+    let helper = match module_path!().split_once("::") {
+        Some((_, module)) => format!("{module}::stub_viewer_process"),
+        None => String::from("stub_viewer_process"),
+    };
     let child = Command::new(exe)
-        .args(["--exact", "stub_viewer_process", "--ignored", "--nocapture"])
+        .args(["--exact", &helper, "--ignored", "--nocapture"])
         .env(STUB_PORT_ENV, port.to_string())
         .stdout(Stdio::null())
         .stderr(Stdio::null())

@@ -3,11 +3,11 @@
 //! other, a folding cloth never lets two of its masses meet, and the GPU's hash grid and contact
 //! match the CPU's. GPU tests skip without an adapter unless HOOKE_REQUIRE_ADAPTER=1.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 
-use common::{gpu_available, ok, scene_model};
+use crate::common::{gpu_available, ok, scene_model};
 
 use glam::Vec3;
 use hooke::backend::Backend;

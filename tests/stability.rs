@@ -5,9 +5,9 @@
 //! cloth-256 included). cloth-1024's estimate keeps its overdamped mode, and its own step is
 //! below it.
 
-mod common;
+use crate::common;
 
-use common::scene_model;
+use crate::common::scene_model;
 
 use hooke::accuracy::is_stable;
 use hooke::integrator::Integrator;

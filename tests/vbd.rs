@@ -3,10 +3,10 @@
 //! against the CPU. On CI (HOOKE_REQUIRE_ADAPTER=1, Mesa lavapipe) a missing adapter fails the
 //! GPU test.
 
-mod common;
+use crate::common;
 
-use common::parity::{assert_parity, run_both_with};
-use common::{cpu_run, gpu_available, hooke, ok, scene_model, text};
+use crate::common::parity::{assert_parity, run_both_with};
+use crate::common::{cpu_run, gpu_available, hooke, ok, scene_model, text};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
 use hooke::integrator::{Integrator, Step, StepOptions};

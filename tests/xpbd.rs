@@ -2,11 +2,9 @@
 //! The solver's own checks (colouring, one spring's convergence, a chain's statics and energy)
 //! are unit tests in src/cpu/xpbd.rs.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::{hooke, model_of, ok, temp_dir, text};
+use crate::common::{hooke, model_of, ok, temp_dir, text};
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;

@@ -1,6 +1,5 @@
 //! Helpers shared by the test files that run the `hooke` binary and read its recordings.
-//! (Each test file compiles this module on its own, so not every file uses every helper.)
-#![allow(dead_code)]
+//! (Not every file uses every helper.)
 
 pub mod parity;
 pub mod record;

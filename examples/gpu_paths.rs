@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use hooke::backend::{Backend, advance_steps};
 use hooke::gpu::{ExplicitPath, GpuBackend, ImplicitPath};
-use hooke::integrator::{Integrator, Step, StepOptions};
+use hooke::integrator::{Integrator, Step};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -77,14 +77,8 @@ fn main() -> anyhow::Result<()> {
         let per_sec = steps as f64 / *best;
         let d = hooke::gpu::dispatches_per_step(
             &model,
-            integrator,
-            StepOptions::default(),
-            (
-                be.explicit_path(),
-                be.implicit_path(),
-                be.sweeps_in_group(),
-                be.multigrid_levels(),
-            ),
+            Step::new(integrator, settings.dt_secs),
+            be.step_paths(),
         );
         let dispatches = if d.in_group {
             format!("{} dispatch per submission", d.fixed)

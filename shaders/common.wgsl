@@ -172,7 +172,7 @@ struct ColourRange {
     _pad: u32,
 }
 
-// A broken spring has neither stiffness nor damping (as Spring::is_broken in src/model.rs).
+// A broken spring has neither stiffness nor damping (as Spring::is_broken in src/model/springs.rs).
 fn is_broken(s: Spring) -> bool {
     return s.stiffness == 0.0 && s.damping == 0.0;
 }
@@ -182,7 +182,7 @@ const BROKEN_STRAIN: f32 = -3.4028235e38;
 // The largest finite f32.
 const F32_MAX: f32 = 3.4028235e38;
 
-// Per spring, when some body has plasticity or tearing (as SpringLimits in src/model.rs).
+// Per spring, when some body has plasticity or tearing (as SpringLimits in src/model/springs.rs).
 struct SpringLimits {
     yield_strain: f32,
     relax: f32,

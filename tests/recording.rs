@@ -13,7 +13,9 @@ use crate::common::temp_dir;
 use glam::Vec3;
 use hooke::backend::Backend as _;
 use hooke::model::Model;
-use hooke::record::{RecordOptions, SpringSelection, strain_color, surface};
+use hooke::record::{
+    RecordOptions, SpringSelection, shading, strain_color, surface, surface_strain,
+};
 use hooke::state::Snapshot;
 use rerun::Loggable as _;
 use rerun::external::arrow::array::{Array as _, ArrayRef, Float32Array, StringArray};
@@ -120,9 +122,9 @@ fn check_surface(c: &BTreeMap<(String, String), Rows>, model: &Model, snap: &Sna
     assert_eq!(got.len(), pos.len());
     let mut distinct = HashSet::new();
     for (v, &m) in vertex_masses.iter().enumerate() {
-        let want = surface::shaded(
+        let want = shading::shaded(
             strain_color(strain[m as usize], range),
-            surface::shade(normals[v].normalize_or_zero(), two_sided),
+            shading::shade(normals[v].normalize_or_zero(), two_sided),
         );
         assert_eq!(got[v], want, "{body}: colour of vertex {v} (mass {m})");
         distinct.insert(got[v]);
@@ -348,7 +350,7 @@ fn the_documented_vertex_strain_is_the_signed_strain_of_the_most_strained_struct
     let snap = &snaps[1];
     let masses: Vec<u32> = (0..model.mass_count() as u32).collect();
     let mut got = Vec::new();
-    surface::vertex_strain(&model, &snap.strain, &masses, &mut got);
+    surface_strain::vertex_strain(&model, &snap.strain, &masses, &mut got);
     let want = strain_at_masses(&model, snap);
     assert_eq!(got, want);
     assert!(got.iter().any(|s| *s < 0.0) && got.iter().any(|s| *s > 0.0));

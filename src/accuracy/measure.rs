@@ -49,7 +49,8 @@ struct RunEnd {
 /// backend is deterministic, so the runs end alike; only the clock differs between them.
 fn run(
     model: &Arc<Model>,
-    (device, repeat): (&Device, u32),
+    device: &Device,
+    repeat: u32,
     integrator: Integrator,
     dt: f64,
     steps: u64,
@@ -219,7 +220,7 @@ fn row(
     let duration = opts.duration_secs;
     let steps = (duration / dt).round() as u64;
     Ok(
-        match run(model, (&opts.device, opts.repeat), integrator, dt, steps) {
+        match run(model, &opts.device, opts.repeat, integrator, dt, steps) {
             Ok((end, name)) => {
                 let errors: Vec<f64> = end
                     .x

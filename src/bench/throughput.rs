@@ -192,17 +192,7 @@ fn profile(model: &Arc<Model>, settings: &Settings, opts: &ThroughputOptions) ->
         settings.step(),
         opts.device.adapter.as_deref(),
     )?;
-    let dispatches = crate::gpu::dispatches_per_step(
-        model,
-        settings.integrator,
-        settings.options,
-        (
-            gpu.explicit_path(),
-            gpu.implicit_path(),
-            gpu.sweeps_in_group(),
-            gpu.multigrid_levels(),
-        ),
-    );
+    let dispatches = crate::gpu::dispatches_per_step(model, settings.step(), gpu.step_paths());
     // Implicit Euler's passes per step vary with its iterations: no per-kernel profile.
     if settings.integrator.newton() {
         return Ok((None, None, Some(dispatches)));

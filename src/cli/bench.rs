@@ -128,16 +128,24 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                 repeat,
                 preconditioner,
             };
-            throughput(scenes, &opts, (effects, json))?;
+            throughput(scenes, &opts, Shown { effects, json })?;
         }
     }
     Ok(())
 }
 
+/// What `bench throughput` prints besides its table.
+struct Shown {
+    /// The effects each scene compiles in.
+    effects: bool,
+    /// JSON instead of text.
+    json: bool,
+}
+
 fn throughput(
     scenes: Vec<String>,
     opts: &bench::ThroughputOptions,
-    (effects, json): (bool, bool),
+    Shown { effects, json }: Shown,
 ) -> anyhow::Result<()> {
     let scenes = if scenes.is_empty() {
         vec!["cloth-64".to_owned(), "cloth-256".to_owned()]

@@ -2,13 +2,14 @@
 
 use std::fmt::Write as _;
 
-use hooke::model::{BodyShape, Collider, MeshVertices, Model, Path, Shape, SpringKindTag};
+use hooke::model::{BodyShape, MeshVertices, Model, SpringKindTag};
 use hooke::run::prepare::Planned;
 use hooke::run::select::BackendKind;
 use hooke::scene::settings::Settings;
 use hooke::stability::{Modes, dt_warning, stable_steps, sweep_warning};
 
 use super::args::DeviceArgs;
+use super::check_effects::effects;
 
 /// `hooke check`: the model, its stable steps, the recording's size and the device, on standard
 /// output.
@@ -75,7 +76,7 @@ fn conformance(
     };
     // The report above lists a discrete GPU's passes; a driver that caps loops steps otherwise.
     let here = hooke::gpu::adapter_step_passes(&gpu, model, settings.integrator);
-    if here != hooke::gpu::step_passes(model, settings.step()).0 {
+    if here != hooke::gpu::step_report(model, settings.step()).passes {
         println!("GPU step passes on this adapter: {}", here.join(" → "));
     }
     let family = gpu.kernel_family();
@@ -104,7 +105,7 @@ pub fn report(name: &str, model: &Model, settings: &Settings) -> String {
     masses_and_springs(&mut s, model);
     effects(&mut s, model);
     solver(&mut s, model, settings);
-    gpu_passes(&mut s, model, settings);
+    let _ = writeln!(s, "{}", hooke::gpu::step_report(model, settings.step()));
     preconditioner(&mut s, model, settings);
     if let Some(w) = dt_warning(model, settings) {
         let _ = writeln!(s, "warning: {w}");
@@ -187,116 +188,6 @@ fn pinned(s: &mut String, model: &Model, masses: std::ops::Range<u32>) {
     );
 }
 
-/// Every effect the scene has, with its parameters; "none" when it has none.
-fn effects(s: &mut String, model: &Model) {
-    let e = &model.effects;
-    let _ = writeln!(s, "  effects:");
-    let mut any = false;
-    if let Some(g) = e.gravity_m_per_s2 {
-        let _ = writeln!(s, "    gravity {:?} m/s²", g.to_array());
-        any = true;
-    }
-    if let Some(d) = e.air_drag_per_s {
-        let _ = writeln!(s, "    air drag {d} /s");
-        any = true;
-    }
-    if let Some(g) = &e.ground {
-        let _ = writeln!(
-            s,
-            "    ground at y = {} m: stiffness {} N/m, friction {}, damping ratio {:.3}",
-            g.height_m, g.contact.stiffness_n_per_m, g.contact.friction, g.contact.damping_ratio
-        );
-        any = true;
-    }
-    let mut counts = std::collections::HashMap::new();
-    for c in &e.colliders {
-        let i = counts.entry(c.kind()).or_insert(0usize);
-        *i += 1;
-        let _ = writeln!(s, "{}", collider(c, *i - 1));
-        any = true;
-    }
-    for b in &model.bodies {
-        let Some(l) = model.limits.get(b.springs.start as usize) else {
-            continue;
-        };
-        if l.yield_strain.is_finite() {
-            let _ = writeln!(
-                s,
-                "    plasticity of '{}': yield strain {}, creep {} /s",
-                b.name, l.yield_strain, l.creep_per_s
-            );
-            any = true;
-        }
-        if l.break_strain.is_finite() {
-            let _ = writeln!(
-                s,
-                "    tearing of '{}': springs break past strain {}",
-                b.name, l.break_strain
-            );
-            any = true;
-        }
-    }
-    if let Some(c) = &e.self_collision {
-        let _ = writeln!(
-            s,
-            "    self-collision ({}): radius {} m, stiffness {} N/m per pair, friction {}, damping ratio {:.3} (with the pair's reduced mass); neighbour lists of the masses within {:.4} m, rebuilt once a mass has moved {:.4} m, through a hash grid of {} buckets",
-            if c.within_bodies {
-                "within and between bodies"
-            } else {
-                "between bodies only"
-            },
-            c.radius_m,
-            c.contact.stiffness_n_per_m,
-            c.contact.friction,
-            c.contact.damping_ratio,
-            hooke::physics::neighbour_reach_m(c.radius_m),
-            hooke::physics::neighbour_moved_limit_m(c.radius_m),
-            hooke::physics::table_size(model.mass_count())
-        );
-        any = true;
-    }
-    if !any {
-        let _ = writeln!(s, "    none");
-    }
-}
-
-/// One collider: its shape, its path and its contact.
-fn collider(c: &Collider, i: usize) -> String {
-    let shape = match c.shape {
-        Shape::Sphere { radius_m } => format!("radius {radius_m} m"),
-        Shape::Box { half_extents_m } => {
-            format!("half extents {:?} m", half_extents_m.to_array())
-        }
-        Shape::Plane { normal } => format!("normal {:?}", normal.to_array()),
-    };
-    let path = match &c.path {
-        Path::Linear { start_m, .. } if c.path.is_fixed() => {
-            format!("fixed at {:?} m", start_m.to_array())
-        }
-        Path::Linear {
-            start_m,
-            velocity_m_per_s,
-        } => format!(
-            "from {:?} m at {:?} m/s",
-            start_m.to_array(),
-            velocity_m_per_s.to_array()
-        ),
-        Path::Keyframes(keys) => format!(
-            "on {} keyframes from {:.3} s to {:.3} s",
-            keys.len(),
-            keys.first().map_or(0.0, |k| k.0),
-            keys.last().map_or(0.0, |k| k.0)
-        ),
-    };
-    format!(
-        "    {} {i}: {shape}, {path}, stiffness {} N/m, friction {}, damping ratio {:.3}",
-        c.kind(),
-        c.contact.stiffness_n_per_m,
-        c.contact.friction,
-        c.contact.damping_ratio
-    )
-}
-
 /// The step, the stiffest mode, and each integrator's estimated stable dt.
 fn solver(s: &mut String, model: &Model, settings: &Settings) {
     let _ = writeln!(
@@ -361,41 +252,18 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
                     (1.0 / (settings.frame_rate_hz * dt)).ceil()
                 );
             }
-            Some(_) if i == hooke::integrator::Integrator::Xpbd => {
-                let _ = writeln!(
-                    s,
-                    "    {:<14} any for one spring in theory (a projection is a backward-Euler step of it); coupled springs at large substeps stay stretched, and their energy swings: `hooke bench accuracy` measures it{mark}",
-                    i.name()
-                );
-            }
-            Some(_) if i == hooke::integrator::Integrator::Vbd => {
-                let _ = writeln!(
-                    s,
-                    "    {:<14} any in theory (backward Euler's equations; too few sweeps leave a stiff body soft, and this command says so below){mark}",
-                    i.name()
-                );
-            }
-            Some(_) if i == hooke::integrator::Integrator::Implicit => {
-                let _ = writeln!(
-                    s,
-                    "    {:<14} any in theory (A-stable on linear springs; it damps, so accuracy still wants small steps){mark}",
-                    i.name()
-                );
-            }
-            Some(_) if i == hooke::integrator::Integrator::Bdf2 => {
-                let _ = writeln!(
-                    s,
-                    "    {:<14} any in theory (A-stable on linear springs, second order: it damps slow motion far less than implicit Euler; on springs extremely stiff against the step take implicit, whose damping absorbs what an inexact step leaves){mark}",
-                    i.name()
-                );
-            }
-            Some(_) => {
-                let _ = writeln!(
-                    s,
-                    "    {:<14} unlimited (no springs or contacts){mark}",
-                    i.name()
-                );
-            }
+            Some(_) => match i.scheme().stable_step {
+                hooke::integrator::StableStep::Any { why } => {
+                    let _ = writeln!(s, "    {:<14} {why}{mark}", i.name());
+                }
+                hooke::integrator::StableStep::Limited => {
+                    let _ = writeln!(
+                        s,
+                        "    {:<14} unlimited (no springs or contacts){mark}",
+                        i.name()
+                    );
+                }
+            },
             None => {
                 let line = step
                     .dashpot_line_secs
@@ -472,113 +340,4 @@ fn preconditioner(s: &mut String, model: &Model, settings: &Settings) {
             Preconditioner::BlockJacobi.name()
         ),
     };
-}
-
-/// The passes one GPU step runs, and the effects compiled into its kernels.
-fn gpu_passes(s: &mut String, model: &Model, settings: &Settings) {
-    let (passes, why_unfused, effects) = hooke::gpu::step_passes(model, settings.step());
-    let _ = writeln!(s, "  GPU step passes: {}", passes.join(" → "));
-    if passes.iter().any(|p| p == "fused_frame") {
-        use hooke::gpu::one_group_step_masses;
-        use wgpu::DeviceType::{Cpu, DiscreteGpu};
-        let _ = writeln!(
-            s,
-            "  fused_frame: every step of a submission in one dispatch of one workgroup (up to {} \
-             masses on a GPU, {} on a CPU adapter; larger scenes take fused_step), the state in \
-             workgroup memory between steps where {} B a mass fits the adapter's (its line below), else \
-             in the state buffers",
-            one_group_step_masses(DiscreteGpu),
-            one_group_step_masses(Cpu),
-            hooke::gpu::FRAME_STATE_BYTES_PER_MASS
-        );
-    }
-    match why_unfused {
-        Some(why) => {
-            let _ = writeln!(s, "  not the fused step: {why}");
-        }
-        None if passes.iter().any(|p| p.starts_with("fused_")) => {
-            let one_group = passes.iter().any(|p| p == "fused_frame");
-            let single = matches!(
-                settings.integrator,
-                hooke::integrator::Integrator::Euler | hooke::integrator::Integrator::SemiImplicit
-            );
-            if single && !one_group {
-                let device = wgpu::DeviceType::DiscreteGpu;
-                if let Some(why) = hooke::gpu::why_not_in_group(model, settings.integrator, device)
-                {
-                    let _ = writeln!(s, "  a dispatch per step, not one a submission: {why}");
-                }
-            }
-            let (bodies, masses) = hooke::gpu::stencil_cover(model);
-            let _ = writeln!(
-                s,
-                "  grid stencils: {masses} of {} masses ({bodies} grid {}) find their springs \
-                 from their grid cell, the others read a link per spring",
-                model.mass_count(),
-                if bodies == 1 { "body" } else { "bodies" }
-            );
-        }
-        None => {}
-    }
-    colour_sweeps(s, model, settings);
-    let _ = writeln!(
-        s,
-        "  compiled-in effects: {}",
-        if effects.is_empty() {
-            "none".to_owned()
-        } else {
-            effects.join(", ")
-        }
-    );
-}
-
-/// XPBD's or VBD's sweeps: their colours, and whether a step (a substep, XPBD's) sweeps them in
-/// one dispatch of one workgroup or a dispatch per colour and sweep.
-fn colour_sweeps(s: &mut String, model: &Model, settings: &Settings) {
-    use hooke::integrator::Integrator;
-    use wgpu::DeviceType::{Cpu, DiscreteGpu};
-    // Per integrator: its colours, the line's head, its kernel, what a plan of sweeps serves,
-    // and its lanes.
-    let (dispatches, head, (kernel, per), lanes) = match settings.integrator {
-        Integrator::Xpbd => {
-            let colours = hooke::physics::colour_springs(&model.springs, &model.inv_mass).colours();
-            let iterations = settings.options.xpbd_iterations;
-            let head = format!("XPBD: {colours} spring colours × {iterations} iteration(s)");
-            (
-                colours as u32 * iterations,
-                head,
-                ("xpbd_solve_spring", "substep"),
-                String::new(),
-            )
-        }
-        Integrator::Vbd => {
-            let colours = hooke::physics::vbd_colouring(model).colours();
-            let sweeps = settings.options.vbd_iterations;
-            let head = format!("VBD: {colours} mass colours × {sweeps} sweep(s)");
-            let lanes = format!(
-                "; each mass's springs shared among {} threads on a GPU",
-                hooke::gpu::vbd_lanes(DiscreteGpu)
-            );
-            (
-                colours as u32 * sweeps,
-                head,
-                ("vbd_solve_mass", "step"),
-                lanes,
-            )
-        }
-        _ => return,
-    };
-    let in_group = |device| {
-        let run = (settings.integrator, settings.options);
-        hooke::gpu::sweeps_in_one_group(model, run, device)
-    };
-    let how = match (in_group(DiscreteGpu), in_group(Cpu)) {
-        (true, true) => format!("all in one dispatch of one workgroup per {per}"),
-        (true, false) => format!(
-            "all in one dispatch of one workgroup per {per} on a GPU; {dispatches} {kernel} \
-             dispatches per {per} on a CPU adapter, which runs a workgroup on one core"
-        ),
-        _ => format!("{dispatches} {kernel} dispatches per {per}"),
-    };
-    let _ = writeln!(s, "  {head}: {how}{lanes}");
 }

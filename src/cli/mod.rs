@@ -5,6 +5,7 @@
 mod args;
 mod bench;
 mod check;
+mod check_effects;
 mod run;
 mod scenes;
 mod sink;

@@ -11,22 +11,38 @@ use hooke::run::sim::Delivery;
 
 use super::args::OutputArgs;
 
+/// Why the default (spawn a viewer) cannot work here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ViewerUnavailable {
+    NotOnPath,
+    NoDisplay,
+}
+
+impl std::fmt::Display for ViewerUnavailable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ViewerUnavailable::NotOnPath => {
+                "no `rerun` viewer on PATH (install it with `pip install rerun-sdk==0.36.3`)"
+            }
+            ViewerUnavailable::NoDisplay => {
+                "no display to open a viewer window on (DISPLAY and WAYLAND_DISPLAY are unset)"
+            }
+        })
+    }
+}
+
 /// Why the default (spawn a viewer) cannot work here, if it cannot.
-fn viewer_unavailable() -> Option<String> {
+fn viewer_unavailable() -> Option<ViewerUnavailable> {
     let on_path = std::env::var_os("PATH")
         .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("rerun").is_file()));
     if !on_path {
-        return Some(
-            "no `rerun` viewer on PATH (install it with `pip install rerun-sdk==0.36.3`)".into(),
-        );
+        return Some(ViewerUnavailable::NotOnPath);
     }
     if cfg!(target_os = "linux")
         && std::env::var_os("DISPLAY").is_none()
         && std::env::var_os("WAYLAND_DISPLAY").is_none()
     {
-        return Some(
-            "no display to open a viewer window on (DISPLAY and WAYLAND_DISPLAY are unset)".into(),
-        );
+        return Some(ViewerUnavailable::NoDisplay);
     }
     None
 }
@@ -171,7 +187,7 @@ pub fn open_sink(
             .unwrap_or_else(|| rerun::DEFAULT_CONNECT_URL.to_owned())
     } else {
         let spawned = match viewer_unavailable() {
-            Some(why) => Err(why),
+            Some(why) => Err(why.to_string()),
             None => rerun::spawn(&rerun::SpawnOptions::default())
                 .map_err(|e| format!("spawning the viewer failed: {e}")),
         };

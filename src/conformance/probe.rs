@@ -35,10 +35,7 @@ fn bitwise(family: KernelFamily, info: &wgpu::AdapterInfo) -> bool {
 /// estimated stable one where that is smaller.
 fn probe_step(model: &Model, settings: &Settings, integrator: Integrator) -> (Step, u32) {
     let options = settings.options;
-    if matches!(
-        integrator,
-        Integrator::Implicit | Integrator::Bdf2 | Integrator::Vbd
-    ) {
+    if integrator.scheme().assembles_blocks() {
         return (Step::new(integrator, 1.0 / 60.0).with_options(options), 1);
     }
     let stable = crate::stability::stable_dts(model)

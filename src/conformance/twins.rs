@@ -1,5 +1,5 @@
 //! Every GPU kernel's CPU namesake exists: the build fails otherwise. The kernel table
-//! (`gpu/kernels.rs`) names each namesake by its path under `cpu/`; this check sits above both
+//! (`gpu/kernel_table.rs`) names each namesake by its path under `cpu/`; this check sits above both
 //! backends, so that the GPU backend imports nothing from the CPU backend.
 
 macro_rules! check_twins {
@@ -22,4 +22,4 @@ macro_rules! check_twins {
     };
 }
 
-crate::gpu::kernels::kernel_table!(check_twins);
+crate::gpu::kernel_table::kernel_table!(check_twins);

@@ -26,13 +26,13 @@
 use glam::{Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::backward::{History, residual_work};
+use super::backward::residual_work;
 use super::cg::{
     cg_direction, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair};
 use super::forces::{Gather, compute_forces};
-use super::multigrid::Multigrid;
+use super::implicit_work::{ImplicitWork, Linearisation, SolveStats};
 use super::newton_rules::{
     NewtonRules, newton_converged, newton_done, newton_overshot, newton_stalled, relative,
 };
@@ -41,97 +41,13 @@ use super::system_blocks::{ContactBlock, SpringTerms, block_times, invert_block,
 use crate::backend::StopFlags;
 use crate::integrator::Integrator;
 use crate::model::{Model, Spring, poses_at};
-use crate::physics::{BackwardStep, NEWTON_MAX_ITERATIONS, Preconditioner};
+use crate::physics::{BackwardStep, NEWTON_MAX_ITERATIONS};
 use crate::state::{Power, State};
-
-/// How one implicit step's linear solve went.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct SolveStats {
-    /// Newton iterations of the step, a halving of an update that overshot counting as one.
-    pub newton: u32,
-    /// Conjugate-gradient iterations over all of the step's Newton iterations.
-    pub iterations: u32,
-    /// Largest final residual of the step's linear solves, each relative to the Newton residual
-    /// it started from: at most CG_FORCING when every solve converged, up to 1 when one ran
-    /// out of iterations. (VBD: the step's residual |h f − M Δv| relative to |h f|.)
-    pub residual: f64,
-    /// |h f − M Δv| / |h f| at the step's last iterate evaluated, and whether the step met its
-    /// rule (Newton: tolerance, floor or a negligible update in its iterations; VBD_RESIDUAL).
-    pub step_residual: f64,
-    pub met: bool,
-}
-
-/// The system linearised at x₀.
-#[derive(Debug, Default)]
-pub struct Linearisation {
-    pub(super) springs: Vec<SpringTerms>,
-    contacts: Vec<ContactBlock>,
-}
-
-impl Linearisation {
-    fn new(model: &Model) -> Self {
-        Linearisation {
-            springs: vec![SpringTerms::default(); model.spring_count()],
-            contacts: vec![ContactBlock::default(); model.mass_count()],
-        }
-    }
-}
-
-/// Scratch for the solve, allocated once per backend.
-#[derive(Debug, Default)]
-pub struct ImplicitWork {
-    pub(super) lin: Linearisation,
-    acc: Vec<Vec3>,
-    pub(super) b: Vec<Vec3>,
-    pub(super) r: Vec<Vec3>,
-    pub(super) z: Vec<Vec3>,
-    pub(super) p: Vec<Vec3>,
-    pub(super) ap: Vec<Vec3>,
-    pub(super) dv: Vec<Vec3>,
-    /// Each mass's diagonal block of the system, inverted: the preconditioner.
-    pub(super) block_inv: Vec<Mat3>,
-    /// Δv so far, and the iterate's state.
-    dv_total: Vec<Vec3>,
-    xk: Vec<Vec3>,
-    vk: Vec<Vec3>,
-    /// Large systems' preconditioner (block Jacobi without it).
-    pub(super) multigrid: Option<Multigrid>,
-    /// BDF2's last step start.
-    history: History,
-}
-
-impl ImplicitWork {
-    /// Scratch for `model`'s solves, preconditioned by `preconditioner` (block Jacobi where
-    /// `model` has no coarse level to make).
-    pub fn new(model: &Model, preconditioner: Preconditioner) -> Self {
-        let n = model.mass_count();
-        let zeros = || vec![Vec3::ZERO; n];
-        Self {
-            lin: Linearisation::new(model),
-            acc: zeros(),
-            b: zeros(),
-            r: zeros(),
-            z: zeros(),
-            p: zeros(),
-            ap: zeros(),
-            dv: zeros(),
-            block_inv: vec![Mat3::IDENTITY; n],
-            dv_total: zeros(),
-            xk: zeros(),
-            vk: zeros(),
-            multigrid: match preconditioner {
-                Preconditioner::Multigrid => Multigrid::new(model),
-                Preconditioner::BlockJacobi => None,
-            },
-            history: History::default(),
-        }
-    }
-}
 
 /// (M − h D − h² K) p, filtered (pinned rows are zero).
 pub fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out: &mut [Vec3]) {
     let drag = model.effects.air_drag_per_s.unwrap_or(0.0);
-    each_mass(out, |i, o| *o = system_times(model, lin, (h, drag), p, i));
+    each_mass(out, |i, o| *o = system_times(model, lin, h, drag, p, i));
 }
 
 /// Row `i` of (M − h D − h² K) p: its own term, then each spring's in CSR order, then its
@@ -140,7 +56,8 @@ pub fn apply_system(model: &Model, lin: &Linearisation, h: f32, p: &[Vec3], out:
 fn system_times(
     model: &Model,
     lin: &Linearisation,
-    (h, drag): (f32, f32),
+    h: f32,
+    drag: f32,
     p: &[Vec3],
     i: usize,
 ) -> Vec3 {
@@ -214,7 +131,8 @@ pub fn implicit_step(
     gather: &mut Gather,
     state: &mut State,
     w: &mut ImplicitWork,
-    (integrator, dt): (Integrator, f32),
+    integrator: Integrator,
+    dt: f32,
     stop: &StopFlags,
 ) -> SolveStats {
     let step = BackwardStep::of(integrator, dt, w.history.steps_taken());
@@ -226,7 +144,7 @@ pub fn implicit_step(
     let rules = NewtonRules::of(f64::from(dt), integrator.order());
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
-    let keep = integrator == Integrator::Bdf2;
+    let keep = integrator.scheme().history();
     w.history
         .implicit_blend(step, keep, &mut state.x, &mut state.v);
     implicit_begin(&mut w.dv_total);
@@ -261,7 +179,7 @@ pub fn implicit_step(
         }
         halvings = 0;
         last_residual = residual;
-        let (iterations, residual) = solve(model, w, (h, residual, sums.x), stop);
+        let (iterations, residual) = solve(model, w, h, (residual, sums.x), stop);
         stats.newton += 1;
         stats.iterations += iterations;
         stats.residual = stats.residual.max(f64::from(residual));
@@ -398,13 +316,13 @@ pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
 }
 
 /// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
-/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, `b_norm` being |b| and `rz` b·B⁻¹b
-/// (block Jacobi's first r·z). Returns the iterations and |r| / |b|. Its steps and sums are
-/// shaders/implicit_group.wgsl's `solve_in_group`'s.
+/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, given |b| and b·B⁻¹b (block Jacobi's
+/// first r·z). Returns the iterations and |r| / |b|, as `solve_in_group` (implicit_group.wgsl).
 fn solve(
     model: &Model,
     w: &mut ImplicitWork,
-    (h, b_norm, rz): (f32, f32, f32),
+    h: f32,
+    (b_norm, rz): (f32, f32),
     stop: &StopFlags,
 ) -> (u32, f32) {
     let ImplicitWork {
@@ -495,6 +413,7 @@ pub(super) fn own_and_contacts(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::Preconditioner;
 
     /// The hair scene at its own step: a stiff strand hanging under gravity, whose residual f32
     /// forces cannot take below about 3e-3 of the step's first. Newton once ran all 10
@@ -516,7 +435,8 @@ mod tests {
                     &mut gather,
                     &mut state,
                     &mut work,
-                    (Integrator::Implicit, settings.dt_secs as f32),
+                    Integrator::Implicit,
+                    settings.dt_secs as f32,
                     &StopFlags::default(),
                 );
                 assert!(s.newton < NEWTON_MAX_ITERATIONS, "{s:?}");

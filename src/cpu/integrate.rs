@@ -6,7 +6,8 @@ use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::forces::{Gather, compute_external_forces, compute_forces};
-use super::implicit::{ImplicitWork, SolveStats, implicit_step};
+use super::implicit::implicit_step;
+use super::implicit_work::{ImplicitWork, SolveStats};
 use super::springs::update_springs;
 use super::vbd::{VbdWork, vbd_step};
 use super::xpbd::XpbdWork;
@@ -156,7 +157,8 @@ pub fn step(
                 &mut s.gather,
                 state,
                 work,
-                (integrator, dt),
+                integrator,
+                dt,
                 &s.stop,
             ));
         }

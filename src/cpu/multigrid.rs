@@ -28,9 +28,9 @@ use glam::{DVec3, Mat3, Vec3};
 
 use super::aggregates::Values;
 use super::chunks::each_mass as each;
-use super::system_blocks::block_times;
+use super::multigrid_sweeps::{cholesky_in_place, residual, smooth, smooth_from_zero};
 use crate::model::Model;
-use crate::physics::hierarchy::{Hierarchy, Level, SMOOTHING};
+use crate::physics::hierarchy::{Hierarchy, Level};
 
 /// The hierarchy, its numbers, and the coarsest level's factor.
 #[derive(Debug, Clone)]
@@ -79,43 +79,6 @@ impl Multigrid {
     pub fn nodes(&self) -> Vec<usize> {
         self.levels.iter().map(|l| l.nodes).collect()
     }
-}
-
-/// Factors the symmetric `n` × `n` matrix `a` (row-major) into its lower Cholesky factor in
-/// place; false if it is not positive definite.
-fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
-        if d.is_nan() || d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
-            a[i * n + j] = s / d;
-        }
-    }
-    true
-}
-
-/// x = ω D⁻¹ b (a sweep from zero).
-fn smooth_from_zero(diag_inv: &[Mat3], b: &[Vec3], x: &mut [Vec3]) {
-    each(x, |i, out| {
-        *out = SMOOTHING * block_times(diag_inv[i], b[i])
-    });
-}
-
-/// r = b − A x, given ax = A x.
-fn residual(b: &[Vec3], ax: &[Vec3], r: &mut [Vec3]) {
-    each(r, |i, out| *out = b[i] - ax[i]);
-}
-
-/// x += ω D⁻¹ r.
-fn smooth(diag_inv: &[Mat3], r: &[Vec3], x: &mut [Vec3]) {
-    each(x, |i, out| {
-        *out += SMOOTHING * block_times(diag_inv[i], r[i])
-    });
 }
 
 impl Multigrid {
@@ -263,8 +226,9 @@ impl Multigrid {
 mod tests {
     use super::super::forces::Gather;
     use super::super::implicit::{
-        ImplicitWork, apply_system, block_of_mass, implicit_step, linearised_at, own_and_contacts,
+        apply_system, block_of_mass, implicit_step, linearised_at, own_and_contacts,
     };
+    use super::super::implicit_work::ImplicitWork;
     use super::super::system_blocks::invert_block;
     use super::*;
     use crate::integrator::Integrator;
@@ -292,7 +256,7 @@ mod tests {
     /// linearised there at one step per frame, the hierarchy and the block inverses with it.
     fn linearised_cloth() -> (
         std::sync::Arc<Model>,
-        super::super::implicit::Linearisation,
+        super::super::implicit_work::Linearisation,
         Multigrid,
         Vec<Mat3>,
     ) {
@@ -425,7 +389,8 @@ mod tests {
                         &mut gather,
                         &mut state,
                         &mut work,
-                        (Integrator::Implicit, h),
+                        Integrator::Implicit,
+                        h,
                         &crate::backend::StopFlags::default(),
                     )
                     .iterations

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use super::chunks::PARALLEL_MIN_MASSES;
 use super::forces::{Gather, compute_forces, force_on_mass};
-use super::implicit::SolveStats;
+use super::implicit_work::SolveStats;
 use super::system_blocks::{ContactBlock, SpringTerms, block_times, invert_block, own_block};
 use crate::backend::StopFlags;
 use crate::model::{Model, Pose, poses_at};

@@ -5,7 +5,7 @@
 use super::buffers::Alloc;
 use super::dispatch::{ColourPass, Sweeps};
 use super::layout::ColourRange;
-use super::shaders::groups_for;
+use super::sizing::groups_for;
 
 /// One uniform `ColourRange` per (colour, first sweep or not), each at an offset a binding may
 /// start at, in one buffer: the windows the colour kernels' bind groups hold.
@@ -95,7 +95,8 @@ impl ColourGroups {
     pub(super) fn new(
         groups: Vec<wgpu::BindGroup>,
         kinds: usize,
-        (starts, max_per_dim): (&[u32], u32),
+        starts: &[u32],
+        max_per_dim: u32,
         iterations: u32,
     ) -> Self {
         let counts: Vec<u32> = starts.windows(2).map(|w| w[1] - w[0]).collect();

@@ -104,7 +104,8 @@ impl Dispatcher<'_> {
     /// their frame (`Backend::watch`). The split never changes the dispatches or their order.
     pub fn encode_in_submissions(
         &self,
-        (ctx, stop): (&GpuContext, &StopFlags),
+        ctx: &GpuContext,
+        stop: &StopFlags,
         mut enc: wgpu::CommandEncoder,
         label: &'static str,
         plan: &[Dispatch],

@@ -4,9 +4,10 @@
 
 use super::context::{AdapterError, GpuContext};
 use super::layout::{MAX_COLLIDERS, SOLVER_VECTORS};
+use super::verdicts::{BlockJacobiInstead, MultigridUnbound};
 #[cfg(test)]
 use crate::integrator::StepOptions;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::{Integrator, Solve, Step};
 use crate::model::Model;
 
 /// Storage buffers the kernels bind per stage at most (collide_masses.wgsl).
@@ -20,7 +21,7 @@ const IMPLICIT_STORAGE_BUFFERS_NEEDED: u32 = 15;
 /// with fewer preconditions the CG by block Jacobi.
 pub const MULTIGRID_STORAGE_BUFFERS_NEEDED: u32 = 17;
 
-/// The most masses implicit Euler's one-workgroup step takes (`implicit::path`): 32 per thread.
+/// The most masses implicit Euler's one-workgroup step takes (`sizing::implicit_path`): 32 per thread.
 /// Beyond that, a dispatch per pass spreads the masses over the device.
 pub const IN_GROUP_MAX_MASSES: usize = 2048;
 
@@ -42,21 +43,21 @@ const _: () = assert!(MULTIGRID_FACTOR_WORKGROUP_BYTES + 16 * 64 + 560 <= 16 * 1
 /// Why an adapter with `limits` cannot run the multigrid cycle on `model`'s implicit steps
 /// (its CG then takes block Jacobi), or `None`: the one decision both `GpuBackend::new`
 /// (`multigrid::Layout::for_run`) and `hooke check` take.
-pub fn multigrid_unbound_by(model: &Model, limits: &wgpu::Limits) -> Option<String> {
+pub fn multigrid_unbound_by(model: &Model, limits: &wgpu::Limits) -> Option<MultigridUnbound> {
     let buffers = limits.max_storage_buffers_per_shader_stage;
     let bytes = limits.max_compute_workgroup_storage_size;
     if buffers < MULTIGRID_STORAGE_BUFFERS_NEEDED {
-        Some(format!(
-            "the cycle binds {MULTIGRID_STORAGE_BUFFERS_NEEDED} storage buffers a stage, the \
-             adapter {buffers}"
-        ))
+        Some(MultigridUnbound::StorageBuffers {
+            allowed: buffers,
+            needed: MULTIGRID_STORAGE_BUFFERS_NEEDED,
+        })
     } else if model.mass_count() <= IN_GROUP_MAX_MASSES
         && bytes < MULTIGRID_IN_GROUP_WORKGROUP_BYTES
     {
-        Some(format!(
-            "the one-workgroup step's cycle takes up to {MULTIGRID_IN_GROUP_WORKGROUP_BYTES} bytes \
-             of workgroup memory, the adapter {bytes}"
-        ))
+        Some(MultigridUnbound::WorkgroupMemory {
+            allowed: bytes,
+            needed: MULTIGRID_IN_GROUP_WORKGROUP_BYTES,
+        })
     } else {
         None
     }
@@ -67,10 +68,9 @@ pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
     // VBD keeps each mass's velocity at the last step's start in [i] and its residual's workgroup
     // sums after those (RK4 and Verlet use three per mass);
     // BDF2 keeps the last step's start after the solver's vectors (HISTORY_X, HISTORY_V).
-    let per_mass = match integrator {
-        Integrator::Implicit => 16 * SOLVER_VECTORS,
-        Integrator::Bdf2 => 16 * (SOLVER_VECTORS + 2),
-        _ => 48,
+    let per_mass = match integrator.scheme().solve {
+        Solve::Newton { history } => 16 * (SOLVER_VECTORS + if history { 2 } else { 0 }),
+        Solve::Explicit(_) | Solve::Sweeps(_) => 48,
     };
     per_mass * model.mass_count() as u64
 }
@@ -78,12 +78,11 @@ pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
 /// Bytes of compute_forces' output: acceleration and rates, and for implicit Euler and VBD with
 /// contacts their linearisation.
 pub fn deriv_bytes(model: &Model, integrator: Integrator) -> u64 {
-    let per_mass =
-        if (integrator.newton() || integrator == Integrator::Vbd) && model.effects.has_contact() {
-            64
-        } else {
-            32
-        };
+    let per_mass = if integrator.scheme().assembles_blocks() && model.effects.has_contact() {
+        64
+    } else {
+        32
+    };
     per_mass * model.mass_count() as u64
 }
 
@@ -159,19 +158,18 @@ pub fn check_fits(
 
 /// Why a run of `model` as `step` says, whose CG multigrid would precondition, takes block
 /// Jacobi on the GPU instead, on an adapter with `limits` (`None` when it does not).
-fn multigrid_unbound(model: &Model, step: Step, limits: &wgpu::Limits) -> Option<String> {
+fn multigrid_unbound(
+    model: &Model,
+    step: Step,
+    limits: &wgpu::Limits,
+) -> Option<BlockJacobiInstead> {
     let wanted = step.integrator.newton()
         && crate::physics::preconditioner_of(model, step)
             == crate::physics::Preconditioner::Multigrid;
     wanted
         .then(|| multigrid_unbound_by(model, limits))
         .flatten()
-        .map(|why| {
-            format!(
-                "its CG takes block Jacobi on this adapter, not multigrid as on the CPU ({why}): \
-                 the backends agree to the solver's tolerance"
-            )
-        })
+        .map(BlockJacobiInstead)
 }
 
 /// For `hooke check`: the adapter a run would use, its relevant limits, and whether the scene fits.
@@ -187,8 +185,7 @@ pub fn adapter_report(
         Err(e) => e.to_string(),
     };
     if let Some(why) = multigrid_unbound(model, step, l) {
-        fits.push_str("; ");
-        fits.push_str(&why);
+        fits.push_str(&format!("; {why}"));
     }
     let budget = super::loop_budget::LoopBudget::measure(&ctx);
     if !budget.runs_long_loops() {
@@ -246,7 +243,11 @@ mod tests {
         let crate::run::prepare::Planned { model, .. } =
             crate::run::prepare::planned("cloth-64").expect("the built-in cloth-64 is planned");
         let why = multigrid_unbound(&model, at(Integrator::Implicit), &short);
-        assert!(why.is_some_and(|w| w.contains("block Jacobi") && w.contains("storage buffers")));
+        let unbound = MultigridUnbound::StorageBuffers {
+            allowed: needed - 1,
+            needed,
+        };
+        assert_eq!(why, Some(BlockJacobiInstead(unbound)));
         assert!(multigrid_unbound(&model, at(Integrator::Bdf2), &short).is_some());
         assert!(
             multigrid_unbound(&model, at(Integrator::Implicit), &adapter(needed, roomy)).is_none()
@@ -265,6 +266,10 @@ mod tests {
         assert!(multigrid_unbound(&model, asked, &short).is_some());
         assert!(multigrid_unbound(&model, asked, &adapter(needed, roomy)).is_none());
         let why = multigrid_unbound(&model, asked, &least);
-        assert!(why.is_some_and(|w| w.contains("workgroup memory")));
+        let unbound = MultigridUnbound::WorkgroupMemory {
+            allowed: 16 * 1024,
+            needed: MULTIGRID_IN_GROUP_WORKGROUP_BYTES,
+        };
+        assert_eq!(why, Some(BlockJacobiInstead(unbound)));
     }
 }

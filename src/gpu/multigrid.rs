@@ -8,7 +8,7 @@ use super::dispatch::Dispatch;
 use super::kernels::Kernel::{self, *};
 use super::layout::MgLevel;
 use super::limits::multigrid_unbound_by;
-use super::shaders::groups_for;
+use super::sizing::groups_for;
 use crate::model::Model;
 use crate::physics::Preconditioner;
 use crate::physics::hierarchy::{COARSEST_NODES, Hierarchy, Rows};
@@ -164,9 +164,11 @@ impl MultigridGroups {
     /// `group_layout`, one group per level.
     pub(super) fn new<'b>(
         a: &mut Alloc<'_>,
-        (group_layout, layout): (&wgpu::BindGroupLayout, &Layout),
+        group_layout: &wgpu::BindGroupLayout,
+        layout: &Layout,
         solve: impl Fn() -> buffers::Solve<'b>,
-        (uniform_align, max_dim): (u32, u32),
+        uniform_align: u32,
+        max_dim: u32,
     ) -> Self {
         let topology = a.model("multigrid levels", bytemuck::cast_slice(&layout.topology));
         let values = a.zeros("multigrid values", 16 * layout.values.max(1));

@@ -1,79 +1,13 @@
 //! The step plans: which kernels a step dispatches, in order, on which state and at which stage
 //! slot. Implicit Euler's solve has a plan of its own, repeated as its iterations need.
 
-use super::dispatch::{ColourPass, Dispatch, Flow, StateIn, Sweeps, why_not_in_group};
+use super::dispatch::{ColourPass, Dispatch, StateIn, Sweeps};
+use super::fused_plan::{ExplicitPath, fused_step_plan};
 use super::implicit;
 use super::kernels::Kernel;
 use super::multigrid;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Over, Step};
 use crate::model::{Effects, Model};
-
-/// How a run's explicit steps are dispatched: fused (`fused.wgsl`: each step's per-mass passes
-/// folded into its force gathers, the state ping-ponging between A and B), fused with every step
-/// of a submission in one dispatch of one workgroup (`fused_frame.wgsl`: small scenes), or a
-/// pass per stage. Each path is open to the runs of the one after it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum ExplicitPath {
-    InGroup,
-    Fused,
-    General,
-}
-
-/// Why a run cannot take the fused steps, or `None` when it can (given compact links for its
-/// springs, `links.rs`). `storage_buffers`: what the adapter allows per shader stage.
-fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> Option<String> {
-    let e = &model.effects;
-    let why = if !matches!(
-        integrator,
-        Integrator::Euler | Integrator::SemiImplicit | Integrator::Verlet | Integrator::Rk4
-    ) {
-        format!("{} has no fused step", integrator.name())
-    } else if e.springs_change() {
-        "plasticity or tearing changes the springs".to_owned()
-    } else if e.self_collision.is_some() {
-        "mass–mass contact checks its neighbour lists between force evaluations".to_owned()
-    } else if storage_buffers < super::limits::FUSED_STORAGE_BUFFERS_NEEDED {
-        format!(
-            "the adapter allows {storage_buffers} storage buffers per stage, the fused step needs {}",
-            super::limits::FUSED_STORAGE_BUFFERS_NEEDED
-        )
-    } else {
-        return None;
-    };
-    Some(why)
-}
-
-/// A fused run's dispatches of one step. Euler and semi-implicit Euler alternate A → B and B → A
-/// (`odd`: the step reads B); the others return to A within the step. `prime`: Verlet's first
-/// step, which also evaluates a(x₀) (with the general kernel, into deriv).
-pub fn fused_step_plan(integrator: Integrator, prime: bool, odd: bool) -> Vec<Dispatch> {
-    use Flow::*;
-    use Kernel::*;
-    let flowing = Dispatch::flowing;
-    match integrator {
-        Integrator::Euler | Integrator::SemiImplicit => {
-            vec![flowing(FusedStep, if odd { BA } else { AB }, 0)]
-        }
-        Integrator::Verlet => {
-            let mut p = vec![
-                flowing(FusedVerletDrift, AB, 0),
-                flowing(FusedVerletKick, BA, 3),
-            ];
-            if prime {
-                p.insert(0, Dispatch::reading(ComputeForces, StateIn::XV, 0));
-            }
-            p
-        }
-        Integrator::Rk4 => vec![
-            flowing(FusedRk4Begin, AB, 0),
-            flowing(FusedRk4Mid, BC, 1),
-            flowing(FusedRk4Mid, CB, 2),
-            flowing(FusedRk4Final, BA, 3),
-        ],
-        // why_unfused keeps the others off the fused path.
-        _ => Vec::new(),
-    }
-}
 
 /// Every sweep over every colour of `sweeps` at stage slot `slot`: one dispatch of `in_group`
 /// when they take one workgroup, else a dispatch of `per_colour` per colour and sweep.
@@ -202,7 +136,8 @@ pub fn step_plan(
             .chain([forces(XtVt, 3), at(VbdFinal, 3), at(VbdResidual, 3)])
             .collect(),
     };
-    if effects.has_contact() && !(integrator.newton() || integrator == Integrator::Vbd) {
+    // A scheme that assembles the contacts' blocks solves them; the others project.
+    if effects.has_contact() && !integrator.scheme().assembles_blocks() {
         plan.push(at(ProjectContacts, 3));
     }
     if effects.self_collision.is_some() {
@@ -226,35 +161,6 @@ fn with_mass_contact(d: Dispatch, build: ListBuild) -> Vec<Dispatch> {
             .chain([d, Dispatch::reading(Kernel::CollideMasses, state, d.slot)])
             .collect(),
         _ => vec![d],
-    }
-}
-
-/// The path a run's explicit steps take on a `device` allowing `storage_buffers` storage
-/// buffers per stage, and why when it is not the fused one (in one workgroup or not).
-pub fn explicit_path(
-    model: &Model,
-    integrator: Integrator,
-    (storage_buffers, device): (u32, wgpu::DeviceType),
-) -> (ExplicitPath, Option<String>) {
-    match fused_links(model, integrator, storage_buffers) {
-        Ok(_) if why_not_in_group(model, integrator, device).is_none() => {
-            (ExplicitPath::InGroup, None)
-        }
-        Ok(_) => (ExplicitPath::Fused, None),
-        Err(why) => (ExplicitPath::General, Some(why)),
-    }
-}
-
-/// The compact links a fused run steps with, or why the run takes the general passes: the one
-/// decision `explicit_path` reports and the backend acts on.
-pub fn fused_links(
-    model: &Model,
-    integrator: Integrator,
-    storage_buffers: u32,
-) -> Result<super::links::Links, String> {
-    match why_unfused(model, integrator, storage_buffers) {
-        Some(why) => Err(why),
-        None => super::links::Links::build(model).map_err(|e| e.to_string()),
     }
 }
 
@@ -284,19 +190,17 @@ pub fn sweeps_of(
     options: crate::integrator::StepOptions,
     one_group: bool,
 ) -> Sweeps {
-    match integrator {
-        Integrator::Xpbd => Sweeps {
-            colours: crate::physics::colour_springs(&model.springs, &model.inv_mass).colours()
-                as u32,
-            iterations: options.xpbd_iterations,
-            one_group,
-        },
-        Integrator::Vbd => Sweeps {
-            colours: crate::physics::vbd_colouring(model).colours() as u32,
-            iterations: options.vbd_iterations,
-            one_group,
-        },
-        _ => Sweeps::default(),
+    let Some(of) = integrator.scheme().sweeps() else {
+        return Sweeps::default();
+    };
+    let colours = match of.over {
+        Over::Springs => crate::physics::colour_springs(&model.springs, &model.inv_mass).colours(),
+        Over::Masses => crate::physics::vbd_colouring(model).colours(),
+    };
+    Sweeps {
+        colours: colours as u32,
+        iterations: of.count(&options),
+        one_group,
     }
 }
 
@@ -320,24 +224,33 @@ pub(super) fn steady_step_plan(
     }
 }
 
+/// The paths a run's steps take, as `GpuBackend::step_paths` gives them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepPaths {
+    pub explicit: ExplicitPath,
+    /// Implicit Euler's path (by the system's size where `None`).
+    pub implicit: Option<implicit::Path>,
+    /// XPBD's or VBD's sweeps in one workgroup.
+    pub sweeps_in_group: bool,
+    /// Coarse levels of implicit Euler's multigrid cycle (0: block Jacobi).
+    pub multigrid_levels: u32,
+}
+
 /// For `bench throughput`: the dispatches of a step after the first (Verlet's first also
-/// evaluates a(x₀)), as the plans above record them on `explicit` and implicit Euler's
-/// `implicit` path (`GpuBackend::implicit_path`; by the system's size where `None`), with XPBD's or VBD's sweeps
-/// in one workgroup or not (`sweeps_in_group`: the run's, `GpuBackend::sweeps_in_group`) and
-/// implicit Euler's CG preconditioned by a multigrid cycle over `multigrid_levels` coarse levels
-/// (`GpuBackend::multigrid_levels`; 0, block Jacobi).
-pub fn dispatches_per_step(
-    model: &Model,
-    integrator: Integrator,
-    options: crate::integrator::StepOptions,
-    (explicit, implicit, sweeps_in_group, multigrid_levels): (
-        ExplicitPath,
-        Option<implicit::Path>,
-        bool,
-        u32,
-    ),
-) -> DispatchCount {
+/// evaluates a(x₀)), as the plans above record them on the run's `paths`.
+pub fn dispatches_per_step(model: &Model, step: Step, paths: StepPaths) -> DispatchCount {
     use implicit::*;
+    let StepPaths {
+        explicit,
+        implicit,
+        sweeps_in_group,
+        multigrid_levels,
+    } = paths;
+    let Step {
+        integrator,
+        options,
+        ..
+    } = step;
     let count = |n: usize| n as u32;
     let sweeps = sweeps_of(model, integrator, options, sweeps_in_group);
     let steps = count(steady_step_plan(model, integrator, explicit, sweeps).len());
@@ -346,7 +259,10 @@ pub fn dispatches_per_step(
         0 => (0, 0),
         l => (multigrid::linearise(l).len(), multigrid::cycle(l).len()),
     };
-    match (integrator.newton(), implicit.unwrap_or_else(|| path(model))) {
+    match (
+        integrator.newton(),
+        implicit.unwrap_or_else(|| super::sizing::implicit_path(model)),
+    ) {
         (true, Path::InGroup) => DispatchCount {
             fixed: count(IN_GROUP.len()) + steps,
             ..DispatchCount::default()
@@ -378,34 +294,6 @@ mod tests {
         Integrator::Verlet,
         Integrator::Rk4,
     ];
-
-    /// The fused steps keep their bounds (at most 2 dispatches per step, RK4 5), each
-    /// dispatch reads the state the one before wrote, and a step starts from A and returns to it
-    /// (Euler and semi-implicit Euler every second step).
-    #[test]
-    fn fused_steps_chain_their_states_within_the_dispatch_bounds() {
-        let ends = |f: Flow| match f {
-            Flow::AB => ('A', 'B'),
-            Flow::BA => ('B', 'A'),
-            Flow::BC => ('B', 'C'),
-            Flow::CB => ('C', 'B'),
-        };
-        for integrator in FUSED {
-            let bound = if integrator == Integrator::Rk4 { 5 } else { 2 };
-            let mut at = 'A';
-            for odd in [false, true] {
-                let plan = fused_step_plan(integrator, false, odd);
-                assert!(!plan.is_empty() && plan.len() <= bound, "{integrator}");
-                for d in &plan {
-                    let (from, to) = ends(d.flow.expect("a fused kernel"));
-                    assert_eq!(from, at, "{integrator} {}", d.kernel.name());
-                    at = to;
-                }
-                let single = matches!(integrator, Integrator::Euler | Integrator::SemiImplicit);
-                assert_eq!(at, if single && !odd { 'B' } else { 'A' }, "{integrator}");
-            }
-        }
-    }
 
     /// The grid stencil brings a fused semi-implicit step at cloth-256 under 18 B of compulsory
     /// traffic per spring update (x and v read and written, each mass's mass and ledger; nothing
@@ -459,11 +347,14 @@ mod tests {
         // The solver's grid: on a GPU one workgroup per 64 masses up to its cap; on a CPU
         // adapter one per 2 048 up to 64, as the CPU backend sums.
         use wgpu::DeviceType::{Cpu, DiscreteGpu};
-        assert_eq!(implicit::solver_groups(4096, Cpu), 2);
-        assert_eq!(implicit::solver_groups(100, Cpu), 1);
-        assert_eq!(implicit::solver_groups(1 << 20, Cpu), 64);
-        assert_eq!(implicit::solver_groups(1 << 20, DiscreteGpu), 1024);
-        assert_eq!(implicit::solver_groups(0, DiscreteGpu), 1);
+        assert_eq!(crate::gpu::sizing::solver_groups(4096, Cpu), 2);
+        assert_eq!(crate::gpu::sizing::solver_groups(100, Cpu), 1);
+        assert_eq!(crate::gpu::sizing::solver_groups(1 << 20, Cpu), 64);
+        assert_eq!(
+            crate::gpu::sizing::solver_groups(1 << 20, DiscreteGpu),
+            1024
+        );
+        assert_eq!(crate::gpu::sizing::solver_groups(0, DiscreteGpu), 1);
     }
 
     /// XPBD's substep: the kick, every colour once per sweep with the multipliers reset on the

@@ -100,23 +100,34 @@ impl StagingLayout {
     }
 }
 
+/// Which reductions a snapshot takes besides the energies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reductions {
+    /// Each spring's strain (a model with springs).
+    pub strain: bool,
+    /// The energy springs let go (plasticity, tearing).
+    pub released: bool,
+    /// Mass–mass contact's pair potential, on a grid built as this says.
+    pub pairs: Option<ListBuild>,
+}
+
 /// The reductions of a snapshot at stage slot `slot`: strain, energies, the energy springs let
 /// go, and the pair potential of the positions read back, on a grid built from them.
 pub fn encode_reductions(
     kernels: &Dispatcher<'_>,
     pass: &mut wgpu::ComputePass<'_>,
     slot: u32,
-    (springs, springs_change, mass_contact): (bool, bool, Option<ListBuild>),
+    which: Reductions,
 ) -> Result<(), BackendError> {
     let mut plan = Vec::new();
-    if springs {
+    if which.strain {
         plan.push(Dispatch::at(Kernel::ComputeStrain, 0));
     }
     plan.push(Dispatch::at(Kernel::ComputeEnergies, 0));
-    if springs_change {
+    if which.released {
         plan.push(Dispatch::at(Kernel::SumSpringWork, 0));
     }
-    if let Some(build) = mass_contact {
+    if let Some(build) = which.pairs {
         plan.extend(neighbour_update(build, StateIn::XV, 0));
         plan.push(Dispatch::reading(Kernel::MassContactEnergy, StateIn::XV, 0));
     }
@@ -169,14 +180,27 @@ fn sum_partials(partials: &[f32]) -> ([f64; 8], f32, f32, f64) {
     (sum, max_speed, bad, released)
 }
 
+/// What a snapshot's staging buffer holds beyond positions and strain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Decode {
+    /// The velocities were copied too.
+    pub with_velocity: bool,
+    /// Springs may be broken: their strain reads as NaN.
+    pub tearing: bool,
+}
+
 /// Decode a mapped staging buffer; `positions` and `strain` are refilled. `tearing`: broken
 /// springs are marked (compute_strain's BROKEN_STRAIN) and read as NaN.
 pub fn decode(
     data: &[u8],
     at: StagingLayout,
-    (with_velocity, tearing): (bool, bool),
+    read: Decode,
     (mut positions, mut strain): (Vec<Vec3>, Vec<f32>),
 ) -> ReadBack {
+    let Decode {
+        with_velocity,
+        tearing,
+    } = read;
     let f32s = |off: u64, count: u64| -> &[f32] {
         bytemuck::cast_slice(&data[off as usize..(off + 4 * count) as usize])
     };

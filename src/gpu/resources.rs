@@ -2,10 +2,11 @@
 //! upload), the state's, and those of the effects a scene has (plasticity and tearing, mass–mass
 //! contact, implicit Euler's solver).
 
-use super::bindings::{Group, GroupBuffers, bind_group, buffers};
+use super::bindings::{Group, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup};
 use super::dispatch::{ColourPass, Flow, StateIn, Sweeps};
+use super::group_set::GroupSet;
 use super::kernels::{Path, Sizes, Threads};
 use super::layout::{
     COUNTERS_BYTES, FrameSolve, MassContact, NEIGHBOUR_HEAD, NEIGHBOUR_SLOTS, neighbour_bytes,
@@ -13,10 +14,10 @@ use super::layout::{
 use super::links::Links;
 use super::multigrid::{Layout as MultigridLayout, MultigridGroups};
 use super::pipelines::Layouts;
-use super::shaders::{WORKGROUP, groups_for};
+use super::sizing::{WORKGROUP, groups_for};
 use super::vbd::vbd_groups;
 use super::xpbd::xpbd_groups;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::{Over, Step};
 use crate::model::Model;
 
 /// Workgroup counts of each kind of dispatch.
@@ -29,7 +30,7 @@ pub struct Workgroups {
     /// Mass–mass contact only: over the hash grid's buckets, and one per block of its prefix sum.
     pub buckets: (u32, u32),
     pub scan_blocks: (u32, u32),
-    /// Implicit Euler's per-pass kernels (`implicit::solver_groups`).
+    /// Implicit Euler's per-pass kernels (`sizing::solver_groups`).
     pub solver: (u32, u32),
 }
 
@@ -78,6 +79,19 @@ pub struct SolverBuffers {
     pub frame_start: Vec<(wgpu::Buffer, wgpu::Buffer)>,
 }
 
+/// What a run's buffers and bind groups follow from, beyond its model and step.
+#[derive(Clone, Copy)]
+pub struct ResourcePlan<'a> {
+    /// The bind group layouts of the run's kernels (a group no kernel uses is never made).
+    pub layouts: &'a Layouts,
+    /// The fused steps' compact springs, for a fused run.
+    pub links: Option<&'a Links>,
+    /// Implicit Euler's path and the workgroups of its per-pass grid.
+    pub implicit: Option<(Path, u32)>,
+    /// The multigrid cycle's levels, when its CG takes one.
+    pub multigrid: Option<&'a MultigridLayout>,
+}
+
 /// Every buffer a run binds, and the bind groups over them.
 pub struct Resources {
     pub x: wgpu::Buffer,
@@ -109,167 +123,21 @@ pub struct Resources {
     pub memory_bytes: u64,
 }
 
-/// Bind group 0 of each kernel group, as they are made.
-struct GroupSet<'a> {
-    device: &'a wgpu::Device,
-    layouts: &'a Layouts,
-    groups: Vec<Option<wgpu::BindGroup>>,
-}
-
-impl GroupSet<'_> {
-    /// Bind `buffers` as their group.
-    fn set<'b, G: GroupBuffers<'b>>(&mut self, buffers: G) {
-        let g = G::GROUP;
-        // A group no kernel of the run uses has no layout, and is never bound.
-        self.groups[g as usize] = self
-            .layouts
-            .group(g)
-            .map(|layout| bind_group(self.device, layout, &buffers));
-    }
-
-    /// The groups every run binds.
-    fn common(&mut self, b: &Bufs) {
-        self.set(b.forces_model());
-        self.set(buffers::Integrate {
-            params: &b.params,
-            x: &b.x,
-            v: &b.v,
-            xt: &b.xt,
-            vt: &b.vt,
-            deriv: &b.deriv,
-            mass: &b.mass,
-            sums: &b.sums,
-            ledger: &b.ledger,
-            counters: &b.counters,
-        });
-        self.set(buffers::Collide {
-            params: &b.params,
-            colliders: &b.colliders,
-            mass: &b.mass,
-            x: &b.x,
-            v: &b.v,
-            ledger: &b.ledger,
-            counters: &b.counters,
-        });
-        self.set(buffers::Reduce {
-            params: &b.params,
-            springs: &b.springs,
-            colliders: &b.colliders,
-            mass: &b.mass,
-            x: &b.x,
-            v: &b.v,
-            ledger: &b.ledger,
-            strain: &b.strain,
-            partials: &b.partials,
-        });
-    }
-
-    /// The fused steps: their model groups (the compact links), and the state flows, by
-    /// [`Flow`]. RK4's middle stages also read the step's start, and alternate B with a third
-    /// state, C.
-    fn fused(
-        &mut self,
-        a: &mut Alloc<'_>,
-        b: &Bufs,
-        (model, integrator): (&Model, Integrator),
-        links: &Links,
-    ) -> Vec<Option<wgpu::BindGroup>> {
-        let kinds = a.uniform("spring kinds", bytemuck::bytes_of(links.kinds.as_ref()));
-        let stencils = a.uniform(
-            "grid stencils",
-            bytemuck::bytes_of(links.stencils.table.as_ref()),
-        );
-        let entries = a.model("links", bytemuck::cast_slice(&links.entries));
-        let fused = || buffers::Fused {
-            params: &b.params,
-            kinds: &kinds,
-            stencils: &stencils,
-            offsets: &b.offsets,
-            links: &entries,
-            colliders: &b.colliders,
-            mass: &b.mass,
-            deriv: &b.deriv,
-            sums: &b.sums,
-            ledger: &b.ledger,
-            counters: &b.counters,
-        };
-        self.set(fused());
-        self.set(buffers::FusedFrame {
-            base: fused(),
-            x_in: &b.x,
-            v_in: &b.v,
-            x_out: &b.xt,
-            v_out: &b.vt,
-        });
-        let rk4 = integrator == Integrator::Rk4;
-        let c = rk4.then(|| {
-            let n = model.mass_count();
-            (a.zeros("x2", 16 * n), a.zeros("v2", 16 * n))
-        });
-        if c.is_some() {
-            self.set(buffers::FusedMid {
-                base: fused(),
-                x_base: &b.x,
-                v_base: &b.v,
-            });
-        }
-        let flow = |from: (&wgpu::Buffer, &wgpu::Buffer), to: (&wgpu::Buffer, &wgpu::Buffer)| {
-            let flow = buffers::Flow {
-                x_in: from.0,
-                v_in: from.1,
-                x_out: to.0,
-                v_out: to.1,
-            };
-            bind_group(self.device, &self.layouts.flow, &flow)
-        };
-        let (pa, pb) = ((&b.x, &b.v), (&b.xt, &b.vt));
-        let mut flows = vec![Some(flow(pa, pb)), Some(flow(pb, pa))];
-        flows.extend(match &c {
-            Some((x2, v2)) => [Some(flow(pb, (x2, v2))), Some(flow((x2, v2), pb))],
-            None => [None, None],
-        });
-        flows
-    }
-
-    /// Plasticity and tearing: each spring's limits, and the energy it let go since the last
-    /// snapshot.
-    /// Returns the released energy's buffer.
-    fn springs(
-        &mut self,
-        a: &mut Alloc<'_>,
-        b: &Bufs,
-        model: &Model,
-        dt_secs: f64,
-    ) -> wgpu::Buffer {
-        let limits = a.model(
-            "spring limits",
-            bytemuck::cast_slice(&model.spring_limits(dt_secs)),
-        );
-        let released = a.zeros("released", 4 * model.spring_count());
-        self.set(buffers::Springs {
-            params: &b.params,
-            springs: &b.springs,
-            limits: &limits,
-            x: &b.x,
-            released: &released,
-            partials: &b.partials,
-        });
-        released
-    }
-}
-
 impl Resources {
-    /// `links`: the fused steps' compact springs, for a fused run; `implicit`: implicit Euler's
-    /// path and the workgroups of its per-pass grid, and the multigrid cycle's levels when its
-    /// CG takes one.
+    /// Every buffer `model`'s run as `step` binds, and the bind groups `plan` asks for.
     pub fn new(
         device: &wgpu::Device,
         limits: &wgpu::Limits,
-        (layouts, links): (&Layouts, Option<&Links>),
         model: &Model,
         step: Step,
-        (implicit, multigrid): (Option<(Path, u32)>, Option<&MultigridLayout>),
+        plan: &ResourcePlan<'_>,
     ) -> Self {
+        let ResourcePlan {
+            layouts,
+            links,
+            implicit,
+            multigrid,
+        } = *plan;
         let Step {
             integrator,
             dt_secs,
@@ -298,10 +166,10 @@ impl Resources {
             .springs_change()
             .then(|| groups.springs(&mut a, &b, model, dt_secs));
         let solver = implicit.map(|(path, grid)| {
-            let mut s = SolverBuffers::new(&mut a, (&b, model), &mut groups, grid);
+            let mut s = SolverBuffers::new(&mut a, &b, model, &mut groups, grid);
             if path == Path::Passes {
                 // BDF2's history lives in the solver's vectors (`sums`), so a replay restores them.
-                let history = (integrator == Integrator::Bdf2).then_some(&b.sums);
+                let history = integrator.scheme().history().then_some(&b.sums);
                 let changing = [&b.x, &b.v, &b.ledger, &b.counters]
                     .into_iter()
                     .chain(history)
@@ -319,9 +187,11 @@ impl Resources {
             .map(|((s, layout), group_layout)| {
                 MultigridGroups::new(
                     &mut a,
-                    (group_layout, layout),
-                    || solve_buffers(&b, (&s.scratch, &s.terms)),
-                    (limits.min_uniform_buffer_offset_alignment, max_dim),
+                    group_layout,
+                    layout,
+                    || solve_buffers(&b, &s.scratch, &s.terms),
+                    limits.min_uniform_buffer_offset_alignment,
+                    max_dim,
                 )
             });
         // XPBD's or VBD's colour groups, the run's integrator's.
@@ -331,23 +201,23 @@ impl Resources {
             uniform_align: limits.min_uniform_buffer_offset_alignment,
             max_per_dim: max_dim,
         };
-        let colours = match integrator {
-            Integrator::Xpbd => layouts.group(Group::XpbdSolve).map(|layout| {
+        let colours = match integrator.scheme().sweeps().map(|s| s.over) {
+            Some(Over::Springs) => layouts.group(Group::XpbdSolve).map(|layout| {
                 let setup = colour_setup(layout, options.xpbd_iterations);
                 let sweeps_layout = layouts.group(Group::XpbdSweeps);
                 let (colours, sweeps) =
-                    xpbd_groups(&mut a, &b, (model, dt_secs), &setup, sweeps_layout);
+                    xpbd_groups(&mut a, &b, model, dt_secs, &setup, sweeps_layout);
                 groups.groups[Group::XpbdSweeps as usize] = sweeps;
                 colours
             }),
-            Integrator::Vbd => layouts.group(Group::VbdSolve).map(|layout| {
+            Some(Over::Masses) => layouts.group(Group::VbdSolve).map(|layout| {
                 let setup = colour_setup(layout, options.vbd_iterations);
                 let sweeps_layout = layouts.group(Group::VbdSweeps);
                 let (colours, sweeps) = vbd_groups(&mut a, &b, model, &setup, sweeps_layout);
                 groups.groups[Group::VbdSweeps as usize] = sweeps;
                 colours
             }),
-            _ => None,
+            None => None,
         };
         let grid = model.effects.self_collision.map(|c| {
             let grid = GridBuffers::new(&mut a, model, &c, &b, &mut groups);
@@ -362,7 +232,7 @@ impl Resources {
         let states = [(&b.x, &b.v), (&b.xt, &b.vt), (&b.x, &b.vt)]
             .map(|(x_in, v_in)| bind_group(device, &layouts.state, &buffers::State { x_in, v_in }));
         let flows = links
-            .map(|links| groups.fused(&mut a, &b, (model, integrator), links))
+            .map(|links| groups.fused(&mut a, &b, model, integrator, links))
             .unwrap_or_default();
         Self {
             x: b.x,
@@ -448,7 +318,8 @@ impl SolverBuffers {
     /// The solver's statuses and frame record, then two partial sums per workgroup of its grid.
     fn new(
         a: &mut Alloc<'_>,
-        (b, model): (&Bufs, &Model),
+        b: &Bufs,
+        model: &Model,
         groups: &mut GroupSet<'_>,
         grid: u32,
     ) -> Self {
@@ -457,7 +328,7 @@ impl SolverBuffers {
         let status = a.read_back("frame solve", FrameSolve::SIZE);
         // Each CSR entry's spring terms at the Newton iterate (two vec4s), kept for the solve.
         let terms = a.zeros("spring terms", 32 * model.adjacency.entries.len().max(1));
-        groups.set(solve_buffers(b, (&scratch, &terms)));
+        groups.set(solve_buffers(b, &scratch, &terms));
         Self {
             scratch,
             status,
@@ -471,7 +342,8 @@ impl SolverBuffers {
 /// spring terms. The Newton iterate is the xt, vt pair; the solver's vectors live in `sums`.
 fn solve_buffers<'b>(
     b: &'b Bufs,
-    (scratch, terms): (&'b wgpu::Buffer, &'b wgpu::Buffer),
+    scratch: &'b wgpu::Buffer,
+    terms: &'b wgpu::Buffer,
 ) -> buffers::Solve<'b> {
     buffers::Solve {
         base: b.forces_model(),

@@ -4,10 +4,10 @@
 //! scene lacks are specialised away through `override` constants.
 
 use super::bindings::Group;
-use super::dispatch::FRAME_STATE_BYTES_PER_MASS;
 use super::kernels::Kernel;
 use super::programs::{COMMON, Program, directive, library};
-use crate::integrator::Integrator;
+use super::sizing::{FRAME_STATE_BYTES_PER_MASS, WORKGROUP};
+use crate::integrator::{Explicit, Integrator, Over};
 use crate::model::{Model, Shape};
 
 /// Every shader program as compiled: (file name, source).
@@ -98,62 +98,76 @@ pub fn unmet<'a>(
     out
 }
 
-pub const WORKGROUP: u32 = 64;
-
-/// Workgroup counts for `threads` threads: a 2D grid when x would exceed the adapter's limit.
-pub fn groups_for(threads: u32, max_per_dim: u32) -> (u32, u32) {
-    let groups = threads.div_ceil(WORKGROUP).max(1);
-    if groups <= max_per_dim {
-        (groups, 1)
-    } else {
-        let y = groups.div_ceil(max_per_dim);
-        (groups.div_ceil(y), y)
-    }
-}
-
 // The hash grid's table is whole blocks of the GPU's prefix sum: four buckets per invocation
 // (`SCAN_BLOCK` in shaders/common.wgsl).
 const _: () = assert!(crate::physics::SCAN_BLOCK == 4 * WORKGROUP);
 
-/// Every override constant of a pipeline: the effects, the integrator's switches, the implicit
-/// solver's stopping rules at the run's step (the CPU's, so both backends stop alike), where the fused steps'
-/// links keep their spring kind (`kind_shift`, from `links.rs`; any value when unfused) and
-/// whether grid bodies take their springs from stencils (`stencils.rs`); the
-/// one-workgroup implicit step's threads and the per-pass kernels' (`implicit::solver_threads`) and, when it keeps its solver vectors and spring terms in
-/// workgroup memory (`implicit::SolverHome`), those arrays' lengths in vec4s; the threads of
-/// the one-workgroup fused steps (`dispatch::frame_threads`) and of VBD's sweeps in one workgroup
-/// (`dispatch::vbd_threads`) and the lanes it shares a mass among (`dispatch::vbd_lanes`), how far apart the stage slots
-/// lie, in words (`StageSlots::stride_for`), and the masses whose state those steps keep in
-/// workgroup memory, if they do (`FrameState::masses_in_workgroup`).
-pub fn constants(
-    model: &Model,
-    (integrator, dt_secs): (Integrator, f64),
-    (kind_shift, stencils): (u32, bool),
-    ((group_threads, solver_threads), in_workgroup): ((u32, u32), Option<[u32; 2]>),
-    ((frame_threads, (vbd_threads, vbd_lanes)), stage_stride_words, frame_state): (
-        (u32, (u32, u32)),
-        u32,
-        Option<u32>,
-    ),
-) -> Vec<(&'static str, f64)> {
+/// How a run's kernels are sized and switched, beyond its model: what [`constants`] writes as
+/// their override constants.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Specialisation {
+    /// The integrator's switches, and the implicit solver's stopping rules at the run's step
+    /// (the CPU's, so both backends stop alike).
+    pub integrator: Integrator,
+    pub dt_secs: f64,
+    /// Where the fused steps' links keep their spring kind (from `links.rs`; any value when
+    /// unfused), and whether grid bodies take their springs from stencils (`stencils.rs`).
+    pub kind_shift: u32,
+    pub stencils: bool,
+    /// The one-workgroup implicit step's threads and the per-pass kernels'
+    /// (`sizing::solver_threads`).
+    pub group_threads: u32,
+    pub solver_threads: u32,
+    /// When the one-workgroup step keeps its solver vectors and spring terms in workgroup
+    /// memory (`implicit::SolverHome`), those arrays' lengths in vec4s.
+    pub in_workgroup: Option<[u32; 2]>,
+    /// The threads of the one-workgroup fused steps (`sizing::frame_threads`), of VBD's
+    /// sweeps in one workgroup (`sizing::vbd_threads`) and the lanes it shares a mass among
+    /// (`sizing::vbd_lanes`).
+    pub frame_threads: u32,
+    pub vbd_threads: u32,
+    pub vbd_lanes: u32,
+    /// How far apart the stage slots lie, in words (`StageSlots::stride_for`).
+    pub stage_stride_words: u32,
+    /// The masses whose state the one-workgroup fused steps keep in workgroup memory, if they
+    /// do (`FrameState::masses_in_workgroup`).
+    pub frame_state: Option<u32>,
+}
+
+/// Every override constant of a pipeline: the effects (absent ones specialised away), then
+/// what `s` says.
+pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> {
+    let Specialisation {
+        integrator,
+        dt_secs,
+        kind_shift,
+        stencils,
+        group_threads,
+        solver_threads,
+        in_workgroup,
+        frame_threads,
+        vbd_threads,
+        vbd_lanes,
+        stage_stride_words,
+        frame_state,
+    } = *s;
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT,
         NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE, newton_floor, newton_residual,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
+    let scheme = integrator.scheme();
+    let sweeps = scheme.sweeps().map(|s| s.over);
     c.extend([
-        ("XPBD", flag(integrator == Integrator::Xpbd)),
+        ("XPBD", flag(sweeps == Some(Over::Springs))),
         // VBD's block solve takes the contacts' block from mass_force, as implicit Euler does.
-        (
-            "IMPLICIT",
-            flag(integrator.newton() || integrator == Integrator::Vbd),
-        ),
+        ("IMPLICIT", flag(scheme.assembles_blocks())),
         // BDF2 blends each step's start from the last (implicit_blend_at).
-        ("HISTORY", flag(integrator == Integrator::Bdf2)),
+        ("HISTORY", flag(scheme.history())),
         (
             "SEMI_IMPLICIT",
-            flag(integrator == Integrator::SemiImplicit),
+            flag(scheme.explicit() == Some(Explicit::OneUpdate { symplectic: true })),
         ),
         ("KIND_SHIFT", f64::from(kind_shift)),
         ("HAS_STENCILS", flag(stencils)),
@@ -187,7 +201,7 @@ pub fn constants(
         ("SOLVER_THREADS", f64::from(solver_threads)),
         (
             "SUM_LEVEL",
-            f64::from(super::dispatch::sum_level(group_threads)),
+            f64::from(super::sizing::sum_level(group_threads)),
         ),
         ("SUM_SLOTS", f64::from(group_threads.max(WORKGROUP))),
         ("FRAME_THREADS", f64::from(frame_threads)),

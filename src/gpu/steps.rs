@@ -4,11 +4,12 @@
 
 use super::backend::{GpuBackend, RECENT_FRAMES};
 use super::dispatch::{Dispatch, SLOTS_PER_STEP};
+use super::fused_plan::{ExplicitPath, fused_step_plan, primes};
 use super::implicit::{ImplicitStep, Path};
 use super::kernels::Kernel;
-use super::plan::{ExplicitPath, ListBuild, fused_step_plan, step_plan};
+use super::plan::{ListBuild, step_plan};
 use crate::backend::{BackendError, Internal};
-use crate::integrator::Integrator;
+use crate::integrator::Explicit;
 
 impl GpuBackend {
     /// Write the stage slots of the next `steps` steps (in one workgroup without colliders, the
@@ -30,9 +31,9 @@ impl GpuBackend {
         self.prepare_stages(substeps);
         let plan = self.plan_steps(substeps);
         let enc = self.ctx.encoder("steps");
-        let (mut enc, recorded) =
-            self.kernels()
-                .encode_in_submissions((&self.ctx, &self.stop), enc, "steps", &plan)?;
+        let (mut enc, recorded) = self
+            .kernels()
+            .encode_in_submissions(&self.ctx, &self.stop, enc, "steps", &plan)?;
         self.last_recorded = (recorded, plan.len());
         self.copy_back(&mut enc, substeps);
         self.ctx.queue.submit([enc.finish()]);
@@ -66,8 +67,8 @@ impl GpuBackend {
     pub(super) fn ends_in_b(&self, steps: u32) -> bool {
         self.explicit_path == ExplicitPath::Fused
             && matches!(
-                self.integrator,
-                Integrator::Euler | Integrator::SemiImplicit
+                self.integrator.scheme().explicit(),
+                Some(Explicit::OneUpdate { .. })
             )
             && steps % 2 == 1
     }
@@ -94,7 +95,7 @@ impl GpuBackend {
         let warm = [self.step_plan(false, false), self.step_plan(false, true)];
         let mut all = Vec::with_capacity(warm[0].len() * steps as usize);
         for k in 0..steps {
-            let prime = !self.verlet_primed && self.integrator == Integrator::Verlet;
+            let prime = !self.verlet_primed && primes(self.integrator);
             let plan = if prime {
                 self.step_plan(true, false)
             } else {

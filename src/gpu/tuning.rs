@@ -4,29 +4,29 @@
 //! examples fix one choice at a time to compare the paths on one scene.
 
 use super::context::GpuContext;
-use super::dispatch::{FrameState, frame_threads, vbd_in_one_group, vbd_lanes, vbd_threads};
-use super::implicit::{self, Path, SolverHome};
+use super::fused_plan::ExplicitPath;
+use super::implicit::{Path, SolverHome};
 use super::links::Links;
 use super::loop_budget::LoopBudget;
-use super::plan::ExplicitPath;
 use super::resources::Resources;
-use super::shaders::constants;
+use super::shaders::{Specialisation, constants};
+use super::sizing::{self, FrameState, frame_threads, vbd_in_one_group, vbd_lanes, vbd_threads};
 use super::stages::StageSlots;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::{Integrator, Over, Solve, Step};
 use crate::model::Model;
 use crate::physics::Preconditioner;
 
 #[doc(hidden)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Tuning {
-    /// Implicit Euler's steps, whatever the system's size (by default `implicit::path`).
+    /// Implicit Euler's steps, whatever the system's size (by default `sizing::implicit_path`).
     pub implicit: Path,
     /// The explicit steps, where the run allows it, else the next path open to it (`InGroup`,
     /// then `Fused`, then `General`).
     pub explicit: ExplicitPath,
     /// Where `fused_frame` keeps a submission's state, where it fits.
     pub frame_state: FrameState,
-    /// Threads of implicit Euler's one-workgroup step (by default `implicit::group_threads`).
+    /// Threads of implicit Euler's one-workgroup step (by default `sizing::group_threads`).
     pub solver_threads: Option<u32>,
     /// VBD's sweeps in one workgroup (`Some(true)`, whatever the scene's size), a dispatch per
     /// colour and sweep (`Some(false)`), or as the scene's size says on the adapter
@@ -46,7 +46,7 @@ impl Tuning {
     /// What a run of `model` as `step` chooses for itself.
     pub fn for_run(model: &Model, step: Step) -> Self {
         Self {
-            implicit: implicit::path(model),
+            implicit: sizing::implicit_path(model),
             explicit: ExplicitPath::InGroup,
             frame_state: FrameState::Workgroup,
             solver_threads: None,
@@ -80,18 +80,33 @@ impl Tuning {
     }
 }
 
+/// A run as [`specialise`] sizes it: the model, its step, its explicit path and its implicit
+/// one (if it is implicit Euler's or BDF2's).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RunPaths<'a> {
+    pub model: &'a Model,
+    pub step: Step,
+    pub explicit: ExplicitPath,
+    pub implicit: Option<Path>,
+}
+
 /// The override constants a run's pipelines are compiled with (`shaders::constants`), each
 /// one-workgroup kernel sized to the adapter in `ctx` as `tuning` says, and whether `fused_frame`
-/// keeps its state in workgroup memory. `run`: the model, its step, its explicit path and its
-/// implicit one (if it is implicit Euler's); `links`: the fused steps' links, if it has them.
+/// keeps its state in workgroup memory. `links`: the fused steps' links, if it has them.
 /// VBD's sweeps leave one workgroup here when `tuning` says so.
 pub(super) fn specialise(
     ctx: &GpuContext,
-    (model, step, explicit, implicit): (&Model, Step, ExplicitPath, Option<Path>),
+    run: RunPaths<'_>,
     tuning: &Tuning,
     links: Option<&Links>,
     resources: &mut Resources,
 ) -> (Vec<(&'static str, f64)>, bool) {
+    let RunPaths {
+        model,
+        step,
+        explicit,
+        implicit,
+    } = run;
     let device = ctx.info.device_type;
     let limits = &ctx.limits;
     let kind_shift = links.map_or(31, |l| l.kind_shift);
@@ -102,8 +117,8 @@ pub(super) fn specialise(
     let group_threads = match implicit {
         Some(Path::InGroup) => tuning
             .solver_threads
-            .unwrap_or_else(|| implicit::group_threads(device, model.mass_count())),
-        _ => super::shaders::WORKGROUP,
+            .unwrap_or_else(|| sizing::group_threads(device, model.mass_count())),
+        _ => super::sizing::WORKGROUP,
     };
     let (stage_stride, _) = StageSlots::stride_for(
         limits.min_uniform_buffer_offset_alignment,
@@ -117,19 +132,19 @@ pub(super) fn specialise(
     let lanes = tuning.vbd_lanes.unwrap_or_else(|| vbd_lanes(device));
     let mut vbd_threads_wanted = lanes;
     if let Some(colours) = resources.colours.as_mut()
-        && step.integrator == Integrator::Xpbd
+        && step.integrator.scheme().sweeps().map(|s| s.over) == Some(Over::Springs)
         && let Some(one_group) = tuning.xpbd_in_group
     {
         colours.sweeps.one_group &= one_group;
     }
     if let Some(colours) = resources.colours.as_mut()
-        && step.integrator == Integrator::Vbd
+        && step.integrator.scheme().sweeps().map(|s| s.over) == Some(Over::Masses)
     {
         colours.sweeps.one_group = tuning.vbd_in_group.unwrap_or_else(|| {
             vbd_in_one_group(model.mass_count(), colours.sweeps.iterations, device)
         });
         colours.spread(lanes);
-        vbd_threads_wanted = vbd_threads(device, (colours.widest, lanes), widest_group);
+        vbd_threads_wanted = vbd_threads(device, colours.widest, lanes, widest_group);
     }
     // The one-workgroup steps' state in workgroup memory where it fits.
     let frame_state_masses = tuning
@@ -153,17 +168,20 @@ pub(super) fn specialise(
     };
     let constants = constants(
         model,
-        (step.integrator, step.dt_secs),
-        (kind_shift, stencils),
-        (
-            (group_threads, implicit::solver_threads(device)),
-            home.workgroup_arrays(),
-        ),
-        (
-            (frame_threads, (vbd_threads_wanted, lanes)),
-            (stage_stride / 4) as u32,
-            frame_state_masses,
-        ),
+        &Specialisation {
+            integrator: step.integrator,
+            dt_secs: step.dt_secs,
+            kind_shift,
+            stencils,
+            group_threads,
+            solver_threads: sizing::solver_threads(device),
+            in_workgroup: home.workgroup_arrays(),
+            frame_threads,
+            vbd_threads: vbd_threads_wanted,
+            vbd_lanes: lanes,
+            stage_stride_words: (stage_stride / 4) as u32,
+            frame_state: frame_state_masses,
+        },
     );
     (constants, frame_state_masses.is_some())
 }
@@ -224,8 +242,8 @@ impl KernelFamily {
 impl std::fmt::Display for KernelFamily {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}", self.integrator.name())?;
-        match self.integrator {
-            Integrator::Implicit | Integrator::Bdf2 => {
+        match self.integrator.scheme().solve {
+            Solve::Newton { .. } => {
                 let path = match self.implicit {
                     Some(Path::InGroup) => "in one workgroup",
                     _ => "a dispatch per pass",
@@ -237,11 +255,11 @@ impl std::fmt::Display for KernelFamily {
                 };
                 write!(f, " ({path}, {pre})")
             }
-            Integrator::Vbd | Integrator::Xpbd => match self.sweeps_in_group {
+            Solve::Sweeps(_) => match self.sweeps_in_group {
                 true => f.write_str(" (sweeps in one workgroup)"),
                 false => f.write_str(" (a dispatch per colour)"),
             },
-            _ => match self.explicit {
+            Solve::Explicit(_) => match self.explicit {
                 ExplicitPath::InGroup => f.write_str(" (a submission's steps in one workgroup)"),
                 ExplicitPath::Fused => f.write_str(" (fused, a dispatch per step)"),
                 ExplicitPath::General => f.write_str(" (a pass per stage)"),

@@ -50,6 +50,6 @@ pub(super) fn vbd_groups(
     });
     // Whether the sweeps take one workgroup depends on the adapter (tuning.rs's `specialise`).
     let colour_groups =
-        ColourGroups::new(groups, 1, (&colouring.starts, s.max_per_dim), s.iterations);
+        ColourGroups::new(groups, 1, &colouring.starts, s.max_per_dim, s.iterations);
     (colour_groups, sweeps_group)
 }

@@ -6,7 +6,7 @@
 use super::bindings::{bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::colours::{ColourGroups, ColourSetup, ColourWindows, sweep_plan};
-use super::dispatch::xpbd_in_one_group;
+use super::sizing::xpbd_in_one_group;
 use crate::model::Model;
 use crate::physics::{colour_springs, xpbd_constants};
 
@@ -15,7 +15,8 @@ use crate::physics::{colour_springs, xpbd_constants};
 pub(super) fn xpbd_groups(
     a: &mut Alloc<'_>,
     b: &Bufs,
-    (model, dt_secs): (&Model, f64),
+    model: &Model,
+    dt_secs: f64,
     s: &ColourSetup<'_>,
     sweeps_layout: Option<&wgpu::BindGroupLayout>,
 ) -> (ColourGroups, Option<wgpu::BindGroup>) {
@@ -56,7 +57,7 @@ pub(super) fn xpbd_groups(
         bind_group(a.device, layout, &group)
     });
     let mut colour_groups =
-        ColourGroups::new(groups, 2, (&colouring.starts, s.max_per_dim), s.iterations);
+        ColourGroups::new(groups, 2, &colouring.starts, s.max_per_dim, s.iterations);
     colour_groups.sweeps.one_group =
         xpbd_in_one_group(model.spring_count(), colour_groups.sweeps.iterations);
     (colour_groups, sweeps_group)

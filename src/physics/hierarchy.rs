@@ -16,9 +16,9 @@ use crate::model::{BodyShape, Model};
 
 /// The coarsest level's most nodes: its dense system (3 unknowns a node) is solved directly, on
 /// the CPU by a Cholesky factor in f64, on the GPU by an inverse in one workgroup (48 × 48 f32
-/// in 9 KiB of workgroup memory). 96 took 10–18% fewer CG iterations on the CPU than 16; it was
-/// slower below 65 536 masses there (its factor is 27 times the work) and 13–26% faster on the
-/// 256 × 256 peer cloth (BENCHMARKS.md, "Multigrid on the GPU").
+/// in 9 KiB of workgroup memory). 96 nodes took fewer CG iterations on the CPU than 16 but cost
+/// more below 65 536 masses (its factor is 27 times the work), and gained only on the 256 × 256
+/// peer cloth (BENCHMARKS.md, "Multigrid on the GPU").
 pub const COARSEST_NODES: usize = 16;
 
 /// Block Jacobi's damping in the cycle's sweeps (both backends; `MG_SMOOTHING` in WGSL): the

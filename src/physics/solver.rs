@@ -105,7 +105,7 @@ impl BackwardStep {
     /// Step `taken` (0 the run's first) of `integrator` at `dt`: BDF2 from its second step on,
     /// else backward Euler.
     pub fn of(integrator: crate::integrator::Integrator, dt: f32, taken: u64) -> Self {
-        if integrator == crate::integrator::Integrator::Bdf2 && taken > 0 {
+        if integrator.scheme().history() && taken > 0 {
             Self {
                 h_secs: dt,
                 solve_secs: (f64::from(dt) * BDF2_SOLVE_SHARE) as f32,
@@ -134,7 +134,7 @@ pub const VBD_RESIDUAL: f64 = 0.5;
 /// shares, those in order (shaders/solver_sums.wgsl's `store_grid_partial` and `grid_total`).
 /// A system the one-workgroup step takes (at most `gpu::limits::IN_GROUP_MAX_MASSES`) is one
 /// group, whose step's sums are then the same. On lavapipe's SIMD lanes 8 threads ran hair's
-/// step 2x faster than 64 (`gpu/implicit/plan.rs`'s `group_threads`).
+/// step 2x faster than 64 (`gpu/sizing.rs`'s `group_threads`).
 pub const SUM_LANES: u32 = 8;
 
 /// Masses per workgroup of those sums, and the most workgroups (see `SUM_LANES`).

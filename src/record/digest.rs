@@ -11,7 +11,7 @@ use crate::state::{Snapshot, StrainDigest};
 
 use super::recorder::Recorder;
 use super::strain_summary::StrainSummary;
-use super::surface::BlockStrain;
+use super::surface_strain::BlockStrain;
 
 /// Makes a snapshot's [`StrainDigest`] for one recorder's options and surfaces.
 #[derive(Debug, Clone)]

@@ -21,6 +21,7 @@
 
 pub mod blueprint;
 mod compare;
+mod compare_layout;
 mod digest;
 mod error;
 pub mod histogram;
@@ -28,17 +29,21 @@ mod legend;
 mod options;
 pub mod palette;
 mod recorder;
+mod rrd_failure;
 pub mod rrd_file;
 mod scalars;
+pub mod shading;
 pub mod series;
 pub mod springs;
 mod statics;
 mod strain_summary;
 pub mod surface;
+pub mod surface_strain;
 pub mod viewer;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
-pub use compare::{ColourBy, CompareLayout, CompareRecorder, EntryTally};
+pub use compare::CompareRecorder;
+pub use compare_layout::{ColourBy, CompareLayout, EntryTally};
 pub use digest::{Digester, digesting};
 pub use error::{LayoutError, RecordError};
 pub use options::{RecordOptions, describe};

@@ -12,6 +12,7 @@ use super::error::RResult;
 use super::options::RecordOptions;
 use super::palette::{color, strain_color};
 use super::series::When;
+use super::shading;
 use super::springs;
 use super::strain_summary::StrainSummary;
 use super::surface;
@@ -263,7 +264,7 @@ impl Recorder {
         } else {
             s.surface.positions(&snap.positions, &mut s.positions);
         }
-        surface::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
+        shading::vertex_normals(&s.positions, &s.triangles, &mut s.normals);
         match snap.digest.as_ref().and_then(|d| d.surfaces.get(bi)) {
             Some(made) if !made.is_empty() => s.strain.clone_from(made),
             _ => s.surface.strain(m, &snap.strain, &mut s.strain),
@@ -273,9 +274,9 @@ impl Recorder {
         s.colors.clear();
         s.colors
             .par_extend(s.strain.par_iter().zip(&s.normals).map(|(&strain, &n)| {
-                color(surface::shaded(
+                color(shading::shaded(
                     strain_color(strain, range),
-                    surface::shade(n, two_sided),
+                    shading::shade(n, two_sided),
                 ))
             }));
         rec.log(

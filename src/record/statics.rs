@@ -23,7 +23,8 @@ impl Recorder {
         backend: &str,
     ) -> RResult {
         self.implicit = settings.integrator.newton();
-        self.solver = self.implicit || settings.integrator == crate::integrator::Integrator::Vbd;
+        // Newton's and VBD's solves report a residual against a rule.
+        self.solver = settings.integrator.scheme().assembles_blocks();
         let rec = &self.rec;
         let root = &self.root;
         if root.is_whole() {

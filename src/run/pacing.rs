@@ -121,7 +121,7 @@ pub struct RecorderPace {
 impl RecorderPace {
     /// One more frame recorded in `took`: the sentence to say, the first time the recorder
     /// (after a warm-up) makes frames at under 80% of the simulation's rate.
-    pub fn recorded(&mut self, took: Duration, sim: &SimPace) -> Option<String> {
+    pub fn recorded(&mut self, took: Duration, sim: &SimPace) -> Option<RecorderSlow> {
         self.frames += 1;
         self.busy += took;
         // A run whose recording takes under half a second in all is not held back to speak of.
@@ -132,12 +132,30 @@ impl RecorderPace {
         let simulation = sim.frames_per_sec()?;
         (recorder < 0.8 * simulation).then(|| {
             self.said = true;
-            format!(
-                "the recorder is holding the run back: it records {recorder:.1} frames/s, the \
-                 simulation makes {simulation:.1}; lighter frames go faster (--surface auto, the \
-                 default, fewer --springs, no --masses)"
-            )
+            RecorderSlow {
+                recorder_fps: recorder,
+                simulation_fps: simulation,
+            }
         })
+    }
+}
+
+/// The recorder makes frames slower than the simulation: it holds the run back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RecorderSlow {
+    pub recorder_fps: f64,
+    pub simulation_fps: f64,
+}
+
+impl std::fmt::Display for RecorderSlow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the recorder is holding the run back: it records {:.1} frames/s, the simulation \
+             makes {:.1}; lighter frames go faster (--surface auto, the default, fewer --springs, \
+             no --masses)",
+            self.recorder_fps, self.simulation_fps
+        )
     }
 }
 
@@ -169,31 +187,64 @@ impl LongFrames {
     }
 
     /// What to say, with `frames_left` frames to go, while the recorder waits for a frame.
-    pub fn waiting(&mut self, sim: &SimPace, frames_left: u64) -> Option<String> {
+    pub fn waiting(&mut self, sim: &SimPace, frames_left: u64) -> Option<LongFrame> {
         let waited = self.last_frame.elapsed();
         if self.said || waited < LONG_FRAME {
             return None;
         }
         self.said = true;
-        let stop = "Ctrl-C stops the run within half a second and keeps every finished frame";
         Some(match sim.substeps() {
-            Some((substeps, each)) => {
-                let frame = each.as_secs_f64() * substeps as f64;
-                format!(
-                    "a frame takes about {} here ({substeps} substeps of {:.3e} s each, as \
-                     measured), so the {frames_left} frames left take about {}: {stop}; fewer \
+            Some((substeps, each)) => LongFrame::Measured {
+                substeps,
+                each_secs: each.as_secs_f64(),
+                frames_left,
+            },
+            None => LongFrame::FirstSubstep {
+                waited_secs: waited.as_secs_f64(),
+            },
+        })
+    }
+}
+
+/// Frames are long, as [`LongFrames::waiting`] finds them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LongFrame {
+    /// Each of `substeps` substeps takes `each_secs`, as measured.
+    Measured {
+        substeps: u64,
+        each_secs: f64,
+        frames_left: u64,
+    },
+    /// The frame's first substep has run `waited_secs` and is not done.
+    FirstSubstep { waited_secs: f64 },
+}
+
+impl std::fmt::Display for LongFrame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let stop = "Ctrl-C stops the run within half a second and keeps every finished frame";
+        match *self {
+            LongFrame::Measured {
+                substeps,
+                each_secs,
+                frames_left,
+            } => {
+                let frame = each_secs * substeps as f64;
+                write!(
+                    f,
+                    "a frame takes about {} here ({substeps} substeps of {each_secs:.3e} s each, \
+                     as measured), so the {frames_left} frames left take about {}: {stop}; fewer \
                      substeps (a larger --dt) or fewer sweeps make frames shorter",
                     human_secs(frame),
-                    each.as_secs_f64(),
                     human_secs(frame * frames_left as f64),
                 )
             }
-            None => format!(
+            LongFrame::FirstSubstep { waited_secs } => write!(
+                f,
                 "the next frame has taken {} so far and its first substep is not done (a step \
                  this long does a great deal of work: many sweeps, or a very large scene): {stop}",
-                human_secs(waited.as_secs_f64()),
+                human_secs(waited_secs),
             ),
-        })
+        }
     }
 }
 
@@ -221,6 +272,15 @@ mod tests {
         };
         sim.stepped(1_000_000, Duration::from_micros(300));
         let said = long.waiting(&sim, 10).expect("said");
+        assert_eq!(
+            said,
+            LongFrame::Measured {
+                substeps: 1_000_000,
+                each_secs: 3e-4,
+                frames_left: 10
+            }
+        );
+        let said = said.to_string();
         assert!(
             said.contains("a frame takes about 5.0 min")
                 && said.contains("1000000 substeps of 3.000e-4 s")
@@ -234,7 +294,8 @@ mod tests {
             said: false,
         };
         let said = first.waiting(&SimPace::default(), 10).expect("said");
-        assert!(said.contains("its first substep is not done"), "{said}");
+        assert!(matches!(said, LongFrame::FirstSubstep { waited_secs } if waited_secs >= 10.0));
+        assert!(said.to_string().contains("its first substep is not done"));
         // A frame shorter than LONG_FRAME says nothing.
         assert_eq!(LongFrames::default().waiting(&sim, 10), None);
     }
@@ -249,6 +310,11 @@ mod tests {
             assert_eq!(rec.recorded(Duration::from_millis(20), &sim), None);
         }
         let said = rec.recorded(Duration::from_millis(20), &sim).expect("said");
+        assert!(
+            (said.recorder_fps - 50.0).abs() < 1e-9 && (said.simulation_fps - 200.0).abs() < 1e-9,
+            "{said:?}"
+        );
+        let said = said.to_string();
         assert!(
             said.contains("50.0 frames/s") && said.contains("200.0"),
             "{said}"

@@ -11,9 +11,9 @@ use crate::model::{self, Model};
 use crate::run::auto_dt::{self, AutoDt};
 use crate::run::select::Device;
 use crate::scene::compare_entry::CompareEntry;
-use crate::scene::settings::{Overrides, Settings};
+use crate::scene::settings::{Overrides, Settings, SettingsNote};
 use crate::scene::{LoadedScene, Scene, SceneOrigin};
-use crate::stability::{Modes, Refusal, stable_step};
+use crate::stability::{Modes, NearResolution, Refusal, StepWarning, SweepWarning, stable_step};
 
 /// Where the scene comes from.
 #[derive(Debug, Clone)]
@@ -59,28 +59,53 @@ impl Request {
 /// What the user should know about how their values were applied, in the order it happened.
 #[derive(Debug, Clone)]
 pub enum Notice {
-    /// A value was adjusted (a dt rounded to whole substeps per frame, …).
-    Note(String),
+    /// A value was applied otherwise than given (a dt rounded to whole substeps per frame, …),
+    /// of a comparison's `entry` where it is one.
+    Note {
+        entry: Option<String>,
+        note: SettingsNote,
+    },
     /// What `--dt auto` chose, and why.
     AutoDt(AutoDt),
-    /// The step is above the estimated stable limit of the integrator.
-    AboveStableLimit(String),
+    /// The step is above the estimated stable limit of the integrator (of a comparison's
+    /// `entry`, as the user named it, where it is one).
+    AboveStableLimit {
+        entry: Option<String>,
+        warning: StepWarning,
+    },
     /// XPBD's or VBD's sweeps cannot converge the springs at the step (stable, but wrong).
-    SweepsShort(String),
+    SweepsShort {
+        entry: Option<String>,
+        warning: Box<SweepWarning>,
+    },
     /// The step is so small that slow masses cannot move in f32.
-    SmallStep(String),
+    SmallStep {
+        entry: Option<String>,
+        warning: NearResolution,
+    },
 }
 
 impl std::fmt::Display for Notice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Notice::Note(n) => write!(f, "note: {n}"),
+            Notice::Note { entry, note } => write!(f, "note: {}{note}", of_entry(entry)),
             Notice::AutoDt(auto) => write!(f, "{auto}"),
-            Notice::AboveStableLimit(w) | Notice::SweepsShort(w) | Notice::SmallStep(w) => {
-                write!(f, "warning: {w}")
+            Notice::AboveStableLimit { entry, warning } => {
+                write!(f, "warning: {}{warning}", of_entry(entry))
+            }
+            Notice::SweepsShort { entry, warning } => {
+                write!(f, "warning: {}{warning}", of_entry(entry))
+            }
+            Notice::SmallStep { entry, warning } => {
+                write!(f, "warning: {}{warning}", of_entry(entry))
             }
         }
     }
+}
+
+/// "ENTRY: " before a comparison entry's warning.
+fn of_entry(entry: &Option<String>) -> String {
+    entry.as_ref().map(|e| format!("{e}: ")).unwrap_or_default()
 }
 
 /// A scene loaded, its settings resolved and its model built: all a run needs but a backend.
@@ -110,8 +135,8 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         },
     };
     let mut settings = Settings::resolve(&loaded.scene, &request.overrides)?;
-    for n in &settings.notes {
-        say(Notice::Note(n.clone()));
+    for &note in &settings.notes {
+        say(Notice::Note { entry: None, note });
     }
     // Before anything that grows with the scene is allocated.
     let on_gpu = request.device.kind == crate::run::select::BackendKind::Gpu;
@@ -129,8 +154,11 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
         settings.dt_secs = auto.dt_secs;
         say(Notice::AutoDt(auto));
     }
-    if let Some(w) = crate::stability::check_resolution(&model, settings.dt_secs)? {
-        say(Notice::SmallStep(w));
+    if let Some(warning) = crate::stability::check_resolution(&model, settings.dt_secs)? {
+        say(Notice::SmallStep {
+            entry: None,
+            warning,
+        });
     }
     Ok(Planned {
         loaded,
@@ -186,11 +214,17 @@ pub fn prepare_comparison(
             ..request.overrides.clone()
         };
         let settings = Settings::resolve(&loaded.scene, &overrides)?;
-        for n in &settings.notes {
-            say(Notice::Note(format!("{entry}: {n}")));
+        for &note in &settings.notes {
+            say(Notice::Note {
+                entry: Some(entry.to_string()),
+                note,
+            });
         }
-        if let Some(w) = crate::stability::check_resolution(&model, settings.dt_secs)? {
-            say(Notice::SmallStep(format!("{entry}: {w}")));
+        if let Some(warning) = crate::stability::check_resolution(&model, settings.dt_secs)? {
+            say(Notice::SmallStep {
+                entry: Some(entry.to_string()),
+                warning,
+            });
         }
         let stable = stable_step(&modes, entry.integrator);
         match stable.dt_secs {
@@ -204,11 +238,17 @@ pub fn prepare_comparison(
             }
             Some(_) => {}
             None => {
-                if let Some(w) = crate::stability::dt_warning(&model, &settings) {
-                    say(Notice::AboveStableLimit(format!("{entry}: {w}")));
+                if let Some(warning) = crate::stability::dt_warning(&model, &settings) {
+                    say(Notice::AboveStableLimit {
+                        entry: Some(entry.to_string()),
+                        warning,
+                    });
                 }
                 if let Some(w) = crate::stability::sweep_warning(&model, &settings) {
-                    say(Notice::SweepsShort(format!("{entry}: {w}")));
+                    say(Notice::SweepsShort {
+                        entry: Some(entry.to_string()),
+                        warning: Box::new(w),
+                    });
                 }
             }
         }
@@ -259,11 +299,17 @@ pub fn prepare(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Prepare
         settings,
         model,
     } = plan(request, say)?;
-    if let Some(w) = crate::stability::dt_warning(&model, &settings) {
-        say(Notice::AboveStableLimit(w));
+    if let Some(warning) = crate::stability::dt_warning(&model, &settings) {
+        say(Notice::AboveStableLimit {
+            entry: None,
+            warning,
+        });
     }
     if let Some(w) = crate::stability::sweep_warning(&model, &settings) {
-        say(Notice::SweepsShort(w));
+        say(Notice::SweepsShort {
+            entry: None,
+            warning: Box::new(w),
+        });
     }
     let backend = request.device.create(model.clone(), settings.step())?;
     Ok(Prepared {

@@ -17,11 +17,11 @@
 //! warn of (`stability::sweep_warning`).
 
 use crate::backend::{Backend, BackendError, Then};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Over, Solve};
 use crate::model::Model;
 use crate::physics::{VBD_RESIDUAL, newton_residual};
 use crate::scene::settings::Settings;
-use crate::stability::divergence::{Unconverged, Unphysical};
+use crate::stability::divergence::{Remedy, Unconverged, Unphysical};
 use crate::stability::sweep_shortfall;
 use crate::state::{FrameNote, Snapshot};
 
@@ -77,15 +77,19 @@ impl SolverWatch {
     /// The watch for a run of `model` as `settings` say.
     pub fn new(model: &Model, settings: &Settings) -> Self {
         let step = settings.step();
-        let tolerance = match step.integrator {
-            Integrator::Implicit | Integrator::Bdf2 => {
-                Some(newton_residual(step.dt_secs, step.integrator.order()))
-            }
-            Integrator::Vbd => Some(VBD_RESIDUAL),
-            _ => None,
+        let scheme = step.integrator.scheme();
+        // A rule to meet: Newton's, or VBD's residual. XPBD's sweeps and the explicit schemes
+        // have none.
+        let tolerance = match scheme.solve {
+            Solve::Newton { .. } => Some(newton_residual(step.dt_secs, scheme.order)),
+            Solve::Sweeps(s) => match s.over {
+                Over::Masses => Some(VBD_RESIDUAL),
+                Over::Springs => None,
+            },
+            Solve::Explicit(_) => None,
         };
-        let may_stop =
-            step.integrator != Integrator::Vbd || sweep_shortfall(model, settings).is_none();
+        // Sweeps that `check` already said fall short are not a stuck solver.
+        let may_stop = scheme.sweeps().is_none() || sweep_shortfall(model, settings).is_none();
         Self {
             integrator: step.integrator,
             tolerance,
@@ -191,9 +195,9 @@ impl SolverWatch {
             frames: self.short_in_a_row,
             residual: rule.step_residual,
             tolerance,
-            instead: match self.integrator {
-                Integrator::Vbd => "more sweeps (--vbd-iterations)",
-                _ => "the other preconditioner (--preconditioner multigrid or block-jacobi)",
+            instead: match self.integrator.scheme().sweeps() {
+                Some(s) => Remedy::MoreSweeps { flag: s.flag },
+                None => Remedy::OtherPreconditioner,
             },
         })
     }

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::format::{Body, Fill, PinRegion};
+use super::format_body::{Body, Fill, PinRegion};
 use super::rules::{
     Check, F32_EPSILON, MAX_MASSES, MIN_SPRING_ULPS, fail, finite3, positive, springs, start_speed,
     within_reach,

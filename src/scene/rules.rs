@@ -1,7 +1,7 @@
 //! What every check of a scene's values shares: the failure type, numbers that must be finite or
 //! positive, the f32 resolution rule for springs, the mass limit, and a body's spring constants.
 
-use super::format::{Body, SpringKind};
+use super::format_body::{Body, SpringKind};
 
 pub(super) type Check = Result<(), (String, String)>;
 

@@ -1,7 +1,8 @@
 //! The time-stepping plan of a run: the scene's solver section with command-line overrides applied.
 
 use crate::integrator::{
-    DEFAULT_VBD_ITERATIONS, DEFAULT_XPBD_ITERATIONS, Integrator, Step, StepOptions, Unsupported,
+    DEFAULT_VBD_ITERATIONS, DEFAULT_XPBD_ITERATIONS, Integrator, Over, Preconditioner, Step,
+    StepOptions, Unsupported,
 };
 use crate::scene::MOST_SWEEPS;
 use crate::scene::Scene;
@@ -91,7 +92,61 @@ pub struct Settings {
     /// What the integrator needs beyond its name and step.
     pub options: StepOptions,
     /// Things the user should know about how their values were applied.
-    pub notes: Vec<String>,
+    pub notes: Vec<SettingsNote>,
+}
+
+/// How a value the user gave was applied, where they should know.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SettingsNote {
+    /// The step does not divide the frame: `substeps` a frame, each a little shorter.
+    DtRounded {
+        dt_secs: f64,
+        frame_rate_hz: f64,
+        substeps: u32,
+    },
+    /// A preconditioner asked of an integrator with no conjugate gradients.
+    PreconditionerIgnored {
+        preconditioner: Preconditioner,
+        integrator: Integrator,
+    },
+    /// Sweeps set for `owner`, asked of an integrator that has none.
+    SweepsIgnored {
+        owner: Integrator,
+        integrator: Integrator,
+    },
+}
+
+impl std::fmt::Display for SettingsNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            SettingsNote::DtRounded {
+                dt_secs,
+                frame_rate_hz,
+                substeps,
+            } => write!(
+                f,
+                "dt = {dt_secs} s does not divide the frame time 1/{frame_rate_hz} s; using \
+                 {substeps} substeps of {:.6e} s",
+                1.0 / frame_rate_hz / f64::from(substeps)
+            ),
+            SettingsNote::PreconditionerIgnored {
+                preconditioner,
+                integrator,
+            } => write!(
+                f,
+                "the preconditioner ({}) serves implicit Euler's and BDF2's solves; {integrator} \
+                 has none and ignores it",
+                preconditioner.name()
+            ),
+            SettingsNote::SweepsIgnored { owner, integrator } => {
+                let flag = owner.scheme().sweeps().map_or("", |s| s.flag);
+                write!(
+                    f,
+                    "{flag} sets {owner}'s sweeps; {integrator} has none and ignores it"
+                )
+            }
+        }
+    }
 }
 
 /// The command-line values that are wrong whatever the scene's solver section says.
@@ -173,10 +228,11 @@ impl Settings {
                 }
                 let n = n as u32;
                 if (exact - f64::from(n)).abs() > 1e-6 * exact {
-                    notes.push(format!(
-                        "dt = {dt} s does not divide the frame time 1/{fps} s; using {n} substeps of {:.6e} s",
-                        frame_secs / f64::from(n)
-                    ));
+                    notes.push(SettingsNote::DtRounded {
+                        dt_secs: dt,
+                        frame_rate_hz: fps,
+                        substeps: n,
+                    });
                 }
                 n
             }
@@ -197,20 +253,21 @@ impl Settings {
         if let Some(p) = preconditioner
             && !integrator.newton()
         {
-            notes.push(format!(
-                "the preconditioner ({}) serves implicit Euler's and BDF2's solves; {integrator} \
-                 has none and ignores it",
-                p.name()
-            ));
+            notes.push(SettingsNote::PreconditionerIgnored {
+                preconditioner: p,
+                integrator,
+            });
         }
-        for (given, owner, what) in [
-            (o.xpbd_iterations, Integrator::Xpbd, "--xpbd-iterations"),
-            (o.vbd_iterations, Integrator::Vbd, "--vbd-iterations"),
-        ] {
+        for owner in Integrator::ALL {
+            let Some(of) = owner.scheme().sweeps() else {
+                continue;
+            };
+            let given = match of.over {
+                Over::Springs => o.xpbd_iterations,
+                Over::Masses => o.vbd_iterations,
+            };
             if given.is_some() && integrator != owner {
-                notes.push(format!(
-                    "{what} sets {owner}'s sweeps; {integrator} has none and ignores it"
-                ));
+                notes.push(SettingsNote::SweepsIgnored { owner, integrator });
             }
         }
         Ok(Self {

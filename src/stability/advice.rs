@@ -19,32 +19,85 @@ pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
 /// Is the chosen dt above the estimated limit of the chosen integrator? Names the limit (the
 /// stiffness, the damping or too little of it; the mass and the spring kind) and the step that
 /// would hold.
-pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
+pub fn dt_warning(model: &Model, settings: &Settings) -> Option<StepWarning> {
     let step = stable_step(&Modes::of(model), settings.integrator);
-    let limit = step
-        .limit
-        .map(|l| format!(" ({} limit: {l})", l.name()))
-        .unwrap_or_default();
+    let (integrator, dt_secs, limit) = (settings.integrator, settings.dt_secs, step.limit);
     match step.dt_secs {
-        Some(l) if settings.dt_secs <= l => None,
-        Some(l) => Some(format!(
-            "dt = {:.3e} s is above the estimated stable step {:.3e} s of `{}` on this scene{limit}; \
-             use at least {} substeps per frame (or --dt {:.3e})",
-            settings.dt_secs,
-            l,
-            settings.integrator,
-            (1.0 / (settings.frame_rate_hz * l)).ceil(),
-            l
-        )),
-        None => Some(format!(
-            "dt = {:.3e} s: `{}` has no step that is stable for sure on this scene{limit}{}; prefer {}",
-            settings.dt_secs,
-            settings.integrator,
-            step.dashpot_line_secs
-                .map(|l| format!("; the dashpots along the springs allow at most {l:.3e} s"))
-                .unwrap_or_default(),
-            instead_of(settings.integrator)
-        )),
+        Some(l) if dt_secs <= l => None,
+        Some(stable_secs) => Some(StepWarning::AboveEstimate {
+            integrator,
+            dt_secs,
+            stable_secs,
+            limit,
+            substeps: (1.0 / (settings.frame_rate_hz * stable_secs)).ceil(),
+        }),
+        None => Some(StepWarning::NoStableStep {
+            integrator,
+            dt_secs,
+            limit,
+            dashpot_line_secs: step.dashpot_line_secs,
+        }),
+    }
+}
+
+/// A step above the estimate of its integrator on the scene, as [`dt_warning`] finds it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepWarning {
+    /// Above the estimated stable step, `stable_secs`, which `substeps` a frame would keep.
+    AboveEstimate {
+        integrator: Integrator,
+        dt_secs: f64,
+        stable_secs: f64,
+        limit: Option<Limit>,
+        substeps: f64,
+    },
+    /// The integrator has no step stable for sure on the scene; the dashpots along the
+    /// springs allow at most `dashpot_line_secs`, where they bound it.
+    NoStableStep {
+        integrator: Integrator,
+        dt_secs: f64,
+        limit: Option<Limit>,
+        dashpot_line_secs: Option<f64>,
+    },
+}
+
+impl std::fmt::Display for StepWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let limit = |limit: &Option<Limit>| {
+            limit
+                .map(|l| format!(" ({} limit: {l})", l.name()))
+                .unwrap_or_default()
+        };
+        match self {
+            StepWarning::AboveEstimate {
+                integrator,
+                dt_secs,
+                stable_secs,
+                limit: l,
+                substeps,
+            } => write!(
+                f,
+                "dt = {dt_secs:.3e} s is above the estimated stable step {stable_secs:.3e} s of \
+                 `{integrator}` on this scene{}; use at least {substeps} substeps per frame (or \
+                 --dt {stable_secs:.3e})",
+                limit(l)
+            ),
+            StepWarning::NoStableStep {
+                integrator,
+                dt_secs,
+                limit: l,
+                dashpot_line_secs,
+            } => write!(
+                f,
+                "dt = {dt_secs:.3e} s: `{integrator}` has no step that is stable for sure on this \
+                 scene{}{}; prefer {}",
+                limit(l),
+                dashpot_line_secs
+                    .map(|l| format!("; the dashpots along the springs allow at most {l:.3e} s"))
+                    .unwrap_or_default(),
+                instead_of(*integrator)
+            ),
+        }
     }
 }
 
@@ -52,11 +105,7 @@ pub fn dt_warning(model: &Model, settings: &Settings) -> Option<String> {
 /// schemes with a stable step, less the one in use, and where that is one of them, the implicit
 /// schemes, stable at any step.
 fn instead_of(integrator: Integrator) -> String {
-    let explicit = [
-        Integrator::SemiImplicit,
-        Integrator::Verlet,
-        Integrator::Rk4,
-    ];
+    let explicit = Integrator::STABLE_EXPLICIT;
     let others: Vec<&str> = explicit
         .iter()
         .filter(|&&i| i != integrator)

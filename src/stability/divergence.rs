@@ -151,18 +151,18 @@ impl Divergence {
                  is stiffer sideways than its stiffness k, which the estimate assumes",
             );
         }
-        match (self.integrator, self.here.limit) {
-            (Integrator::Euler | Integrator::Rk2, _) => Some(
+        // A scheme with no stable step on an undamped mode (forward Euler, RK2).
+        if self.integrator.stable_dt(1.0, 0.0).is_none() {
+            return Some(
                 "this scheme needs damping in every mode, and a stretched spring's sideways swing \
                  has no dashpot (the estimate sees only the dashpots along the springs)",
-            ),
-            (
-                _,
-                Some(Limit::Stiffness {
-                    source: Source::MassContact,
-                    ..
-                }),
-            ) => Some(
+            );
+        }
+        match self.here.limit {
+            Some(Limit::Stiffness {
+                source: Source::MassContact,
+                ..
+            }) => Some(
                 "a mass pressed by several others at once is stiffer than the one contact \
                      pair the estimate counts",
             ),
@@ -189,7 +189,27 @@ pub struct Unconverged {
     pub residual: f64,
     pub tolerance: f64,
     /// What else to try for this solver.
-    pub instead: &'static str,
+    pub instead: Remedy,
+}
+
+/// What else a solver stopped short may try.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Remedy {
+    /// More of its sweeps, set by `flag`.
+    MoreSweeps { flag: &'static str },
+    /// The preconditioner it did not take.
+    OtherPreconditioner,
+}
+
+impl std::fmt::Display for Remedy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Remedy::MoreSweeps { flag } => write!(f, "more sweeps ({flag})"),
+            Remedy::OtherPreconditioner => {
+                f.write_str("the other preconditioner (--preconditioner multigrid or block-jacobi)")
+            }
+        }
+    }
 }
 
 /// The run went unphysical while its state stayed finite: an energy term no longer finite

@@ -11,8 +11,8 @@ mod modes;
 mod resolution;
 mod sweeps;
 
-pub use advice::{Refusal, dt_warning, stable_dts};
+pub use advice::{Refusal, StepWarning, dt_warning, stable_dts};
 pub use estimate::{Limit, StableStep, stable_step, stable_steps};
 pub use modes::{Bound, Modes, Ratios, Source};
-pub use resolution::{BelowResolution, Resolution, check_resolution, resolution};
-pub use sweeps::{SWEEPS_ENOUGH, SweepShortfall, sweep_shortfall, sweep_warning};
+pub use resolution::{BelowResolution, NearResolution, Resolution, check_resolution, resolution};
+pub use sweeps::{SWEEPS_ENOUGH, SweepShortfall, SweepWarning, sweep_shortfall, sweep_warning};

@@ -60,14 +60,15 @@ pub fn resolution(model: &Model, dt_secs: f64) -> Resolution {
 )]
 pub struct BelowResolution(pub Resolution);
 
-/// `Err` where nothing can move at `dt_secs`; `Ok(Some(warning))` where slow masses cannot.
-pub fn check_resolution(model: &Model, dt_secs: f64) -> Result<Option<String>, BelowResolution> {
-    let r = resolution(model, dt_secs);
-    if r.least_speed_m_per_s > f64::from(MAX_START_SPEED_M_PER_S) {
-        return Err(BelowResolution(r));
-    }
-    if r.least_speed_m_per_s > f64::from(NOTICEABLE_SPEED_M_PER_S) {
-        return Ok(Some(format!(
+/// A step at which slow masses cannot move: the warning of [`check_resolution`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearResolution(pub Resolution);
+
+impl std::fmt::Display for NearResolution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = &self.0;
+        write!(
+            f,
             "dt = {:.3e} s is near what f32 positions resolve: a mass {:.3} m from the origin \
              stays where it is unless it goes faster than {:.2} m/s; a dt of {:.1e} s or more \
              moves everything faster than {NOTICEABLE_SPEED_M_PER_S} m/s",
@@ -75,7 +76,21 @@ pub fn check_resolution(model: &Model, dt_secs: f64) -> Result<Option<String>, B
             r.reach_m,
             r.least_speed_m_per_s,
             r.least_dt_for(NOTICEABLE_SPEED_M_PER_S),
-        )));
+        )
+    }
+}
+
+/// `Err` where nothing can move at `dt_secs`; `Ok(Some(warning))` where slow masses cannot.
+pub fn check_resolution(
+    model: &Model,
+    dt_secs: f64,
+) -> Result<Option<NearResolution>, BelowResolution> {
+    let r = resolution(model, dt_secs);
+    if r.least_speed_m_per_s > f64::from(MAX_START_SPEED_M_PER_S) {
+        return Err(BelowResolution(r));
+    }
+    if r.least_speed_m_per_s > f64::from(NOTICEABLE_SPEED_M_PER_S) {
+        return Ok(Some(NearResolution(r)));
     }
     Ok(None)
 }

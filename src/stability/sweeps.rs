@@ -17,7 +17,7 @@
 
 use std::collections::VecDeque;
 
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Sweeps};
 use crate::model::Model;
 use crate::scene::settings::Settings;
 
@@ -68,11 +68,11 @@ fn corrected(b: &BodySprings, h: f64, sweeps: u32) -> f64 {
 /// The body that falls shortest of converging, if any does, for XPBD's or VBD's sweeps at
 /// `settings`' step (`None` for the other integrators).
 pub fn sweep_shortfall(model: &Model, settings: &Settings) -> Option<SweepShortfall> {
-    let sweeps = match settings.integrator {
-        Integrator::Xpbd => settings.options.xpbd_iterations,
-        Integrator::Vbd => settings.options.vbd_iterations,
-        _ => return None,
-    };
+    let sweeps = settings
+        .integrator
+        .scheme()
+        .sweeps()?
+        .count(&settings.options);
     let h = settings.dt_secs;
     bodies(model)
         .into_iter()
@@ -109,41 +109,65 @@ pub fn sweep_shortfall(model: &Model, settings: &Settings) -> Option<SweepShortf
 }
 
 /// The warning `check` and `run` print for [`sweep_shortfall`].
-pub fn sweep_warning(model: &Model, settings: &Settings) -> Option<String> {
+pub fn sweep_warning(model: &Model, settings: &Settings) -> Option<SweepWarning> {
     let short = sweep_shortfall(model, settings)?;
-    let (sweeps, flag, per) = match settings.integrator {
-        Integrator::Xpbd => (
-            settings.options.xpbd_iterations,
-            "--xpbd-iterations",
-            "substep",
-        ),
-        _ => (settings.options.vbd_iterations, "--vbd-iterations", "step"),
-    };
-    let reach = if short.pinned {
-        format!("its farthest mass {} springs from a pin", short.hops)
-    } else {
-        format!("{} springs across", short.hops)
-    };
-    let substeps = (1.0 / (settings.frame_rate_hz * short.step_that_would_secs)).ceil();
-    let alternative = if settings.integrator == Integrator::Xpbd {
-        "implicit"
-    } else {
-        "implicit (Newton and conjugate gradients)"
-    };
-    Some(format!(
-        "`{}` with {sweeps} sweep{} per {per} corrects only {} of the slowest stretch of body '{}' \
-         at dt = {:.3e} s ({reach}, h²k/m = {:.3e}): it will sag and stretch far more than its \
-         springs allow. Enough would be about {needed} sweeps ({flag} {needed}), or dt ≤ {:.3e} s \
-         ({substeps} substeps per frame); or use {alternative}",
-        settings.integrator,
-        if sweeps == 1 { "" } else { "s" },
-        percent(short.corrected),
-        short.body,
-        settings.dt_secs,
-        short.stiffness_ratio,
-        short.step_that_would_secs,
-        needed = short.sweeps_needed,
-    ))
+    let of = *settings.integrator.scheme().sweeps()?;
+    Some(SweepWarning {
+        integrator: settings.integrator,
+        sweeps: of.count(&settings.options),
+        of,
+        dt_secs: settings.dt_secs,
+        substeps: (1.0 / (settings.frame_rate_hz * short.step_that_would_secs)).ceil(),
+        short,
+    })
+}
+
+/// XPBD's or VBD's sweeps too few for the step, as [`sweep_warning`] finds them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepWarning {
+    pub integrator: Integrator,
+    /// The run's sweeps.
+    pub sweeps: u32,
+    /// The scheme's sweeps: their flag, what they serve, and what to take instead.
+    pub of: Sweeps,
+    pub dt_secs: f64,
+    /// Substeps a frame at the step that would converge.
+    pub substeps: f64,
+    pub short: SweepShortfall,
+}
+
+impl std::fmt::Display for SweepWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let SweepWarning {
+            integrator,
+            sweeps,
+            of,
+            dt_secs,
+            substeps,
+            short,
+        } = self;
+        let reach = if short.pinned {
+            format!("its farthest mass {} springs from a pin", short.hops)
+        } else {
+            format!("{} springs across", short.hops)
+        };
+        write!(
+            f,
+            "`{integrator}` with {sweeps} sweep{} per {} corrects only {} of the slowest stretch \
+             of body '{}' at dt = {dt_secs:.3e} s ({reach}, h²k/m = {:.3e}): it will sag and \
+             stretch far more than its springs allow. Enough would be about {needed} sweeps ({} \
+             {needed}), or dt ≤ {:.3e} s ({substeps} substeps per frame); or use {}",
+            if *sweeps == 1 { "" } else { "s" },
+            of.per,
+            percent(short.corrected),
+            short.body,
+            short.stiffness_ratio,
+            of.flag,
+            short.step_that_would_secs,
+            of.instead,
+            needed = short.sweeps_needed,
+        )
+    }
 }
 
 /// A share as a percentage, two significant figures when small.

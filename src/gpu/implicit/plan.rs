@@ -14,21 +14,6 @@ use super::super::limits::{
     IN_GROUP_MAX_MASSES, MULTIGRID_FACTOR_WORKGROUP_BYTES, MULTIGRID_IN_GROUP_WORKGROUP_BYTES,
 };
 
-/// Threads of the one-workgroup step (`GROUP_THREADS` in WGSL) for `mass_count` masses. On a
-/// CPU adapter (lavapipe) a workgroup's threads run as SIMD lanes, 8 to a 256-bit register, and
-/// each further group of 8 is a coroutine switched at every barrier: 8 threads, one register, ran
-/// hair's step 2x faster there than 64 (4 and 16 were slower). A GPU runs the workgroup on one
-/// SM, where each CG iteration is a chain of passes over the masses with sums between them: a
-/// thread per mass, in whole warps, two at least and 512 at most. On an H100 the jello (1 000
-/// masses) stepped at 1/60 s 125, 201, 358, 493 and 402 times a second with 64, 128, 256, 512
-/// and 1 024 threads (BENCHMARKS.md): 1 024 leave each thread 64 registers.
-pub fn group_threads(device: wgpu::DeviceType, mass_count: usize) -> u32 {
-    match device {
-        wgpu::DeviceType::Cpu => crate::physics::SUM_LANES,
-        _ => (mass_count.div_ceil(32).clamp(2, 16) * 32) as u32,
-    }
-}
-
 /// Workgroup memory the one-workgroup step's sums take with `threads` threads (`sum_sh`, at
 /// least the per-pass kernels' 64 slots, `part_sh`, `total_sh`, `flag_sh` in
 /// shaders/implicit.wgsl) and mass_force's unused word of `state_sh`, rounded up.
@@ -48,7 +33,7 @@ const _: () = assert!(
 /// sums in `workgroup_bytes` (the adapter's limit), else in the `work` and `terms` buffers.
 /// The passes read them many times a step; on lavapipe a storage-buffer load costs a
 /// descriptor read, a bounds check and a branch per lane, a workgroup-memory load neither
-/// (hair's steps 12% faster, BENCHMARKS.md).
+/// (BENCHMARKS.md, "GPU backend on lavapipe", its table of what each change gained).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SolverHome {
     Buffers,
@@ -81,47 +66,6 @@ impl SolverHome {
             SolverHome::Workgroup { vectors, terms } => Some([vectors, terms]),
             SolverHome::Buffers => None,
         }
-    }
-}
-
-/// The path for `model`: one workgroup for a small system, contacts or not. (Contact scenes
-/// took the per-pass path until 2026-11-23: on Mesa 22's lavapipe the one-workgroup step left
-/// the CPU's solution on jello-sphere. On Mesa 25, with sums in two levels, it agrees with
-/// the CPU as the per-pass path does, `tests/gpu_implicit.rs`, and runs jello 1.35x faster.)
-pub fn path(model: &Model) -> Path {
-    if model.mass_count() <= IN_GROUP_MAX_MASSES {
-        Path::InGroup
-    } else {
-        Path::Passes
-    }
-}
-
-/// The most workgroups of the per-pass kernels' grid on a GPU, which needs enough threads in
-/// flight to hide memory latency, and reads the partials that every workgroup of a pass sums
-/// from its cache.
-const SOLVER_GROUPS_GPU: u32 = 1024;
-
-/// Workgroups of the per-pass kernels' grid (`solver_groups()` in WGSL). On a GPU, one per 64
-/// masses, at most SOLVER_GROUPS_GPU. On a CPU adapter (lavapipe), `physics::sum_groups`: one
-/// per 2 048 masses, at most 64, each of `physics::SUM_LANES` threads, as the CPU backend takes
-/// its sums (`cpu/solver_sums.rs`), so that the two agree bit for bit; a CPU runs few
-/// workgroups at once, and each load of a partial costs it a descriptor read and a bounds check.
-pub fn solver_groups(masses: usize, device: wgpu::DeviceType) -> u32 {
-    if device == wgpu::DeviceType::Cpu {
-        return crate::physics::sum_groups(masses) as u32;
-    }
-    let wanted = masses
-        .div_ceil(super::super::shaders::WORKGROUP as usize)
-        .max(1);
-    u32::try_from(wanted).map_or(SOLVER_GROUPS_GPU, |w| w.min(SOLVER_GROUPS_GPU))
-}
-
-/// Threads of each workgroup of the per-pass kernels' grid (`SOLVER_THREADS` in WGSL): 64 on a
-/// GPU, `physics::SUM_LANES` on a CPU adapter (see `solver_groups`).
-pub fn solver_threads(device: wgpu::DeviceType) -> u32 {
-    match device {
-        wgpu::DeviceType::Cpu => crate::physics::SUM_LANES,
-        _ => super::super::shaders::WORKGROUP,
     }
 }
 
@@ -205,22 +149,5 @@ pub fn passes(path: Path, levels: u32) -> String {
             names(&NEWTON_END),
             names(&END)
         ),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use wgpu::DeviceType::{Cpu, DiscreteGpu};
-
-    /// A GPU's workgroup has a thread per mass in whole warps, two warps at least and 512 at
-    /// most; a CPU adapter's is one SIMD register.
-    #[test]
-    fn the_one_workgroup_step_is_sized_to_the_adapter() {
-        assert_eq!(group_threads(Cpu, 1000), 8);
-        assert_eq!(group_threads(DiscreteGpu, 10), 64);
-        assert_eq!(group_threads(DiscreteGpu, 100), 128);
-        assert_eq!(group_threads(DiscreteGpu, 500), 512);
-        assert_eq!(group_threads(DiscreteGpu, 2048), 512);
     }
 }

@@ -155,9 +155,9 @@ impl ImplicitStep<'_> {
             self.post_step(&mut plan, slot);
         }
         let enc = self.ctx.encoder(label);
-        let (enc, _) =
-            self.kernels
-                .encode_in_submissions((self.ctx, self.stop), enc, label, &plan)?;
+        let (enc, _) = self
+            .kernels
+            .encode_in_submissions(self.ctx, self.stop, enc, label, &plan)?;
         self.ctx.queue.submit([enc.finish()]);
         Ok(())
     }
@@ -185,9 +185,9 @@ impl ImplicitStep<'_> {
             for k in 0..steps {
                 self.plan_step(&mut plan, SLOTS_PER_STEP * k + 3, budgets);
             }
-            let (rest, _) =
-                self.kernels
-                    .encode_in_submissions((self.ctx, self.stop), enc, label, &plan)?;
+            let (rest, _) = self
+                .kernels
+                .encode_in_submissions(self.ctx, self.stop, enc, label, &plan)?;
             let took = self.submit_and_read(rest)?;
             // A stopped frame is dropped: nothing to replay.
             if took.overran == 0 || self.stop.asked() {

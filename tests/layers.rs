@@ -411,3 +411,48 @@ fn every_test_file_is_in_the_suite() {
         }
     }
 }
+
+/// The integrators are a table (`src/integrator/`): outside it, only the backends' code tables
+/// name a variant (the CPU's step; the GPU's passes and fused steps). Everything else asks the
+/// scheme's row, so a new scheme touches the places docs/ARCHITECTURE.md lists, and no more.
+#[test]
+fn integrator_variants_are_named_only_in_the_table_and_the_backends_steps() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let variants = [
+        "Euler",
+        "SemiImplicit",
+        "Rk2",
+        "Rk4",
+        "Verlet",
+        "Implicit",
+        "Xpbd",
+        "Vbd",
+        "Bdf2",
+    ];
+    let mut naming = BTreeSet::new();
+    for file in rust_files(&src) {
+        let rel = file.strip_prefix(&src).unwrap_or(&file).to_owned();
+        if rel.starts_with("integrator") {
+            continue;
+        }
+        let code = code(&file);
+        let names = variants.iter().any(|v| {
+            code.match_indices(&format!("Integrator::{v}"))
+                .any(|(at, m)| {
+                    !code[at + m.len()..].starts_with(|c: char| c.is_ascii_alphanumeric())
+                })
+        });
+        if names {
+            naming.insert(rel.to_string_lossy().into_owned());
+        }
+    }
+    let allowed: BTreeSet<String> = ["cpu/integrate.rs", "gpu/plan.rs", "gpu/fused_plan.rs"]
+        .into_iter()
+        .map(String::from)
+        .collect();
+    let extra: Vec<_> = naming.difference(&allowed).collect();
+    assert!(
+        extra.is_empty(),
+        "{extra:?} name integrator variants: ask `Integrator::scheme()` instead"
+    );
+}

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 
 use crate::error::Result;
-use crate::integrator::{Integrator, Step};
+use crate::integrator::Integrator;
 use crate::run::prepare::{self, Request};
 use crate::run::select::Device;
 use crate::stability::{Modes, stable_step};
@@ -55,7 +55,7 @@ pub fn measure_limits(
         let (model, scene_dt) = (&planned.model, planned.settings.dt_secs);
         if device_name.is_empty() {
             device_name = device
-                .create(model.clone(), Step::new(Integrator::SemiImplicit, scene_dt))?
+                .create(model.clone(), planned.settings.step())?
                 .describe();
         }
         let modes = Modes::of(model);

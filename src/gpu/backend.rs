@@ -162,6 +162,7 @@ impl GpuBackend {
                 links: links.as_ref(),
                 implicit: needed.implicit.map(|path| (path, grid(path))),
                 multigrid: multigrid.as_ref(),
+                stage_c: fused_plan::keeps_stage_c(integrator),
             },
         );
         let run = RunPaths {

@@ -40,6 +40,21 @@ fn why_unfused(model: &Model, integrator: Integrator, storage_buffers: u32) -> O
     })
 }
 
+/// Whether a run's steps keep a third state, C (RK4's fused stages ping-pong B and C).
+pub fn keeps_stage_c(integrator: Integrator) -> bool {
+    match integrator {
+        Integrator::Rk4 => true,
+        Integrator::Euler
+        | Integrator::SemiImplicit
+        | Integrator::Rk2
+        | Integrator::Verlet
+        | Integrator::Implicit
+        | Integrator::Xpbd
+        | Integrator::Vbd
+        | Integrator::Bdf2 => false,
+    }
+}
+
 /// Whether a run's first step also evaluates a(x₀), which the later ones keep from the step
 /// before (Verlet).
 pub fn primes(integrator: Integrator) -> bool {

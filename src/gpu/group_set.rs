@@ -5,7 +5,6 @@ use super::bindings::{GroupBuffers, bind_group, buffers};
 use super::buffers::{Alloc, Bufs};
 use super::links::Links;
 use super::pipelines::Layouts;
-use crate::integrator::Integrator;
 use crate::model::Model;
 
 /// Bind group 0 of each kernel group, as they are made.
@@ -71,7 +70,7 @@ impl GroupSet<'_> {
         a: &mut Alloc<'_>,
         b: &Bufs,
         model: &Model,
-        integrator: Integrator,
+        stage_c: bool,
         links: &Links,
     ) -> Vec<Option<wgpu::BindGroup>> {
         let kinds = a.uniform("spring kinds", bytemuck::bytes_of(links.kinds.as_ref()));
@@ -101,7 +100,7 @@ impl GroupSet<'_> {
             x_out: &b.xt,
             v_out: &b.vt,
         });
-        let c = super::stages::keeps_stage_c(integrator).then(|| {
+        let c = stage_c.then(|| {
             let n = model.mass_count();
             (a.zeros("x2", 16 * n), a.zeros("v2", 16 * n))
         });

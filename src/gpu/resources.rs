@@ -90,6 +90,8 @@ pub struct ResourcePlan<'a> {
     pub implicit: Option<(Path, u32)>,
     /// The multigrid cycle's levels, when its CG takes one.
     pub multigrid: Option<&'a MultigridLayout>,
+    /// A third state, C, for the fused steps' stages (`fused_plan::keeps_stage_c`).
+    pub stage_c: bool,
 }
 
 /// Every buffer a run binds, and the bind groups over them.
@@ -137,6 +139,7 @@ impl Resources {
             links,
             implicit,
             multigrid,
+            stage_c,
         } = *plan;
         let Step {
             integrator,
@@ -232,7 +235,7 @@ impl Resources {
         let states = [(&b.x, &b.v), (&b.xt, &b.vt), (&b.x, &b.vt)]
             .map(|(x_in, v_in)| bind_group(device, &layouts.state, &buffers::State { x_in, v_in }));
         let flows = links
-            .map(|links| groups.fused(&mut a, &b, model, integrator, links))
+            .map(|links| groups.fused(&mut a, &b, model, stage_c, links))
             .unwrap_or_default();
         Self {
             x: b.x,

@@ -8,21 +8,6 @@ use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::physics::BackwardStep;
 
-/// Whether a run's steps keep a third state, C (RK4's fused stages ping-pong B and C).
-pub fn keeps_stage_c(integrator: Integrator) -> bool {
-    match integrator {
-        Integrator::Rk4 => true,
-        Integrator::Euler
-        | Integrator::SemiImplicit
-        | Integrator::Rk2
-        | Integrator::Verlet
-        | Integrator::Implicit
-        | Integrator::Xpbd
-        | Integrator::Vbd
-        | Integrator::Bdf2 => false,
-    }
-}
-
 /// The run's time: its dt, where it is, and the steps since the last snapshot was asked for.
 #[derive(Debug, Clone, Copy)]
 pub struct Clock {

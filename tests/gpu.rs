@@ -6,7 +6,9 @@ use crate::common;
 
 use std::sync::Arc;
 
-use crate::common::parity::{assert_parity, parity_dt, run_both, run_both_with};
+use crate::common::parity::{
+    assert_parity, cpu_and_gpu, parity_dt, run_both, run_both_with, step_alike,
+};
 use crate::common::{gpu_available, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
@@ -111,16 +113,8 @@ fn gpu_energies_match_the_cpu() {
         return;
     }
     let (model, dt) = scene_model("cloth");
-    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::Rk4, dt));
-    let mut gpu = ok(GpuBackend::new(
-        model.clone(),
-        Step::new(Integrator::Rk4, dt),
-        None,
-    ));
-    for _ in 0..20 {
-        ok(cpu.advance(30));
-        ok(gpu.advance(30));
-    }
+    let (mut cpu, mut gpu) = cpu_and_gpu(&model, Step::new(Integrator::Rk4, dt));
+    step_alike((&mut cpu, &mut gpu), (20, 30), |_, _, _| {});
     let (c, g) = (
         ok(cpu.snapshot(0, Default::default())),
         ok(gpu.snapshot(0, Default::default())),
@@ -517,12 +511,8 @@ fn the_loop_probe_finds_the_drivers_cap_and_a_run_keeps_clear_of_it() {
     // The default run of the implicit jello at one step per frame, on whichever path the
     // adapter allows, falls as the CPU's does (on Mesa 22 without the probe it never fell).
     let step = Step::new(Integrator::Implicit, 1.0 / 60.0);
-    let mut cpu = CpuBackend::new(model.clone(), step);
-    let mut gpu = ok(GpuBackend::new(model.clone(), step, None));
-    for _ in 0..10 {
-        ok(cpu.advance(1));
-        ok(gpu.advance(1));
-    }
+    let (mut cpu, mut gpu) = cpu_and_gpu(&model, step);
+    step_alike((&mut cpu, &mut gpu), (10, 1), |_, _, _| {});
     let (c, g) = (ok(cpu.state()), ok(gpu.state()));
     let apart = hooke::conformance::Apart::of(&c, &g);
     let worst = apart.farthest_m;

@@ -4,6 +4,7 @@
 
 use crate::common;
 
+use crate::common::parity::{cpu_and_gpu, step_alike};
 use crate::common::{gpu_available as have_adapter, ok, scene_model};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
@@ -111,16 +112,13 @@ fn the_cloth_and_the_jello_at_one_step_per_frame_end_where_the_cpu_ends() {
     }
     for (name, integrator) in [("cloth", Integrator::Implicit), ("jello", Integrator::Bdf2)] {
         let (model, _) = scene_model(name);
-        let step = Step::new(integrator, 1.0 / 60.0);
-        let mut cpu = CpuBackend::new(model.clone(), step);
         // Mesa 25 takes the one-workgroup step, Mesa 22.3 (whose loops are capped) the per-pass
         // path: both sum as the CPU does.
-        let mut gpu = ok(GpuBackend::new(model.clone(), step, None));
+        let (mut cpu, mut gpu) = cpu_and_gpu(&model, Step::new(integrator, 1.0 / 60.0));
         let mut unmet = 0;
-        for _ in 0..60 {
-            unmet += ok(cpu.advance(1)).rule.map_or(0, |r| r.unmet_steps);
-            ok(gpu.advance(1));
-        }
+        step_alike((&mut cpu, &mut gpu), (60, 1), |_, (_, sc), _| {
+            unmet += sc.rule.map_or(0, |r| r.unmet_steps);
+        });
         let (c, g) = (ok(cpu.state()), ok(gpu.state()));
         let apart = hooke::conformance::Apart::of(&c, &g);
         assert!(
@@ -387,10 +385,9 @@ fn parity(
         && common::parity::gpu_rounds_as_the_cpu();
     let (mut worst_x, mut worst_v) = (0.0f64, 0.0f64);
     let mut totals = (0.0f64, 0.0f64);
-    for frame in 1..=frames {
+    let pair = (&mut cpu, &mut gpu);
+    step_alike(pair, (frames, 1), |frame, (cpu, sc), (gpu, sg)| {
         // The GPU's solve figures come back with the frame's snapshot.
-        let sc = ok(cpu.advance(1));
-        let sg = ok(gpu.advance(1));
         let sg = ok(gpu.snapshot(frame, sg)).stats;
         // Each solve reaches a tenth of the Newton residual it started from (inexact Newton); a
         // step whose warm start already meets Newton's rule solves nothing, but the first has
@@ -454,7 +451,7 @@ fn parity(
             (ec - eg).abs() <= share * ec.abs().max(1e-3),
             "{name} {path:?} frame {frame}: dissipated {ec} J on the CPU, {eg} J on the GPU"
         );
-    }
+    });
     assert!(
         (totals.0 - totals.1).abs() <= 0.25 * totals.0 + 8.0,
         "{name} {integrator} {path:?}: {} CG iterations on the CPU, {} on the GPU",

@@ -9,34 +9,14 @@ use crate::common;
 
 use std::sync::Arc;
 
-use crate::common::{gpu_available, ok};
+use crate::common::hard::{Start, backends, step_frames};
+use crate::common::{model_of, ok};
 
 use glam::Vec3;
-use hooke::backend::Backend;
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
 use hooke::run::select::BackendKind;
 
-fn backends() -> Vec<BackendKind> {
-    if gpu_available() {
-        vec![BackendKind::Cpu, BackendKind::Gpu]
-    } else {
-        vec![BackendKind::Cpu]
-    }
-}
-
-fn scene(text: &str) -> Arc<Model> {
-    let s = ok(hooke::scene::from_toml(
-        text,
-        hooke::error::SceneOrigin::Text,
-    ));
-    Arc::new(hooke::model::build(&s))
-}
-
-/// Run `frames` frames of `substeps` steps and check every frame: finite, energy within
-/// `tolerance` (a fraction of the energy scale: initial energy or collider work, whichever is
-/// larger) above what was put in, no mass deeper in a
-/// collider than its safeguard depth. Returns the last frame.
 /// How a case is stepped.
 #[derive(Clone, Copy)]
 struct Stepping {
@@ -46,6 +26,10 @@ struct Stepping {
     substeps: u32,
 }
 
+/// Run `frames` frames of `substeps` steps and check every frame: finite, energy within
+/// `tolerance` (a fraction of the energy scale: initial energy or collider work, whichever is
+/// larger) above what was put in, no mass deeper in a collider than its safeguard depth.
+/// Returns the last frame.
 fn survive(
     what: &str,
     model: &Arc<Model>,
@@ -59,57 +43,50 @@ fn survive(
         frames,
         substeps,
     } = stepping;
-    let mut be: Box<dyn Backend> = ok(hooke::run::select::create(
+    let run = step_frames(
         kind,
         model.clone(),
         Step::new(integrator, dt),
-        None,
-    ));
-    let first = ok(be.snapshot(0, Default::default()));
-    let e0 = first.energies.total_j();
-    let scale = e0.abs().max(first.energies.kinetic_j).max(1e-3);
-    let mut last = first;
-    for frame in 1..=frames {
-        ok(be
-            .advance(substeps)
-            .map_err(|e| format!("{what} on {kind:?}, frame {frame}: {e}")));
-        let s = ok(be
-            .snapshot(u64::from(frame), Default::default())
-            .map_err(|e| format!("{what} on {kind:?}, frame {frame}: {e}")));
-        assert!(
-            s.positions.iter().all(|p| p.is_finite()),
-            "{what} on {kind:?}: non-finite at frame {frame}"
-        );
-        let put_in = e0 + s.energies.ledger.collider_work_j;
-        let scale = scale.max(s.energies.ledger.collider_work_j.abs());
-        assert!(
-            s.energies.total_j() <= put_in + tolerance * scale,
-            "{what} on {kind:?}, frame {frame}: energy {} J above the {put_in} J put in",
-            s.energies.total_j()
-        );
-        for (i, p) in s.positions.iter().enumerate() {
-            if model.inv_mass[i] == 0.0 {
-                continue;
+        (frames, substeps),
+        &mut |&Start { e0, scale }, s| {
+            let frame = s.frame;
+            assert!(
+                s.positions.iter().all(|p| p.is_finite()),
+                "{what} on {kind:?}: non-finite at frame {frame}"
+            );
+            let put_in = e0 + s.energies.ledger.collider_work_j;
+            let scale = scale.max(s.energies.ledger.collider_work_j.abs());
+            assert!(
+                s.energies.total_j() <= put_in + tolerance * scale,
+                "{what} on {kind:?}, frame {frame}: energy {} J above the {put_in} J put in",
+                s.energies.total_j()
+            );
+            for (i, p) in s.positions.iter().enumerate() {
+                if model.inv_mass[i] == 0.0 {
+                    continue;
+                }
+                if let Some(g) = &model.effects.ground {
+                    assert!(
+                        g.height_m - p.y <= g.max_depth_m * 1.0001,
+                        "{what} on {kind:?}: mass {i} {} m into the ground",
+                        g.height_m - p.y
+                    );
+                }
+                for (c, at) in model.effects.colliders.iter().zip(&s.collider_positions) {
+                    let depth = c.shape.penetration(*at, *p).map_or(0.0, |d| d.0);
+                    assert!(
+                        depth <= c.max_depth_m * 1.0001,
+                        "{what} on {kind:?}: mass {i} {depth} m inside the {}",
+                        c.kind()
+                    );
+                }
             }
-            if let Some(g) = &model.effects.ground {
-                assert!(
-                    g.height_m - p.y <= g.max_depth_m * 1.0001,
-                    "{what} on {kind:?}: mass {i} {} m into the ground",
-                    g.height_m - p.y
-                );
-            }
-            for (c, at) in model.effects.colliders.iter().zip(&s.collider_positions) {
-                let depth = c.shape.penetration(*at, *p).map_or(0.0, |d| d.0);
-                assert!(
-                    depth <= c.max_depth_m * 1.0001,
-                    "{what} on {kind:?}: mass {i} {depth} m inside the {}",
-                    c.kind()
-                );
-            }
-        }
-        last = s;
+        },
+    );
+    if let Some((frame, e)) = run.failed {
+        panic!("{what} on {kind:?}, frame {frame}: {e}");
     }
-    last
+    run.last
 }
 
 const JELLO_BODY: &str = r#"
@@ -127,7 +104,7 @@ bending = { stiffness_n_per_m = 100.0, damping_n_s_per_m = 0.005 }
 
 #[test]
 fn a_jello_dropped_from_10_m_lands_without_passing_through_the_ground() {
-    let model = scene(&format!(
+    let model = model_of(&format!(
         "name = \"drop\"\n[effects]\ngravity_m_per_s2 = [0.0, -9.81, 0.0]\nair_drag_per_s = 0.5\n[effects.ground]\nstiffness_n_per_m = 2000.0\nfriction = 0.5\nrestitution = 0.3\n{JELLO_BODY}"
     ));
     for kind in backends() {
@@ -158,7 +135,7 @@ fn a_jello_dropped_from_10_m_lands_without_passing_through_the_ground() {
 
 #[test]
 fn a_sphere_at_20_m_per_s_does_not_pass_through_a_cloth() {
-    let model = scene(
+    let model = model_of(
         r#"
 name = "bullet"
 [[effects.spheres]]
@@ -208,19 +185,7 @@ springs.bending = { stiffness_n_per_m = 5.0 }
 
 #[test]
 fn a_1_to_1000_mass_ratio_stays_stable() {
-    let mut mb = ModelBuilder::new();
-    let mut prev = mb.mass(Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, 1.0, true);
-    for i in 1..12 {
-        let m = if i % 2 == 0 { 1.0 } else { 1.0e-3 };
-        let next = mb.mass(Vec3::new(0.1 * i as f32, 2.0, 0.0), Vec3::ZERO, m, false);
-        mb.spring(prev, next, 2000.0, 0.05);
-        prev = next;
-    }
-    mb.effects(Effects {
-        gravity_m_per_s2: Some(Vec3::new(0.0, -9.81, 0.0)),
-        ..Effects::default()
-    });
-    let model = Arc::new(mb.build());
+    let model = common::hard::alternating_chain(1.0e-3, 2000.0, 0.05);
     let limit = hooke::stability::stable_dts(&model)
         .into_iter()
         .find(|(i, _)| *i == Integrator::Verlet)
@@ -296,7 +261,7 @@ fn coincident_masses_and_zero_length_springs_do_not_divide_by_zero() {
 
 #[test]
 fn a_cube_compressed_to_near_inversion_springs_back_without_blowing_up() {
-    let base = scene(&format!(
+    let base = model_of(&format!(
         "name = \"squash\"\n{}",
         JELLO_BODY.replace("[0.0, 10.0, 0.0]", "[0.0, 0.0, 0.0]")
     ));
@@ -473,37 +438,37 @@ fn hold_stiff_chain(
             0 => format!("{kind:?}"),
             _ => format!("{kind:?} from nudged start {seed}"),
         };
-        let mut be = ok(hooke::run::select::create(
+        let run = step_frames(
             kind,
             common::parity::nudged(&model, seed),
             Step::new(integrator, dt).with_options(options),
-            None,
-        ));
-        let e0 = ok(be.snapshot(0, Default::default())).energies.total_j();
-        for frame in 1..=600 {
-            let stats = ok(be
-                .advance(1)
-                .map_err(|e| format!("{who} {integrator}, frame {frame}: {e}")));
-            // The GPU's solve figures come back with the frame's snapshot.
-            let s = ok(be.snapshot(frame, stats));
-            // Each solve reaches a tenth of the Newton residual it started from; a step whose
-            // warm start already meets Newton's rule solves nothing, but the first has none.
-            assert!(
-                (frame > 1 || s.stats.solver_iterations > 0)
-                    && s.stats.solver_residual <= hooke::physics::CG_FORCING,
-                "{who} {integrator}, frame {frame}: {} iterations, residual {}",
-                s.stats.solver_iterations,
-                s.stats.solver_residual
-            );
-            assert!(s.positions.iter().all(|p| p.is_finite()));
-            if let Some(gain) = gain {
+            (600, 1),
+            &mut |&Start { e0, .. }, s| {
+                let frame = s.frame;
+                // Each solve reaches a tenth of the Newton residual it started from; a step
+                // whose warm start already meets Newton's rule solves nothing, but the first
+                // has none.
                 assert!(
-                    s.energies.total_j() <= e0 * (1.0 + gain),
-                    "{who} {integrator}, k = {k}, frame {frame}: energy {} above the initial {e0}",
-                    s.energies.total_j()
+                    (frame > 1 || s.stats.solver_iterations > 0)
+                        && s.stats.solver_residual <= hooke::physics::CG_FORCING,
+                    "{who} {integrator}, frame {frame}: {} iterations, residual {}",
+                    s.stats.solver_iterations,
+                    s.stats.solver_residual
                 );
-            }
+                assert!(s.positions.iter().all(|p| p.is_finite()));
+                if let Some(gain) = gain {
+                    assert!(
+                        s.energies.total_j() <= e0 * (1.0 + gain),
+                        "{who} {integrator}, k = {k}, frame {frame}: energy {} above the initial {e0}",
+                        s.energies.total_j()
+                    );
+                }
+            },
+        );
+        if let Some((frame, e)) = run.failed {
+            panic!("{who} {integrator}, frame {frame}: {e}");
         }
+        let mut be = run.backend;
         // After 10 s the chain hangs straight down; each spring carries the weight below it.
         let s = ok(be.state());
         println!(

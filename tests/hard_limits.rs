@@ -12,23 +12,16 @@
 
 use std::sync::Arc;
 
-use crate::common::{gpu_available, model_of, ok};
+use crate::common::hard::{Start, Stepped, backends, step_frames};
+use crate::common::model_of;
 
 use glam::Vec3;
-use hooke::backend::{Backend, BackendError};
+use hooke::backend::BackendError;
 use hooke::integrator::{Integrator, Step};
 use hooke::model::{Effects, Model, ModelBuilder, SpringKindTag};
 use hooke::run::select::BackendKind;
 use hooke::stability::{Limit, Modes, Source, stable_step};
 use hooke::state::Snapshot;
-
-fn backends() -> Vec<BackendKind> {
-    if gpu_available() {
-        vec![BackendKind::Cpu, BackendKind::Gpu]
-    } else {
-        vec![BackendKind::Cpu]
-    }
-}
 
 /// The stable cases step at this share of the estimate: the estimate is the linear bound, and a
 /// nearly undamped mode exactly on it is on the edge, where the slow change of a swinging
@@ -90,31 +83,18 @@ fn run_checked(
     tolerance: Option<f64>,
     each_frame: &mut dyn FnMut(&Snapshot),
 ) -> (Snapshot, Option<BackendError>) {
-    let mut be: Box<dyn Backend> = ok(hooke::run::select::create(
+    let Stepped { last, failed, .. } = step_frames(
         kind,
         model.clone(),
         Step::new(Integrator::SemiImplicit, dt),
-        None,
-    ));
-    let first = ok(be.snapshot(0, Default::default()));
-    let e0 = first.energies.total_j();
-    let scale = e0.abs().max(first.energies.kinetic_j).max(1e-3);
-    let mut last = first;
-    for frame in 1..=frames {
-        let stepped = be
-            .advance(substeps)
-            .and_then(|stats| be.snapshot(u64::from(frame), stats));
-        match stepped {
-            Ok(s) => {
-                let tolerance = tolerance.unwrap_or(f64::INFINITY);
-                check_frame(&format!("{what} on {kind:?}"), &s, e0, scale, tolerance);
-                each_frame(&s);
-                last = s;
-            }
-            Err(e) => return (last, Some(e)),
-        }
-    }
-    (last, None)
+        (frames, substeps),
+        &mut |&Start { e0, scale }, s| {
+            let tolerance = tolerance.unwrap_or(f64::INFINITY);
+            check_frame(&format!("{what} on {kind:?}"), s, e0, scale, tolerance);
+            each_frame(s);
+        },
+    );
+    (last, failed.map(|(_, e)| e))
 }
 
 /// A run above the estimate stops on a divergence whose message names `limit_word` and `source`
@@ -132,6 +112,31 @@ fn assert_stops_naming(what: &str, err: Option<BackendError>, estimate: f64, wor
         (holds - estimate).abs() <= 1e-9 * estimate && text.contains(&format!("--dt {holds:.3e}")),
         "{what}: the step offered ({holds:e}) should be the estimate {estimate:e}: {text}"
     );
+}
+
+/// Stepped at `MARGIN` × `estimate`, `frames` frames of `substeps` steps, the run holds; at
+/// twice the estimate over the same time (half the substeps) it stops naming `words`
+/// (`assert_stops_naming`).
+fn holds_then_stops_at_twice(
+    what: &str,
+    model: &Arc<Model>,
+    kind: BackendKind,
+    estimate: f64,
+    (frames, substeps): (u32, u32),
+    words: &[&str],
+) {
+    let (_, err) = run(what, model, kind, MARGIN * estimate, (frames, substeps));
+    assert!(err.is_none(), "{kind:?}: {err:?}");
+    let (_, err) = run_checked(
+        &format!("{what}, 2×"),
+        model,
+        kind,
+        2.0 * estimate,
+        (frames, substeps / 2),
+        None,
+        &mut |_| {},
+    );
+    assert_stops_naming(&format!("{what} on {kind:?}"), err, estimate, words);
 }
 
 /// cloth-1024 diverged at its own step near its pins: its dashpots overdamped the stiffest mode
@@ -238,27 +243,12 @@ springs.bending = { stiffness_n_per_m = 0.1, damping_n_s_per_m = 1.0e-5 }
         "{limit:?}"
     );
     for kind in backends() {
-        let (_, err) = run(
+        holds_then_stops_at_twice(
             "1e6 stiffness ratio",
             &model,
             kind,
-            MARGIN * estimate,
-            (30, 800),
-        );
-        assert!(err.is_none(), "{kind:?}: {err:?}");
-        let (_, err) = run_checked(
-            "1e6 stiffness, 2×",
-            &model,
-            kind,
-            2.0 * estimate,
-            (30, 400),
-            None,
-            &mut |_| {},
-        );
-        assert_stops_naming(
-            &format!("stiff strand on {kind:?}"),
-            err,
             estimate,
+            (30, 800),
             &["stiffness limit", "stiffness of the structural springs"],
         );
     }
@@ -267,19 +257,7 @@ springs.bending = { stiffness_n_per_m = 0.1, damping_n_s_per_m = 1.0e-5 }
 /// A chain whose masses alternate between 1 kg and 1 mg.
 #[test]
 fn a_mass_ratio_of_a_million_within_one_body() {
-    let mut mb = ModelBuilder::new();
-    let mut prev = mb.mass(Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, 1.0, true);
-    for i in 1..12 {
-        let m = if i % 2 == 0 { 1.0 } else { 1.0e-6 };
-        let next = mb.mass(Vec3::new(0.1 * i as f32, 2.0, 0.0), Vec3::ZERO, m, false);
-        mb.spring(prev, next, 100.0, 1.0e-5);
-        prev = next;
-    }
-    mb.effects(Effects {
-        gravity_m_per_s2: Some(Vec3::new(0.0, -9.81, 0.0)),
-        ..Effects::default()
-    });
-    let model = Arc::new(mb.build());
+    let model = crate::common::hard::alternating_chain(1.0e-6, 100.0, 1.0e-5);
     let (estimate, limit) = semi_implicit_estimate(&model);
     let Limit::Stiffness { mass, .. } = limit else {
         panic!("{limit:?}");
@@ -289,27 +267,12 @@ fn a_mass_ratio_of_a_million_within_one_body() {
         "the light masses should set the step, not mass {mass}"
     );
     for kind in backends() {
-        let (_, err) = run(
+        holds_then_stops_at_twice(
             "1e6 mass ratio",
             &model,
             kind,
-            MARGIN * estimate,
-            (20, 2000),
-        );
-        assert!(err.is_none(), "{kind:?}: {err:?}");
-        let (_, err) = run_checked(
-            "1e6 masses, 2×",
-            &model,
-            kind,
-            2.0 * estimate,
-            (20, 1000),
-            None,
-            &mut |_| {},
-        );
-        assert_stops_naming(
-            &format!("1e6 masses on {kind:?}"),
-            err,
             estimate,
+            (20, 2000),
             &["stiffness limit", "custom springs"],
         );
     }

@@ -7,6 +7,7 @@ use crate::common;
 
 use std::sync::Arc;
 
+use crate::common::parity::{cpu_and_gpu, run_pair};
 use crate::common::{gpu_available, ok, scene_model};
 
 use glam::Vec3;
@@ -275,13 +276,8 @@ fn run_both(
     frames: u32,
     substeps: u32,
 ) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
-    let mut cpu = CpuBackend::new(model.clone(), Step::new(integrator, dt));
-    let mut gpu = ok(GpuBackend::new(
-        model.clone(),
-        Step::new(integrator, dt),
-        None,
-    ));
-    run_pair((&mut cpu, &mut gpu), frames, substeps)
+    let (mut cpu, mut gpu) = cpu_and_gpu(model, Step::new(integrator, dt));
+    run_pair((&mut cpu, &mut gpu), (frames, substeps), &mut |_, _| {})
 }
 
 /// How far the CPU parts from itself when its start moves by one f32 step
@@ -301,8 +297,8 @@ fn nudged_spread(
                 &mut CpuBackend::new(model.clone(), step),
                 &mut CpuBackend::new(common::parity::nudged(model, seed), step),
             ),
-            frames,
-            substeps,
+            (frames, substeps),
+            &mut |_, _| {},
         );
         let apart = aggregates(&c).into_iter().zip(aggregates(&n));
         let mut energies = energies;
@@ -317,30 +313,6 @@ fn nudged_spread(
 fn aggregates(s: &hooke::state::Snapshot) -> [f64; 3] {
     let e = s.energies;
     [e.contact_j, e.kinetic_j, e.ledger.dissipated_j()]
-}
-
-/// Two backends stepped alike, compared at every frame (`run_both`).
-fn run_pair(
-    (a, b): (&mut dyn Backend, &mut dyn Backend),
-    frames: u32,
-    substeps: u32,
-) -> (f64, hooke::state::Snapshot, hooke::state::Snapshot) {
-    let mut worst = 0.0f64;
-    let mut last = None;
-    for frame in 0..frames {
-        ok(a.advance(substeps));
-        ok(b.advance(substeps));
-        let (c, g) = (
-            ok(a.snapshot(u64::from(frame), Default::default())),
-            ok(b.snapshot(u64::from(frame), Default::default())),
-        );
-        for (p, q) in c.positions.iter().zip(&g.positions) {
-            worst = worst.max(f64::from(p.distance(*q)));
-        }
-        last = Some((c, g));
-    }
-    let (c, g) = last.unwrap_or_else(|| panic!("no frames"));
-    (worst, c, g)
 }
 
 /// Starts moved by one f32 step that `gpu_matches_cpu_with_mass_contact` also runs the CPU from.
@@ -425,24 +397,13 @@ fn gpu_contact_energy_matches_the_cpu_mid_impact() {
         return;
     }
     let (model, dt) = scene_model("pile");
-    let mut cpu = CpuBackend::new(model.clone(), Step::new(Integrator::SemiImplicit, dt));
+    let (mut cpu, mut gpu) = cpu_and_gpu(&model, Step::new(Integrator::SemiImplicit, dt));
     let mut best = (0.0f64, 0.0f64);
-    let mut gpu = ok(GpuBackend::new(
-        model.clone(),
-        Step::new(Integrator::SemiImplicit, dt),
-        None,
-    ));
-    for frame in 0..30 {
-        ok(cpu.advance(40));
-        ok(gpu.advance(40));
-        let (c, g) = (
-            ok(cpu.snapshot(frame, Default::default())),
-            ok(gpu.snapshot(frame, Default::default())),
-        );
+    run_pair((&mut cpu, &mut gpu), (30, 40), &mut |c, g| {
         if c.energies.contact_j > best.0 {
             best = (c.energies.contact_j, g.energies.contact_j);
         }
-    }
+    });
     println!(
         "pile: peak contact energy CPU {:.6e} J, GPU {:.6e} J",
         best.0, best.1

@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use crate::common::parity::{assert_parity, run_both_with};
+use crate::common::parity::{assert_parity, run_both_with, step_alike};
 use crate::common::{cpu_run, gpu_available, hooke, ok, scene_model, text};
 use hooke::backend::Backend as _;
 use hooke::cpu::CpuBackend;
@@ -219,19 +219,17 @@ fn gpu_vbd_judges_its_steps_as_the_cpu_does() {
         let (model, _) = scene_model(scene);
         let step =
             Step::new(Integrator::Vbd, FRAME_DT / f64::from(substeps)).with_options(vbd(sweeps));
-        let mut cpu = CpuBackend::new(model.clone(), step);
-        let cpu_rules: Vec<_> = (0..frames)
-            .map(|_| ok(cpu.advance(substeps)).rule)
-            .collect();
         for in_group in [true, false] {
             let tuning = Tuning {
                 vbd_in_group: Some(in_group),
                 ..Tuning::for_run(&model, step)
             };
+            let mut cpu = CpuBackend::new(model.clone(), step);
             let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
-            for (frame, c) in (1..=frames).zip(&cpu_rules) {
-                let stats = ok(gpu.advance(substeps));
-                let g = ok(gpu.snapshot(frame, stats)).stats.rule;
+            let pair = (&mut cpu, &mut gpu);
+            step_alike(pair, (frames, substeps), |frame, (_, c), (gpu, g)| {
+                // The GPU's solve figures come back with the frame's snapshot.
+                let (c, g) = (c.rule, ok(gpu.snapshot(frame, g)).stats.rule);
                 let (Some(c), Some(g)) = (c, g) else {
                     panic!("{scene} frame {frame}: a step not judged: cpu {c:?}, gpu {g:?}");
                 };
@@ -244,7 +242,7 @@ fn gpu_vbd_judges_its_steps_as_the_cpu_does() {
                     c.step_residual,
                     g.step_residual
                 );
-            }
+            });
         }
     }
 }

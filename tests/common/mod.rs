@@ -1,6 +1,7 @@
 //! Helpers shared by the test files that run the `hooke` binary and read its recordings.
 //! (Not every file uses every helper.)
 
+pub mod hard;
 pub mod parity;
 pub mod record;
 

@@ -1,14 +1,15 @@
-//! GPU–CPU parity: both backends stepped alike from one model, and the tolerance their states
-//! must meet (`tests/gpu.rs`).
+//! GPU–CPU parity: both backends stepped alike from one model, frame by frame, and the
+//! tolerance their states must meet (`tests/gpu.rs`, `tests/gpu_implicit.rs`, `tests/vbd.rs`,
+//! `tests/self_collision.rs`).
 
 use std::sync::Arc;
 
-use hooke::backend::Backend as _;
+use hooke::backend::Backend;
 use hooke::cpu::CpuBackend;
 use hooke::gpu::GpuBackend;
 use hooke::integrator::{Integrator, Step, StepOptions};
 use hooke::model::Model;
-use hooke::state::State;
+use hooke::state::{Snapshot, State, StepStats};
 
 use super::ok;
 
@@ -48,28 +49,60 @@ pub fn run_both_with(
     (frames, substeps): (u32, u32),
     options: StepOptions,
 ) -> (State, State, f64) {
-    let mut cpu = CpuBackend::new(
-        model.clone(),
-        Step::new(integrator, dt).with_options(options),
-    );
-    let mut gpu = ok(GpuBackend::new(
-        model.clone(),
-        Step::new(integrator, dt).with_options(options),
-        None,
-    ));
-    let mut worst = 0.0f64;
-    for _ in 0..frames {
-        ok(cpu.advance(substeps));
-        ok(gpu.advance(substeps));
-        let (c, g) = (
-            ok(cpu.snapshot(0, Default::default())),
-            ok(gpu.snapshot(0, Default::default())),
-        );
-        for (a, b) in c.positions.iter().zip(&g.positions) {
-            worst = worst.max(f64::from(a.distance(*b)));
-        }
-    }
+    let (mut cpu, mut gpu) = cpu_and_gpu(model, Step::new(integrator, dt).with_options(options));
+    let (worst, _, _) = run_pair((&mut cpu, &mut gpu), (frames, substeps), &mut |_, _| {});
     (ok(cpu.state()), ok(gpu.state()), worst)
+}
+
+/// The CPU reference and the GPU (the first adapter), both on `model` stepping with `step`.
+pub fn cpu_and_gpu(model: &Arc<Model>, step: Step) -> (CpuBackend, GpuBackend) {
+    let cpu = CpuBackend::new(model.clone(), step);
+    let gpu = ok(GpuBackend::new(model.clone(), step, None));
+    (cpu, gpu)
+}
+
+/// Two backends stepped alike, `frames` frames of `substeps` steps, `a` first: after each
+/// frame (numbered from 1) `each` gets both, with what their steps returned, to read back and
+/// compare what it needs.
+pub fn step_alike<A: Backend + ?Sized, B: Backend + ?Sized>(
+    (a, b): (&mut A, &mut B),
+    (frames, substeps): (u64, u32),
+    mut each: impl FnMut(u64, (&mut A, StepStats), (&mut B, StepStats)),
+) {
+    for frame in 1..=frames {
+        let stats_a = ok(a.advance(substeps));
+        let stats_b = ok(b.advance(substeps));
+        each(frame, (&mut *a, stats_a), (&mut *b, stats_b));
+    }
+}
+
+/// Two backends stepped alike (`step_alike`), each read back at every frame (snapshots
+/// numbered from 0) and handed to `each`: the largest position difference over the frames,
+/// and each backend's last snapshot.
+pub fn run_pair<A: Backend + ?Sized, B: Backend + ?Sized>(
+    (a, b): (&mut A, &mut B),
+    (frames, substeps): (u32, u32),
+    each: &mut dyn FnMut(&Snapshot, &Snapshot),
+) -> (f64, Snapshot, Snapshot) {
+    let mut worst = 0.0f64;
+    let mut last = None;
+    step_alike(
+        (a, b),
+        (u64::from(frames), substeps),
+        |frame, (a, _), (b, _)| {
+            let (c, g) = (
+                ok(a.snapshot(frame - 1, Default::default())),
+                ok(b.snapshot(frame - 1, Default::default())),
+            );
+            for (p, q) in c.positions.iter().zip(&g.positions) {
+                worst = worst.max(f64::from(p.distance(*q)));
+            }
+            each(&c, &g);
+            last = Some((c, g));
+        },
+    );
+    let (c, g) = last.unwrap_or_else(|| panic!("no frames"));
+    (worst, c, g)
 }
 
 /// Whether the GPU adapter the tests get rounds as the CPU does: Mesa's lavapipe (Vulkan on the

@@ -44,7 +44,8 @@ fn main() -> anyhow::Result<()> {
             model.clone(),
             Step::new(integrator, settings.dt_secs),
             None,
-            (ImplicitPath::Passes, path),
+            ImplicitPath::Passes,
+            path,
         )?;
         // A run takes the next path open to it: time each path once.
         let path = be.explicit_path();

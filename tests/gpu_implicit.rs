@@ -202,7 +202,8 @@ fn a_frame_replayed_after_its_budget_ran_out_ends_where_one_with_room_ends() {
                 m,
                 Step::new(integrator, dt),
                 None,
-                (ImplicitPath::Passes, ExplicitPath::Fused),
+                ImplicitPath::Passes,
+                ExplicitPath::Fused,
             ))
         };
         let (mut roomy, mut tight) = (start(model.clone()), start(model));
@@ -268,7 +269,7 @@ fn the_one_workgroup_step_keeps_its_vectors_in_workgroup_memory_when_they_fit() 
     use hooke::gpu::ImplicitPath::{InGroup, Passes};
     use hooke::gpu::SolverHome::{Buffers, Workgroup};
     let home = |name: &str, path, threads, bytes| {
-        hooke::gpu::SolverHome::of(&scene_model(name).0, path, (threads, bytes))
+        hooke::gpu::SolverHome::of(&scene_model(name).0, path, threads, bytes)
     };
     let hair = Workgroup {
         vectors: 800,
@@ -534,7 +535,7 @@ fn gpu_multigrid_in_one_workgroup_meets_the_cpu() {
     let (model, _) = scene_model(&name);
     let lavapipe = 32 * 1024 - hooke::gpu::MULTIGRID_FACTOR_WORKGROUP_BYTES;
     assert!(matches!(
-        hooke::gpu::SolverHome::of(&model, InGroup, (8, lavapipe)),
+        hooke::gpu::SolverHome::of(&model, InGroup, 8, lavapipe),
         hooke::gpu::SolverHome::Workgroup { .. }
     ));
     parity(Integrator::Implicit, &name, 30, (InGroup, None, Multigrid));

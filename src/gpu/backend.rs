@@ -85,7 +85,8 @@ impl GpuBackend {
         model: Arc<Model>,
         step: Step,
         adapter: Option<&str>,
-        (implicit, explicit): (Path, ExplicitPath),
+        implicit: Path,
+        explicit: ExplicitPath,
     ) -> Result<Self, BackendError> {
         let tuning = Tuning {
             implicit,

@@ -162,7 +162,7 @@ pub(super) fn specialise(
                 None => 0,
             };
             let bytes = limits.max_compute_workgroup_storage_size;
-            SolverHome::of(model, path, (group_threads, bytes.saturating_sub(cycle)))
+            SolverHome::of(model, path, group_threads, bytes.saturating_sub(cycle))
         }
         None => SolverHome::Buffers,
     };

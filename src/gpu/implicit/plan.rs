@@ -46,7 +46,7 @@ pub enum SolverHome {
 
 impl SolverHome {
     /// For `model` on `path`, with `threads` in the one-workgroup step.
-    pub fn of(model: &Model, path: Path, (threads, workgroup_bytes): (u32, u32)) -> Self {
+    pub fn of(model: &Model, path: Path, threads: u32, workgroup_bytes: u32) -> Self {
         let vectors = SOLVER_VECTORS * model.mass_count() as u64;
         let terms = 2 * model.adjacency.entries.len() as u64;
         let bytes = 16 * (vectors + terms) + sum_scratch_bytes(threads);

@@ -1,9 +1,9 @@
 //! The kernel table's rows, one per WGSL entry point: what `kernels.rs` makes the `Kernel` enum
 //! and its specs from, and what `conformance/twins.rs` checks the CPU namesakes of.
 
-/// The table's rows, handed to `$callback` (`kernels!` here; `twins.rs`, above both backends,
-/// checks that every named CPU namesake exists, so that this backend imports nothing from the
-/// other).
+/// The table's rows, handed to `$callback` (`kernels!` in `kernels.rs`; `conformance/twins.rs`,
+/// above both backends, checks that every named CPU namesake exists, so that this backend
+/// imports nothing from the other).
 macro_rules! kernel_table {
     ($callback:ident) => {
         $callback! {

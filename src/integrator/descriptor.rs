@@ -1,7 +1,8 @@
 //! What one integrator is, as the rest of the program asks it: a [`Scheme`], one per scheme's
 //! file in this folder. Every field is a decision a new scheme makes, and the struct literal
-//! names each, so the compiler asks for all of them. The backends keep one table each of what
-//! differs in code: the CPU's step (`cpu/integrate.rs`) and the GPU's passes (`gpu/plan.rs`).
+//! names each, so the compiler asks for all of them. The backends keep the tables of what
+//! differs in code: the CPU's step (`cpu/integrate.rs`) and the GPU's passes (`gpu/plan.rs`,
+//! `gpu/fused_plan.rs`).
 
 use super::options::StepOptions;
 use super::oscillator::{OneStep, Oscillator, radius_of_step};

@@ -1,7 +1,8 @@
 //! The integrators as a table: the enum the command line and scene files name, and its row,
 //! the [`Scheme`] each scheme's file in this folder describes. Adding a scheme is a variant, a
-//! file and a row here; the compiler then names the backends' two tables (the CPU's step in
-//! `cpu/integrate.rs`, the GPU's passes in `gpu/plan.rs`) and nothing else.
+//! file and a row here; the compiler then names the backends' tables (the CPU's step in
+//! `cpu/integrate.rs`; the GPU's passes in `gpu/plan.rs` and `gpu/fused_plan.rs`) and nothing
+//! else (docs/ARCHITECTURE.md, "One room per integrator").
 
 use serde::{Deserialize, Serialize};
 

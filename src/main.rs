@@ -20,7 +20,7 @@ fn main() -> std::process::ExitCode {
     unsafe {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
-    let matches = Cli::command().get_matches();
+    let matches = with_our_help(Cli::command()).get_matches();
     #[cfg(unix)]
     if matches!(matches.subcommand_name(), Some("scenes" | "check")) {
         // SAFETY: no other thread exists yet. These commands only print: a closed standard
@@ -43,6 +43,19 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// What `hooke run --help` says of Rerun's flags where Hooke does more than Rerun's own help
+/// says: `--save` beside `--connect` records to the file as well as streaming to the viewer.
+fn with_our_help(cli: clap::Command) -> clap::Command {
+    cli.mut_subcommand("run", |run| {
+        run.mut_arg("save", |save| {
+            let says = "Record to this .rrd file: alone, instead of opening a viewer; beside \
+                        --connect, as well as streaming to that viewer (a viewer that goes away \
+                        then leaves the run recording to the file)";
+            save.help(says).long_help(says)
+        })
+    })
 }
 
 /// An error and its causes as one line, each cause said once: many libraries' errors repeat

@@ -683,3 +683,17 @@ fn documented_pages() -> Vec<std::path::PathBuf> {
     pages.extend(guide.filter_map(|e| e.ok().map(|e| e.path())));
     pages
 }
+
+/// `run --help` says what `--save` does here: beside `--connect` it records as well as streams,
+/// where Rerun's own help says it saves "rather than visualizing".
+#[test]
+fn run_help_says_save_beside_connect_records_and_streams() {
+    let out = common::ok(common::hooke_command(&["run", "--help"]).output());
+    let help = text(&out.stdout);
+    assert!(out.status.success(), "{help}");
+    assert!(
+        help.contains("beside --connect, as well as streaming to that viewer"),
+        "{help}"
+    );
+    assert!(!help.contains("rather than visualizing"), "{help}");
+}

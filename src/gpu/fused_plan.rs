@@ -136,16 +136,18 @@ pub fn fused_links(
     }
 }
 
+/// The schemes with a fused step, for the tests of the plans.
+#[cfg(test)]
+pub(super) const FUSED: [Integrator; 4] = [
+    Integrator::Euler,
+    Integrator::SemiImplicit,
+    Integrator::Verlet,
+    Integrator::Rk4,
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const FUSED: [Integrator; 4] = [
-        Integrator::Euler,
-        Integrator::SemiImplicit,
-        Integrator::Verlet,
-        Integrator::Rk4,
-    ];
 
     /// The fused steps keep their bounds (at most 2 dispatches per step, RK4 5), each
     /// dispatch reads the state the one before wrote, and a step starts from A and returns to it

@@ -286,14 +286,8 @@ pub fn dispatches_per_step(model: &Model, step: Step, paths: StepPaths) -> Dispa
 mod tests {
     use super::*;
     use crate::gpu::dispatch::SLOTS_PER_STEP;
+    use crate::gpu::fused_plan::FUSED;
     use crate::model::{ContactModel, MassContact};
-
-    const FUSED: [Integrator; 4] = [
-        Integrator::Euler,
-        Integrator::SemiImplicit,
-        Integrator::Verlet,
-        Integrator::Rk4,
-    ];
 
     /// The grid stencil brings a fused semi-implicit step at cloth-256 under 18 B of compulsory
     /// traffic per spring update (x and v read and written, each mass's mass and ledger; nothing

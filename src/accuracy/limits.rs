@@ -1,11 +1,11 @@
-//! `hooke bench stability`: each explicit integrator's estimated stable step (`hooke check`'s)
+//! `hooke bench stability`: each integrator's estimated stable step (`hooke check`'s)
 //! beside the largest stable step measured by bisection, scene by scene, so that the promise
 //! "the estimate never overshoots" is checked against the scenes themselves.
 
 use std::fmt::Write as _;
 
 use crate::error::Result;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Unsupported};
 use crate::run::prepare::{self, Request};
 use crate::run::select::Device;
 use crate::stability::{Modes, stable_step};
@@ -24,13 +24,24 @@ pub struct LimitRow {
     pub limit: Option<&'static str>,
     /// Where no step is stable for sure: what the dashpots along the springs would allow.
     pub dashpot_line_secs: Option<f64>,
-    pub found: Found,
+    pub measured: Measured,
+}
+
+/// What the search found, or why nothing was searched.
+#[derive(Debug, Clone, Copy)]
+pub enum Measured {
+    Found(Found),
+    /// The scene asks for an effect the integrator refuses: a run would not start.
+    Refused(Unsupported),
 }
 
 impl LimitRow {
     /// The estimate is at or below the measured step (or both say "no stable step").
     pub fn holds(&self) -> bool {
-        match (self.estimate_secs, self.found) {
+        let Measured::Found(found) = self.measured else {
+            return true;
+        };
+        match (self.estimate_secs, found) {
             (None, _) => true,
             (Some(e), Found::Largest(m) | Found::AtLeast(m)) => e <= m,
             (Some(_), Found::Unstable) => false,
@@ -71,7 +82,12 @@ pub fn measure_limits(
                 estimate_secs: estimate.dt_secs,
                 limit: estimate.limit.map(|l| l.name()),
                 dashpot_line_secs: estimate.dashpot_line_secs,
-                found: search_stable_dt_on(model, device, integrator, range, duration),
+                measured: match integrator.supports(&model.effects) {
+                    Ok(()) => Measured::Found(search_stable_dt_on(
+                        model, device, integrator, range, duration,
+                    )),
+                    Err(refused) => Measured::Refused(refused),
+                },
             };
             progress(&row);
             rows.push(row);
@@ -100,12 +116,13 @@ pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String
             (None, Some(line)) => format!("none for sure (dashpots: {line:.3e} s)"),
             (None, None) => "none".to_owned(),
         };
-        let measured = match r.found {
-            Found::Largest(m) => format!("{m:.3e} s"),
-            Found::AtLeast(m) => format!("≥ {m:.3e} s"),
-            Found::Unstable => "unstable".to_owned(),
+        let (measured, found) = match r.measured {
+            Measured::Found(Found::Largest(m)) => (format!("{m:.3e} s"), Some(m)),
+            Measured::Found(Found::AtLeast(m)) => (format!("≥ {m:.3e} s"), Some(m)),
+            Measured::Found(Found::Unstable) => ("unstable".to_owned(), None),
+            Measured::Refused(why) => (format!("refused ({})", why.effect()), None),
         };
-        let ratio = match (r.estimate_secs, r.found.dt()) {
+        let ratio = match (r.estimate_secs, found) {
             (Some(e), Some(m)) => format!("{:.2}", e / m),
             _ => "—".to_owned(),
         };

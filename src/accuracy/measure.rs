@@ -111,7 +111,10 @@ pub fn accuracy(
     progress(&format!("reference: f64 RK4 at dt = {reference_dt:.3e} s"));
     let mut rows = Vec::new();
     let supported = |i| supported(model, i);
-    let estimates = crate::stability::stable_steps(&crate::stability::Modes::of(model));
+    let estimates = crate::stability::stable_steps(
+        &crate::stability::Modes::of(model),
+        &crate::integrator::StepOptions::default(),
+    );
     for integrator in Integrator::ALL.into_iter().filter(|&i| supported(i)) {
         let estimate = estimates
             .iter()

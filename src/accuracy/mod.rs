@@ -12,7 +12,7 @@ mod results;
 mod stable_dt;
 
 pub use chart::svg;
-pub use limits::{LimitRow, limits_markdown, measure_limits};
+pub use limits::{LimitRow, Measured, limits_markdown, measure_limits};
 pub use measure::{AccuracyOptions, accuracy};
 pub use report::{cheapest_per_level, markdown};
 pub use results::{Accuracy, Found, Row, StableDt};

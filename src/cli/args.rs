@@ -193,7 +193,7 @@ pub enum BenchCommand {
         #[arg(long)]
         save: Option<std::path::PathBuf>,
     },
-    /// Each explicit integrator's estimated stable step (`hooke check`'s) against the largest
+    /// Each integrator's estimated stable step (`hooke check`'s) against the largest
     /// stable step measured by bisection, per scene: the estimate must never overshoot.
     Stability {
         /// Built-in scene names or .toml files (default: every built-in scene but cloth-1024,
@@ -204,7 +204,7 @@ pub enum BenchCommand {
         /// Simulated seconds per trial.
         #[arg(long, default_value_t = 0.5)]
         duration: f64,
-        /// Only these integrators (repeat the flag; default: every explicit one).
+        /// Only these integrators (repeat the flag; default: every one).
         #[arg(long = "integrator", value_enum)]
         integrators: Vec<Integrator>,
         /// Also write the table to this Markdown file.

@@ -58,7 +58,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             out,
         } => {
             let integrators = if integrators.is_empty() {
-                hooke::integrator::Integrator::EXPLICIT.to_vec()
+                hooke::integrator::Integrator::ALL.to_vec()
             } else {
                 integrators
             };
@@ -81,7 +81,7 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
                         r.scene,
                         r.integrator,
                         r.estimate_secs,
-                        r.found
+                        r.measured
                     );
                 })?;
             let table = accuracy::limits_markdown(&rows, duration, &device_name);

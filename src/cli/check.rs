@@ -225,7 +225,7 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
         s,
         "  largest stable dt, estimated over every mode within those bounds (`hooke bench accuracy` measures it):"
     );
-    for step in stable_steps(&modes) {
+    for step in stable_steps(&modes, &settings.options) {
         let (i, dt) = (step.integrator, step.dt_secs);
         let by = step
             .limit

@@ -55,6 +55,10 @@ pub struct Sweeps {
     pub per: &'static str,
     /// What a user whose sweeps fall short could take instead.
     pub instead: &'static str,
+    /// The name of the scheme whose step the forces it does not sweep (contacts and drag)
+    /// take, where they are not in the system it sweeps: that scheme's stable step on them holds
+    /// this one's too (`stability::estimate`).
+    pub contacts_as: Option<&'static str>,
 }
 
 /// What a sweep visits in colour order.

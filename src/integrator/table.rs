@@ -178,6 +178,22 @@ mod tests {
         }
     }
 
+    /// A scheme of sweeps that steps its contacts as another scheme names one that exists, with
+    /// a stable step of its own to hold it.
+    #[test]
+    fn contacts_are_stepped_as_a_scheme_with_a_limit() {
+        for i in Integrator::ALL {
+            let Some(name) = i.scheme().sweeps().and_then(|s| s.contacts_as) else {
+                continue;
+            };
+            let other = Integrator::ALL.into_iter().find(|o| o.name() == name);
+            assert!(
+                other.is_some_and(|o| !o.unconditionally_stable()),
+                "{i}: contacts as '{name}'"
+            );
+        }
+    }
+
     #[test]
     fn stability_limits_match_theory_for_undamped_oscillator() {
         let w = 10.0;

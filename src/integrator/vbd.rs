@@ -14,10 +14,12 @@ pub const SCHEME: Scheme = Scheme {
         flag: "--vbd-iterations",
         per: "step",
         instead: "implicit (Newton and conjugate gradients)",
+        // Contacts and drag are in each mass's block.
+        contacts_as: None,
     }),
     stable_step: StableStep::Any {
-        why: "any in theory (backward Euler's equations; too few sweeps leave a stiff body soft, \
-              and this command says so below)",
+        why: "any on one spring (backward Euler's equations); on a body, the step at which its \
+              sweeps still converge the springs (`stability::SweepReach`)",
     },
     // Its block solve of a lone linear oscillator is exact in one sweep.
     amplification: Amplification::Step(backward_euler_step),

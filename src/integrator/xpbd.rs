@@ -15,11 +15,13 @@ pub const SCHEME: Scheme = Scheme {
         flag: "--xpbd-iterations",
         per: "substep",
         instead: "implicit",
+        // Predicted from the forces, then projected: semi-implicit Euler's step of them.
+        contacts_as: Some(super::semi_implicit::SCHEME.name),
     }),
     stable_step: StableStep::Any {
-        why: "any for one spring in theory (a projection is a backward-Euler step of it); coupled \
-              springs at large substeps stay stretched, and their energy swings: `hooke bench \
-              accuracy` measures it",
+        why: "any on one spring (a projection is a backward-Euler step of it); on a body, the \
+              step at which its sweeps still converge the springs (`stability::SweepReach`), \
+              and that of its contacts",
     },
     amplification: Amplification::Step(step),
 };

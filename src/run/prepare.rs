@@ -13,7 +13,9 @@ use crate::run::select::Device;
 use crate::scene::compare_entry::CompareEntry;
 use crate::scene::settings::{Overrides, Settings, SettingsNote};
 use crate::scene::{LoadedScene, Scene, SceneOrigin};
-use crate::stability::{Modes, NearResolution, Refusal, StepWarning, SweepWarning, stable_step};
+use crate::stability::{
+    Limit, Modes, NearResolution, Refusal, StepWarning, SweepWarning, stable_step_with,
+};
 
 /// Where the scene comes from.
 #[derive(Debug, Clone)]
@@ -226,9 +228,12 @@ pub fn prepare_comparison(
                 warning,
             });
         }
-        let stable = stable_step(&modes, entry.integrator);
+        let stable = stable_step_with(&modes, entry.integrator, &settings.options);
+        // Sweeps that stop converging give a soft body, not a blow-up: what a comparison is
+        // for showing, so warned about below rather than refused.
+        let sweeps_bind = matches!(stable.limit, Some(Limit::Sweeps(_)));
         match stable.dt_secs {
-            Some(limit) if settings.dt_secs > limit => {
+            Some(limit) if settings.dt_secs > limit && !sweeps_bind => {
                 return Err(refuse(Refusal::AboveStableStep {
                     integrator: entry.integrator,
                     dt_secs: settings.dt_secs,
@@ -236,8 +241,8 @@ pub fn prepare_comparison(
                     limit: stable.limit,
                 }));
             }
-            Some(_) => {}
-            None => {
+            Some(_) if !sweeps_bind => {}
+            _ => {
                 if let Some(warning) = crate::stability::dt_warning(&model, &settings) {
                     say(Notice::AboveStableLimit {
                         entry: Some(entry.to_string()),

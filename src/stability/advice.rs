@@ -1,16 +1,16 @@
 //! What a user is told before stepping when the chosen step is above the estimate.
 
-use crate::integrator::{Integrator, Unsupported};
+use crate::integrator::{Integrator, StepOptions, Unsupported};
 use crate::model::Model;
 use crate::scene::settings::Settings;
 
-use super::estimate::{Limit, stable_step, stable_steps};
+use super::estimate::{Limit, stable_step_with, stable_steps};
 use super::modes::Modes;
 
-/// Estimated largest stable dt for each integrator; `None` where the scheme is unstable at any
-/// practical dt.
+/// Estimated largest stable dt for each integrator, XPBD's and VBD's with their default sweeps;
+/// `None` where the scheme is unstable at any practical dt.
 pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
-    stable_steps(&Modes::of(model))
+    stable_steps(&Modes::of(model), &StepOptions::default())
         .into_iter()
         .map(|s| (s.integrator, s.dt_secs))
         .collect()
@@ -19,9 +19,14 @@ pub fn stable_dts(model: &Model) -> Vec<(Integrator, Option<f64>)> {
 /// Is the chosen dt above the estimated limit of the chosen integrator? Names the limit (the
 /// stiffness, the damping or too little of it; the mass and the spring kind) and the step that
 /// would hold.
+///
+/// Where XPBD's or VBD's sweeps bind, [`super::sweep_warning`] says it, with what would do.
 pub fn dt_warning(model: &Model, settings: &Settings) -> Option<StepWarning> {
-    let step = stable_step(&Modes::of(model), settings.integrator);
+    let step = stable_step_with(&Modes::of(model), settings.integrator, &settings.options);
     let (integrator, dt_secs, limit) = (settings.integrator, settings.dt_secs, step.limit);
+    if let Some(Limit::Sweeps(_)) = limit {
+        return None;
+    }
     match step.dt_secs {
         Some(l) if dt_secs <= l => None,
         Some(stable_secs) => Some(StepWarning::AboveEstimate {

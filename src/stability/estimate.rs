@@ -9,10 +9,18 @@
 //! (ω_max, γ_max), so its estimate is 2(√(ζ²+1) − ζ)/ω_max with the corner's ζ. Velocity Verlet
 //! evaluates C at a predicted velocity, which couples K and C, so for it the region is the
 //! model, checked against measurement (docs/stability.md).
+//!
+//! XPBD and VBD are stable on any one spring. On a body, a fixed number of Gauss–Seidel sweeps a
+//! step stops converging its springs as the step grows (`sweeps.rs`): beyond that step the body
+//! stays stretched far past its springs' rest, and the energy of that stretch swings above the
+//! start, which `hooke bench stability` measures as a gain. Their estimate is that step; XPBD's
+//! is also held by the forces it steps as semi-implicit Euler does (contacts and drag, the
+//! springs aside: [`Modes::unprojected`]).
 
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, StepOptions};
 
 use super::modes::{Modes, Source};
+use super::sweeps::Converging;
 
 /// What sets an integrator's stable step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,6 +41,9 @@ pub enum Limit {
     /// The scheme needs damping to be stable at all (forward Euler, RK2), and the dashpot
     /// weakest for its spring gives too little: its c/k ratio bounds the step.
     WeakDamping { ratio_s: f64, source: Source },
+    /// XPBD's or VBD's sweeps a step stop converging a body's springs: stable on each spring,
+    /// the body stays stretched far past its springs' rest, with that stretch's energy.
+    Sweeps(Converging),
 }
 
 impl Limit {
@@ -42,6 +53,7 @@ impl Limit {
             Limit::Stiffness { .. } => "stiffness",
             Limit::Damping { .. } => "damping",
             Limit::WeakDamping { .. } => "weak damping",
+            Limit::Sweeps(_) => "sweeps",
         }
     }
 }
@@ -73,6 +85,22 @@ impl std::fmt::Display for Limit {
                 f,
                 "too little damping for a scheme that amplifies every undamped oscillation: the {source} have c/k = {ratio_s:.3e} s along them, and a swing across stretched springs has no dashpot at all"
             ),
+            Limit::Sweeps(c) => {
+                let reach = if c.pinned {
+                    format!(
+                        "a body whose farthest mass is {} springs from a pin",
+                        c.hops
+                    )
+                } else {
+                    format!("a body {} springs across", c.hops)
+                };
+                write!(
+                    f,
+                    "beyond it {} sweep{} a step leave the springs of {reach} stretched, and the energy of that stretch swings above the start",
+                    c.sweeps,
+                    if c.sweeps == 1 { "" } else { "s" }
+                )
+            }
         }
     }
 }
@@ -82,7 +110,7 @@ impl std::fmt::Display for Limit {
 pub struct StableStep {
     pub integrator: Integrator,
     /// `None`: unstable at any practical step (a scheme that needs damping, on modes with
-    /// none). `Some(∞)`: stable at any step (implicit Euler, XPBD, or nothing stiff).
+    /// none). `Some(∞)`: stable at any step (implicit Euler, BDF2, or nothing stiff).
     pub dt_secs: Option<f64>,
     /// What binds at that step; `None` where nothing does.
     pub limit: Option<Limit>,
@@ -126,8 +154,49 @@ fn region(modes: &Modes) -> Vec<(f64, f64)> {
     points
 }
 
-/// The estimate for one integrator.
+/// The estimate for one integrator with its default sweeps.
 pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
+    stable_step_with(modes, integrator, &StepOptions::default())
+}
+
+/// The estimate for one integrator with the sweeps of `options`. XPBD and VBD are stable on
+/// any one spring, but not at any step on a body: theirs is the step at which their sweeps
+/// still converge the springs, and XPBD's also that of the forces it steps as semi-implicit
+/// Euler does (contacts and drag).
+pub fn stable_step_with(
+    modes: &Modes,
+    integrator: Integrator,
+    options: &StepOptions,
+) -> StableStep {
+    let scheme = integrator.scheme();
+    let Some(sweeps) = scheme.sweeps() else {
+        return limited_step(modes, integrator);
+    };
+    let mut step = StableStep {
+        integrator,
+        dt_secs: Some(f64::INFINITY),
+        limit: None,
+        dashpot_line_secs: None,
+    };
+    if let Some(c) = modes.reach.converging(sweeps.count(options)) {
+        step.dt_secs = Some(c.dt_secs);
+        step.limit = Some(Limit::Sweeps(c));
+    }
+    let contacts_as = sweeps
+        .contacts_as
+        .and_then(|name| Integrator::ALL.into_iter().find(|i| i.name() == name));
+    let unprojected = modes.unprojected.as_deref().zip(contacts_as);
+    if let Some(explicit) = unprojected.map(|(m, i)| limited_step(m, i)) {
+        if explicit.dt_secs < step.dt_secs {
+            step.dt_secs = explicit.dt_secs;
+            step.limit = explicit.limit;
+        }
+    }
+    step
+}
+
+/// The estimate for a scheme with no sweeps.
+fn limited_step(modes: &Modes, integrator: Integrator) -> StableStep {
     let w_max = modes.stiffest.value;
     if integrator.unconditionally_stable() || w_max <= 0.0 {
         // A-stable: |R(z)| = 1/|1 − z| ≤ 1 on the whole left half-plane. One XPBD projection
@@ -214,10 +283,10 @@ fn damping(modes: &Modes) -> Limit {
     }
 }
 
-/// Every integrator's estimate, in [`Integrator::ALL`]'s order.
-pub fn stable_steps(modes: &Modes) -> Vec<StableStep> {
+/// Every integrator's estimate, in [`Integrator::ALL`]'s order, with the sweeps of `options`.
+pub fn stable_steps(modes: &Modes, options: &StepOptions) -> Vec<StableStep> {
     Integrator::ALL
         .iter()
-        .map(|&i| stable_step(modes, i))
+        .map(|&i| stable_step_with(modes, i, options))
         .collect()
 }

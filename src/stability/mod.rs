@@ -12,7 +12,10 @@ mod resolution;
 mod sweeps;
 
 pub use advice::{Refusal, StepWarning, dt_warning, stable_dts};
-pub use estimate::{Limit, StableStep, stable_step, stable_steps};
+pub use estimate::{Limit, StableStep, stable_step, stable_step_with, stable_steps};
 pub use modes::{Bound, Modes, Ratios, Source};
 pub use resolution::{BelowResolution, NearResolution, Resolution, check_resolution, resolution};
-pub use sweeps::{SWEEPS_ENOUGH, SweepShortfall, SweepWarning, sweep_shortfall, sweep_warning};
+pub use sweeps::{
+    Converging, SWEEPS_ENOUGH, SweepReach, SweepShortfall, SweepWarning, sweep_shortfall,
+    sweep_warning,
+};

@@ -21,6 +21,8 @@ use std::fmt;
 use crate::laws::spring_kind::SpringKindTag;
 use crate::model::Model;
 
+use super::sweeps::SweepReach;
+
 /// What a mode's stiffness or damping comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Source {
@@ -63,7 +65,7 @@ pub struct Ratios {
 }
 
 /// The region every mode of the scene lies in (see the file's comment).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Modes {
     /// The stiffest mode's angular frequency bound ω_max (rad/s): the square root of the
     /// largest row of M^-1/2 K M^-1/2's Gershgorin bound.
@@ -74,6 +76,11 @@ pub struct Modes {
     pub ratios: Option<Ratios>,
     /// Air drag (1/s), the damping every mode has.
     pub drag_per_s: f64,
+    /// The region of the forces XPBD steps as semi-implicit Euler does, its springs aside:
+    /// contacts and drag (`None` in that region itself).
+    pub unprojected: Option<Box<Modes>>,
+    /// How far XPBD's and VBD's sweeps must carry a correction through each body.
+    pub reach: SweepReach,
 }
 
 impl Modes {
@@ -92,6 +99,13 @@ impl Modes {
         Self::over(model, 0..model.mass_count())
     }
 
+    /// The modes of the contacts and the drag alone, the springs aside.
+    fn unprojected(model: &Model, masses: std::ops::Range<usize>) -> Self {
+        let mut modes = Self::region(model, masses, false);
+        modes.reach = SweepReach::default();
+        modes
+    }
+
     /// The modes bounded by the rows of these masses only: what one mass's own springs and
     /// contacts allow (a divergence is explained by its mass's row).
     pub fn at_mass(model: &Model, mass: u32) -> Self {
@@ -99,6 +113,14 @@ impl Modes {
     }
 
     fn over(model: &Model, masses: std::ops::Range<usize>) -> Self {
+        let mut modes = Self::region(model, masses.clone(), true);
+        modes.unprojected = Some(Box::new(Self::unprojected(model, masses)));
+        modes.reach = SweepReach::of(model);
+        modes
+    }
+
+    /// The region bounded by these masses' rows, with their springs or without them.
+    fn region(model: &Model, masses: std::ops::Range<usize>, springs: bool) -> Self {
         let drag = model.effects.air_drag_per_s.map_or(0.0, f64::from);
         let mut stiffest = Bound {
             value: 0.0,
@@ -116,7 +138,7 @@ impl Modes {
             if model.inv_mass[i] == 0.0 {
                 continue;
             }
-            let row = Row::of(model, i, lightest);
+            let row = Row::of(model, i, lightest, springs);
             if let Some(r) = row.ratios {
                 widen(&mut ratios, r);
             }
@@ -141,6 +163,8 @@ impl Modes {
             most_damped,
             ratios,
             drag_per_s: drag,
+            unprojected: None,
+            reach: SweepReach::default(),
         }
     }
 }
@@ -177,7 +201,7 @@ struct Row {
 }
 
 impl Row {
-    fn of(model: &Model, i: usize, lightest: f64) -> Self {
+    fn of(model: &Model, i: usize, lightest: f64, springs: bool) -> Self {
         let mi = f64::from(model.mass_kg[i]);
         // (source, k part, c part), summed per source so that the largest contributor is named.
         let mut parts: Vec<(Source, f64, f64)> = Vec::new();
@@ -205,7 +229,8 @@ impl Row {
             };
             widen(&mut ratios, one);
         };
-        for nb in model.adjacency.of(i) {
+        let neighbours = if springs { model.adjacency.of(i) } else { &[] };
+        for nb in neighbours {
             let s = &model.springs[nb.spring as usize];
             let j = nb.other as usize;
             // A pinned neighbour has no row of its own to couple to: only the diagonal counts.

@@ -41,7 +41,60 @@ pub struct SweepShortfall {
     pub step_that_would_secs: f64,
 }
 
+/// Every body's springs as the sweeps see them: what bounds XPBD's and VBD's step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SweepReach(Vec<BodySprings>);
+
+/// The body whose springs bind the step at which the sweeps still converge them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Converging {
+    /// The largest step at which `sweeps` sweeps correct [`SWEEPS_ENOUGH`] of every body's
+    /// slowest stretch.
+    pub dt_secs: f64,
+    pub sweeps: u32,
+    /// The binding body's springs from its farthest mass to its pins (or across it, when free).
+    pub hops: u32,
+    pub pinned: bool,
+}
+
+impl SweepReach {
+    pub fn of(model: &Model) -> Self {
+        Self(bodies(model))
+    }
+
+    /// The largest step at which `sweeps` sweeps a step still converge every body's springs
+    /// as [`sweep_shortfall`] judges it, and the body that binds; `None` without springs.
+    /// Beyond it a body stays stretched far past its springs' rest, with that stretch's
+    /// energy: `hooke bench stability` measured every built-in scene holding to at least
+    /// this step (docs/stability.md).
+    pub fn converging(&self, sweeps: u32) -> Option<Converging> {
+        self.0
+            .iter()
+            .filter(|b| b.k_over_m > 0.0)
+            .map(|b| {
+                // `corrected` falls as the step grows: bisect in log h over twelve decades.
+                let (mut lo, mut hi) = (1e-9_f64, 1e3_f64);
+                for _ in 0..80 {
+                    let mid = (lo * hi).sqrt();
+                    if corrected(b, mid, sweeps) >= SWEEPS_ENOUGH {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                Converging {
+                    dt_secs: lo,
+                    sweeps,
+                    hops: b.hops,
+                    pinned: b.pinned,
+                }
+            })
+            .min_by(|a, b| a.dt_secs.total_cmp(&b.dt_secs))
+    }
+}
+
 /// What is known of a body's springs, independent of the step.
+#[derive(Debug, Clone, PartialEq)]
 struct BodySprings {
     name: String,
     /// Largest k / m over its springs (m the lighter movable end).

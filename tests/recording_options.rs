@@ -1,6 +1,7 @@
 //! What a run's recording options give, read back from the .rrd: `--springs` (none, structural,
 //! each body's default by size), `--masses`, `--realtime`, a bad option's one clear error, and the
-//! default layout's plots (no legend inside them, a colour of its own for every series). What a
+//! default layout's plots (a legend in a corner of each time series, a colour of its own for
+//! every series) and its 3D view's eye on the bodies. What a
 //! surface and its springs hold is in tests/recording.rs.
 
 use hooke::integrator::Step;
@@ -154,7 +155,7 @@ fn bad_recording_options_are_one_clear_error() {
 }
 
 #[test]
-fn every_plot_hides_its_legend_and_every_series_has_its_own_colour() {
+fn every_time_series_names_its_lines_and_the_eye_is_on_the_bodies() {
     let dir = temp_dir("legends");
     let path = dir.join("run.rrd");
     save_cpu_run("cloth", 2, &path, &["--integrator", "implicit"]);
@@ -166,21 +167,22 @@ fn every_plot_hides_its_legend_and_every_series_has_its_own_colour() {
             .unwrap_or_else(|| panic!("not strings: {a:?}"));
         (0..a.len()).map(|i| a.value(i).to_owned()).collect()
     };
-    // Every plot of the layout (time series and bar chart) has a hidden legend.
-    let plots: Vec<&String> = c
-        .iter()
-        .filter(|((_, comp), _)| comp.ends_with("class_identifier"))
-        .filter(|(_, rows)| {
-            rows.iter().any(|(_, a)| {
-                strings(a)
-                    .iter()
-                    .any(|s| s == "TimeSeries" || s == "BarChart")
+    let views = |class: &str| -> Vec<&String> {
+        c.iter()
+            .filter(|((_, comp), _)| comp.ends_with("class_identifier"))
+            .filter(|(_, rows)| {
+                rows.iter()
+                    .any(|(_, a)| strings(a).iter().any(|s| s == class))
             })
-        })
-        .map(|((e, _), _)| e)
-        .collect();
-    assert_eq!(plots.len(), 5, "4 time-series plots and the histogram");
-    for view in plots {
+            .map(|((e, _), _)| e)
+            .collect()
+    };
+    // The layout is sent as the run starts and again, its eye framed on the whole run, when
+    // it ends: each time four time series, one histogram, one 3D view.
+    let (series, bars) = (views("TimeSeries"), views("BarChart"));
+    assert_eq!((series.len(), bars.len()), (8, 2), "{series:?} {bars:?}");
+    // Each time series names its lines in a legend; the histogram's one series needs none.
+    let legend_shown = |view: &String| {
         let legend = format!("{view}/PlotLegend");
         let rows = c
             .iter()
@@ -188,11 +190,51 @@ fn every_plot_hides_its_legend_and_every_series_has_its_own_colour() {
             .map(|(_, rows)| rows)
             .unwrap_or_else(|| panic!("{legend} has no visibility"));
         let (_, a) = &rows[0];
-        let b = a
-            .as_any()
+        a.as_any()
             .downcast_ref::<BooleanArray>()
-            .unwrap_or_else(|| panic!("not a bool: {a:?}"));
-        assert!(!b.value(0), "{legend} is shown");
+            .unwrap_or_else(|| panic!("not a bool: {a:?}"))
+            .value(0)
+    };
+    assert!(
+        series.iter().all(|v| legend_shown(v)),
+        "a time series without its legend"
+    );
+    assert!(
+        bars.iter().all(|v| !legend_shown(v)),
+        "the histogram shows a legend"
+    );
+    // Both eyes look at a point among the bodies (the cloth hangs from 1.2 m and drapes over
+    // the sphere), from in front of it and above.
+    let spatial = views("3D");
+    assert_eq!(spatial.len(), 2, "{spatial:?}");
+    for view in spatial {
+        let at = |field: &str| -> glam::Vec3 {
+            let path = format!("{view}/EyeControls3D");
+            let (_, a) = c
+                .iter()
+                .find(|((e, comp), _)| *e == path && comp.ends_with(field))
+                .and_then(|(_, rows)| rows.first())
+                .unwrap_or_else(|| panic!("{path} has no {field}"));
+            let list = a
+                .as_any()
+                .downcast_ref::<rerun::external::arrow::array::FixedSizeListArray>()
+                .unwrap_or_else(|| panic!("{field} not a fixed list: {a:?}"));
+            let v = list.value(0);
+            let f = v
+                .as_any()
+                .downcast_ref::<rerun::external::arrow::array::Float32Array>()
+                .unwrap_or_else(|| panic!("{field} not f32: {v:?}"));
+            glam::Vec3::new(f.value(0), f.value(1), f.value(2))
+        };
+        let (target, eye) = (at("look_target"), at("position"));
+        let inside = glam::Vec3::new(-0.8, 0.0, -0.2).cmple(target).all()
+            && target.cmple(glam::Vec3::new(0.8, 1.3, 1.6)).all();
+        assert!(inside, "the eye looks at {target}");
+        let from = eye - target;
+        assert!(
+            from.z > 0.0 && from.y > 0.0,
+            "the eye at {eye} looks at {target}"
+        );
     }
     // Within each plot, the series the run logs have distinct colours, so that they read
     // without a legend; the legend document names them.

@@ -90,18 +90,17 @@ impl Sink {
     }
 }
 
-/// Every run's recording: Hooke's application id (its blueprint is sent once the stream exists,
-/// by `record::send_blueprint`).
+/// Every run's recording: Hooke's application id (the recorder sends its blueprint with the
+/// scene's static entities, framed on its bodies: `record::send_blueprint`).
 fn builder() -> rerun::RecordingStreamBuilder {
     rerun::RecordingStreamBuilder::new(hooke::record::APPLICATION_ID)
 }
 
-/// A recording stream whose sinks are set afterwards, its blueprint sent.
+/// A recording stream whose sinks are set afterwards.
 fn buffered() -> anyhow::Result<rerun::RecordingStream> {
     let rec = builder()
         .buffered()
         .context("starting the Rerun recording")?;
-    hooke::record::send_blueprint(&rec)?;
     Ok(rec)
 }
 
@@ -171,7 +170,6 @@ pub fn open_sink(
         let (rec, _no_serving) = rerun_args
             .init(hooke::record::APPLICATION_ID)
             .context("starting the Rerun recording")?;
-        hooke::record::send_blueprint(&rec)?;
         return Ok(Sink::stream(rec, None, None));
     }
     if let Some(path) = save.as_ref().filter(|_| !connect) {
@@ -258,7 +256,6 @@ fn serve_web_viewer(m: &clap::ArgMatches, output: &OutputArgs) -> anyhow::Result
                 output.grpc_port
             )
         })?;
-    hooke::record::send_blueprint(&rec)?;
     let source = format!("rerun+http://localhost:{}/proxy", output.grpc_port);
     rerun::serve_web_viewer(rerun::web_viewer::WebViewerConfig {
         bind_ip: bind.clone(),

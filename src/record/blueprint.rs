@@ -3,21 +3,45 @@
 
 use rerun::RecordingStream;
 
+use rerun::blueprint::components::Corner2D;
+
 use super::error::RResult;
+use super::framing::Framing;
 use super::series::{Plot, all_series};
 
 /// The application every recording of ours belongs to: the viewer keeps one layout per id.
 pub const APPLICATION_ID: &str = "hooke";
 
+/// What a layout sets beyond what Rerun 0.36's Rust blueprint API can: each plot's legend (in
+/// a corner, or hidden) and where the 3D view's eye starts.
+#[derive(Default)]
+struct Properties {
+    legends: Vec<(rerun::EntityPath, Option<Corner2D>)>,
+    eye: Option<(rerun::EntityPath, Framing)>,
+}
+
+/// Where each plot of the default layout names its lines: the corner its lines cross least on
+/// the built-in scenes (energy's lines start at the bottom left and the dissipated energy climbs
+/// to the top right).
+fn legend_corner(plot: Plot) -> Option<Corner2D> {
+    match plot {
+        Plot::Energy => Some(Corner2D::RightBottom),
+        Plot::Strain | Plot::Count => Some(Corner2D::LeftTop),
+        Plot::Millis => Some(Corner2D::RightTop),
+        Plot::Unplotted => None,
+    }
+}
+
 /// The default layout: the 3D view beside one plot per unit, the strain histogram and the
-/// colour legend. Returns the layout and the blueprint paths of its plots (the histogram's
-/// included).
-fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
+/// colour legend, the time panel collapsed to its bar. Returns the layout and its properties.
+fn layout(framing: Option<Framing>) -> (rerun::blueprint::Blueprint, Properties) {
     use rerun::blueprint::components::PanelState;
     use rerun::blueprint::{
-        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, TimeSeriesView, Vertical,
+        BarChartView, Blueprint, ContainerLike, Horizontal, Spatial3DView, TimePanel,
+        TimeSeriesView, Vertical,
     };
-    let mut plots = Vec::new();
+    let mut props = Properties::default();
+    let plots = &mut props.legends;
     let mut plot = |p: Plot| {
         let view: ContainerLike = TimeSeriesView::new(p.title())
             .with_origin("/")
@@ -28,7 +52,7 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
             )
             .into();
         if let ContainerLike::View(v) = &view {
-            plots.push(v.blueprint_path());
+            plots.push((v.blueprint_path(), legend_corner(p)));
         }
         view
     };
@@ -39,12 +63,17 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
     let histogram: ContainerLike = BarChartView::new("strain histogram")
         .with_origin("/stats/strain_histogram")
         .into();
+    // Its bars are one series: nothing to name.
     if let ContainerLike::View(v) = &histogram {
-        plots.push(v.blueprint_path());
+        plots.push((v.blueprint_path(), None));
+    }
+    let world: ContainerLike = Spatial3DView::new("world").with_origin("/world").into();
+    if let (ContainerLike::View(v), Some(f)) = (&world, framing) {
+        props.eye = Some((v.blueprint_path(), f));
     }
     let blueprint = Blueprint::new(
         Horizontal::new([
-            Spatial3DView::new("world").with_origin("/world").into(),
+            world,
             Vertical::new([
                 energy,
                 Horizontal::new([strain, histogram]).into(),
@@ -56,6 +85,7 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
         ])
         .with_column_shares([0.6, 0.4]),
     )
+    .with_time_panel(TimePanel::new().with_state(PanelState::Collapsed))
     .with_auto_views(false)
     .with_selection_panel(rerun::blueprint::SelectionPanel::from_state(
         PanelState::Collapsed,
@@ -63,7 +93,7 @@ fn layout() -> (rerun::blueprint::Blueprint, Vec<rerun::EntityPath>) {
     .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
         PanelState::Collapsed,
     ));
-    (blueprint, plots)
+    (blueprint, props)
 }
 
 /// The legend and scene documents, and the run's warnings (each run's `notes`, a comparison's
@@ -80,16 +110,16 @@ fn documents() -> rerun::blueprint::ContainerLike {
     .into()
 }
 
-/// Sends the default layout to `rec`, made active at once.
+/// Sends the default layout to `rec`, made active at once, its 3D view's eye on `framing`
+/// where given (else where the viewer puts it).
 ///
-/// Its plots have no legend inside them: a legend is drawn over the plot, and in plots this
-/// size it hides the data. Each series has a fixed colour instead, named in the `legend`
-/// document, and the viewer names a line when it is hovered. Rerun 0.36's Rust blueprint API
-/// cannot set a view's legend, so the legend properties are logged into the blueprint's own
-/// store beside the layout, as the viewer reads them.
-pub fn send_blueprint(rec: &RecordingStream) -> RResult {
-    let (blueprint, plots) = layout();
-    send_layout(rec, blueprint, &plots)
+/// Each plot names its lines in a legend in one corner (a click on a name hides its line); each
+/// series also has a fixed colour, named in the `legend` document. Rerun 0.36's Rust blueprint
+/// API cannot set a view's legend or eye, so those properties are logged into the blueprint's
+/// own store beside the layout, as the viewer reads them.
+pub fn send_blueprint(rec: &RecordingStream, framing: Option<Framing>) -> RResult {
+    let (blueprint, props) = layout(framing);
+    send_layout(rec, blueprint, &props)
 }
 
 /// A comparison's layout: every copy in one 3D view (the paths in `hidden` left out: each copy's
@@ -104,14 +134,17 @@ pub fn send_comparison_blueprint(
     use rerun::blueprint::{
         Blueprint, ContainerLike, Horizontal, Spatial3DView, TimeSeriesView, Vertical,
     };
-    let mut plots = Vec::new();
+    let mut props = Properties::default();
+    // One line per entry, in its copy's colour: the legend names the entries.
     let mut plot = |title: &str, contents: &[&str]| {
         let view: ContainerLike = TimeSeriesView::new(title)
             .with_origin("/")
             .with_contents(contents.iter().map(|c| format!("+ /{c}/**")))
             .into();
         if let ContainerLike::View(v) = &view {
-            plots.push(v.blueprint_path());
+            props
+                .legends
+                .push((v.blueprint_path(), Some(Corner2D::LeftTop)));
         }
         view
     };
@@ -157,17 +190,17 @@ pub fn send_comparison_blueprint(
     .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
         PanelState::Collapsed,
     ));
-    send_layout(rec, blueprint, &plots)
+    send_layout(rec, blueprint, &props)
 }
 
-/// `blueprint` sent to `rec`, made active at once, with the legends of `plots` hidden.
+/// `blueprint` sent to `rec`, made active at once, with its `props`.
 fn send_layout(
     rec: &RecordingStream,
     blueprint: rerun::blueprint::Blueprint,
-    plots: &[rerun::EntityPath],
+    props: &Properties,
 ) -> RResult {
     use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreKind};
-    use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+    use rerun::external::re_sdk_types::blueprint::archetypes::{EyeControls3D, PlotLegend};
     let activation = rerun::blueprint::BlueprintActivation {
         make_active: true,
         make_default: true,
@@ -186,20 +219,30 @@ fn send_layout(
     let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) else {
         return Ok(());
     };
-    // The legends, logged into that same blueprint store.
-    let (legends, legend_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
+    // The properties, logged into that same blueprint store.
+    let (store, prop_msgs) = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
         .recording_id(blueprint_id.recording_id().clone())
         .blueprint()
         .memory()?;
-    legends.set_time_sequence("blueprint", 0);
-    for view in plots {
-        legends.log(
-            format!("{view}/PlotLegend"),
-            &PlotLegend::new().with_visible(false),
+    store.set_time_sequence("blueprint", 0);
+    for (view, corner) in &props.legends {
+        let legend = match corner {
+            Some(c) => PlotLegend::new().with_visible(true).with_corner(*c),
+            None => PlotLegend::new().with_visible(false),
+        };
+        store.log(format!("{view}/PlotLegend"), &legend)?;
+    }
+    if let Some((view, f)) = &props.eye {
+        store.log(
+            format!("{view}/EyeControls3D"),
+            &EyeControls3D::new()
+                .with_position(f.eye_m.to_array())
+                .with_look_target(f.target_m.to_array())
+                .with_eye_up([0.0, 1.0, 0.0]),
         )?;
     }
     msgs.extend(
-        legend_msgs
+        prop_msgs
             .take()
             .into_iter()
             .filter(|m| matches!(m, LogMsg::ArrowMsg(..))),

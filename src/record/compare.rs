@@ -10,8 +10,9 @@ use std::sync::Arc;
 use glam::Vec3;
 use rerun::RecordingStream;
 
-use super::compare_layout::{ColourBy, CompareLayout, EntryTally, extent};
+use super::compare_layout::{ColourBy, CompareLayout, EntryTally};
 use super::error::RResult;
+use super::framing::extent;
 use super::options::RecordOptions;
 use super::palette::{ENTRY_COLORS, Rgb, color, gap_color};
 use super::recorder::{Recorder, Root};
@@ -22,9 +23,17 @@ use crate::state::Snapshot;
 
 struct EntryRec {
     name: String,
+    label: String,
     recorder: Recorder,
     colour: Rgb,
     tally: EntryTally,
+}
+
+/// An entry's name in entity paths (`world/<path>`) and as the user wrote it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EntryName {
+    pub path: String,
+    pub label: String,
 }
 
 /// The recording of a comparison; entry 0 is the reference.
@@ -34,6 +43,9 @@ pub struct CompareRecorder {
     entries: Vec<EntryRec>,
     layout: CompareLayout,
     offsets: Vec<Vec3>,
+    /// Where each copy's label stands in its own frame: above the middle of the bodies' start,
+    /// and in an overlay, each above the last.
+    labels_at: Vec<Vec3>,
     gap: Vec<f32>,
     colors: Vec<rerun::Color>,
 }
@@ -44,7 +56,7 @@ impl CompareRecorder {
         rec: RecordingStream,
         model: Arc<Model>,
         opts: RecordOptions,
-        names: &[String],
+        names: &[EntryName],
         layout: CompareLayout,
     ) -> Self {
         // Side by side along x, one copy's width plus a fifth of the scene's size apart.
@@ -63,14 +75,24 @@ impl CompareRecorder {
         let entries = names
             .iter()
             .enumerate()
-            .map(|(i, name)| EntryRec {
-                name: name.clone(),
-                recorder: Recorder::at(rec.clone(), model.clone(), opts, Root::entry(name)),
+            .map(|(i, n)| EntryRec {
+                name: n.path.clone(),
+                label: n.label.clone(),
+                recorder: Recorder::at(rec.clone(), model.clone(), opts, Root::entry(&n.path)),
                 colour: ENTRY_COLORS[i % ENTRY_COLORS.len()],
                 tally: EntryTally {
-                    name: name.clone(),
+                    name: n.path.clone(),
+                    label: n.label.clone(),
                     ..EntryTally::default()
                 },
+            })
+            .collect();
+        let above = Vec3::new(0.5 * (lo.x + hi.x), hi.y, 0.5 * (lo.z + hi.z));
+        let rise = 0.1 * size.max_element();
+        let labels_at = (0..names.len())
+            .map(|i| {
+                let row = if layout.overlay { i as f32 } else { 0.0 };
+                above + Vec3::Y * rise * (1.0 + row)
             })
             .collect();
         Self {
@@ -79,6 +101,7 @@ impl CompareRecorder {
             entries,
             layout,
             offsets,
+            labels_at,
             gap: Vec::new(),
             colors: Vec::new(),
         }
@@ -101,7 +124,7 @@ impl CompareRecorder {
         let markers = self
             .entries
             .iter()
-            .map(|e| format!("world/{}/most_strained", e.name));
+            .map(|e| format!("world/{}/most_strained/**", e.name));
         let others = self.entries.iter().skip(1).flat_map(|e| {
             self.model.bodies.iter().flat_map(move |b| {
                 hidden
@@ -129,8 +152,8 @@ impl CompareRecorder {
             .zip(settings)
             .map(|(e, s)| {
                 format!(
-                    "- `{}`: {}, dt = {:.3e} s, {} substeps per frame",
-                    e.name, s.integrator, s.dt_secs, s.substeps
+                    "- `{}` (`world/{}`): {}, dt = {:.3e} s, {} substeps per frame",
+                    e.label, e.name, s.integrator, s.dt_secs, s.substeps
                 )
             })
             .collect();
@@ -154,6 +177,15 @@ impl CompareRecorder {
                 format!("world/{}", e.name),
                 &rerun::Transform3D::from_translation(self.offsets[i]),
             )?;
+            // The copy's name as the user wrote it, above where it starts, in its plot colour.
+            rec.log_static(
+                format!("world/{}/label", e.name),
+                &rerun::Points3D::new([self.labels_at[i]])
+                    .with_labels([e.label.as_str()])
+                    .with_colors([rerun::Color::from(e.colour.rgb)])
+                    .with_radii([rerun::Radius::new_ui_points(4.0)])
+                    .with_show_labels(true),
+            )?;
             let line = |path: String, name: String, width: f32| {
                 rec.log_static(
                     path,
@@ -165,29 +197,45 @@ impl CompareRecorder {
             };
             line(
                 format!("compare/energy_total/{}", e.name),
-                format!("{} total", e.name),
+                format!("{} total", e.label),
                 2.0,
             )?;
             line(
                 format!("compare/energy_balance/{}", e.name),
-                format!("{} balance", e.name),
+                format!("{} balance", e.label),
                 1.0,
             )?;
-            line(format!("compare/wall_ms/{}", e.name), e.name.clone(), 1.5)?;
+            line(format!("compare/wall_ms/{}", e.name), e.label.clone(), 1.5)?;
             if i > 0 {
                 line(
                     format!("compare/gap_rms/{}", e.name),
-                    format!("{} RMS", e.name),
+                    format!("{} RMS", e.label),
                     2.0,
                 )?;
                 line(
                     format!("compare/gap_max/{}", e.name),
-                    format!("{} max", e.name),
+                    format!("{} max", e.label),
                     1.0,
                 )?;
             }
         }
         self.log_gap_statics()?;
+        if let (Some(first), ColourBy::Gap) = (self.entries.get(1), self.layout.colour_by) {
+            let (lo, hi) = extent(&self.model.initial.x);
+            let floor = self
+                .model
+                .effects
+                .ground
+                .as_ref()
+                .map_or(lo.y, |g| g.height_m);
+            super::gap_scale::log_gap_scale(
+                &rec,
+                &format!("world/{}", first.name),
+                (lo, hi),
+                floor,
+                self.layout.gap_range_m,
+            )?;
+        }
         super::blueprint::send_comparison_blueprint(&rec, &self.hidden(), self.entries.len() > 1)?;
         Ok(())
     }
@@ -238,7 +286,7 @@ impl CompareRecorder {
             .map(|(i, e)| {
                 format!(
                     "- `{}`{}: plot lines **{}**",
-                    e.name,
+                    e.label,
                     if i == 0 { " (the reference)" } else { "" },
                     e.colour.name
                 )
@@ -249,30 +297,20 @@ impl CompareRecorder {
         } else {
             "side by side along x, the reference first"
         };
+        // Short enough for its panel: the plots name their lines, and the gap's colour bar
+        // stands in the 3D view.
         let shown = match self.layout.colour_by {
-            ColourBy::Gap => {
-                "by gap (`…/gap`; their strain-coloured surfaces and spring lines are in \
-                 `…/surface` and `…/springs`, hidden)"
-            }
-            ColourBy::Strain => {
-                "by strain (`…/surface`; each copy's gap colours are in `…/gap`, hidden)"
-            }
+            ColourBy::Gap => "by gap (`…/gap`; their strain colours, `…/surface`, are hidden)",
+            ColourBy::Strain => "by strain (`…/surface`; their gap colours, `…/gap`, are hidden)",
         };
         format!(
-            "The same scene under each entry, stepped on the same backend, {place}:\n\n{}\n\n\
-             **Gap** is a mass's distance to the same mass of the reference at the same simulated \
-             time, on a fixed scale: **blue-grey** 0, **amber** {:.3} m, **red** {r:.3} m or more \
-             (`[compare] gap_range_m` sets it). **Strain** is coloured as in a single run: blue \
-             compressed, grey at rest, red stretched. The copies other than the reference are \
-             coloured {shown}: show the one and hide the other in the blueprint panel to switch, \
-             or record with `--colour-by strain`. Each copy's most strained spring \
-             (`…/most_strained`) is hidden too: show it for its label.\n\n\
-             Plots, one line per entry in its colour: *gap to the reference (m)*, RMS (thick) and \
-             max (thin); *energy (J)*, the total (thick) and the balance, total plus what left \
-             (thin, flat when the integration is honest); *wall time per frame (ms)*, what each \
-             frame's steps cost (the entries step at once and share the machine: compare them \
-             with each other). Each entry's own series are under `<entry>/energy/…` and \
-             `<entry>/stats/…`.",
+            "The same scene under each entry, on the same backend, {place} (each entry's own \
+             series: `<entry>/energy/…`, `<entry>/stats/…`):\n\n\
+             {}\n\n\
+             **Gap**: each mass's distance to the same mass of the reference at the same time: \
+             **blue-grey** 0, **amber** {:.3} m, **red** {r:.3} m or more (the bar in the 3D \
+             view; `[compare] gap_range_m`). The other copies are coloured {shown}: switch in \
+             the blueprint panel, or record with `--colour-by strain`.",
             entries.join("\n"),
             0.5 * r,
         )
@@ -329,8 +367,9 @@ impl CompareRecorder {
         )?;
         // Frame 1's time holds what a backend does once (a GPU driver compiling its kernels at
         // their first dispatch: over a second on lavapipe), which would flatten the plot of every
-        // later frame: it goes beside the plot, not in it.
+        // later frame: it goes beside the plot, not in it. Frame 0 took no step: no cost to plot.
         let wall = match snap.frame {
+            0 => return Ok(()),
             1 => "first_frame_wall_ms",
             _ => "wall_ms",
         };

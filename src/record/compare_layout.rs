@@ -1,8 +1,7 @@
 //! How a comparison's copies are laid out and coloured, and what the recording tallies of
 //! each entry for the line `hooke run` prints at its end.
 
-use glam::Vec3;
-
+use super::framing::extent;
 use crate::model::Model;
 
 /// Which colouring a non-reference copy shows when the recording opens; the other is logged
@@ -38,7 +37,10 @@ impl CompareLayout {
 /// How one entry went, as far as the recording saw it: for the line `hooke run` prints at the end.
 #[derive(Debug, Clone, Default)]
 pub struct EntryTally {
+    /// Its name in entity paths, unique among the entries.
     pub name: String,
+    /// As the user wrote it (`implicit@1/60`).
+    pub label: String,
     /// Wall milliseconds its backend spent stepping, all frames together.
     pub step_ms: f64,
     /// Simulated seconds it reached.
@@ -57,12 +59,4 @@ impl EntryTally {
         self.balance_j
             .map(|(a, b)| 100.0 * (b - a) / self.energy_scale_j.max(1e-12))
     }
-}
-
-/// Lowest and highest corner of a set of points.
-pub(super) fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
-    x.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    )
 }

@@ -1,6 +1,5 @@
 //! The `legend` text document: how surfaces and springs are coloured, what each body logs, and the
-//! colour of each line in each plot (the plots carry no legend inside them, which would hide
-//! their data).
+//! colour of each line in each plot (each plot names its lines in its own legend too).
 
 use super::recorder::Recorder;
 use super::series::{Plot, all_series};
@@ -37,10 +36,11 @@ impl Recorder {
         )
     }
 
-    /// The colour of each line in each plot: the plots have no legend inside them, which
-    /// would hide their data.
+    /// The colour of each line in each plot, as the plots' own legends name them.
     fn plot_key(&self) -> String {
-        let mut key = String::from("Plot lines (hover a line for its name):\n");
+        let mut key = String::from(
+            "Plot lines (each plot's legend names them; click a name to hide its line):\n",
+        );
         for plot in Plot::SHOWN {
             let lines: Vec<String> = all_series()
                 .filter(|s| s.plot == plot && self.has(s.when))

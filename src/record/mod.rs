@@ -7,7 +7,8 @@
 //!   for small bodies and strands by default (`--springs`);
 //! - `world/<body>/masses`: points for strands, and for sheets and blocks with `--masses`;
 //!   `world/<body>/pins` for the pinned masses of sheets and blocks, once;
-//! - `world/most_strained`: the most strained spring of the frame, labelled;
+//! - `world/most_strained`: the most strained spring of the frame, with a leader up to its label
+//!   (`world/most_strained/label`), which stands beside the spring, not over it;
 //! - `world/colliders/*`, `world/ground`; `energy/*` in joules; `stats/*`, one plot per unit, and
 //!   `stats/strain_histogram` ([`histogram`]); `scene`, `legend` text documents.
 //!
@@ -16,7 +17,7 @@
 //! Rooms: `recorder.rs` (the `Recorder` and one frame's logging), `statics.rs` (what is logged
 //! once: scene, topology, pins, ground and colliders), `scalars.rs` (the plotted values of a
 //! frame), `series.rs` (which series there are, in which plot), `palette.rs` (colours),
-//! `legend.rs` (the `legend` document), `blueprint.rs` (the default layout), `options.rs`
+//! `legend.rs` (the `legend` document), `blueprint.rs` (the default layout), `framing.rs` (where its 3D view's eye starts), `gap_scale.rs` (a comparison's gap colour bar), `options.rs`
 //! (`--springs`, `--masses`), `error.rs`.
 
 pub mod blueprint;
@@ -24,6 +25,8 @@ mod compare;
 mod compare_layout;
 mod digest;
 mod error;
+mod framing;
+mod gap_scale;
 pub mod histogram;
 mod legend;
 mod options;
@@ -42,7 +45,7 @@ pub mod surface_strain;
 pub mod viewer;
 
 pub use blueprint::{APPLICATION_ID, send_blueprint};
-pub use compare::CompareRecorder;
+pub use compare::{CompareRecorder, EntryName};
 pub use compare_layout::{ColourBy, CompareLayout, EntryTally};
 pub use digest::{Digester, digesting};
 pub use error::{LayoutError, RecordError};
@@ -51,5 +54,5 @@ pub use palette::{Rgb, strain_color};
 pub use recorder::{Recorder, Root};
 pub use series::{MORE_SERIES, Plot, SERIES, Series, When};
 pub use springs::SpringSelection;
-pub use strain_summary::{StrainSummary, most_strained};
+pub use strain_summary::{StrainSummary, labelled_springs, most_strained};
 pub use surface::{MAX_SURFACE_SIDE, SurfaceDetail};

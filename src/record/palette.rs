@@ -1,5 +1,5 @@
 //! Colours: the strain scale of surfaces and springs, and the fixed colour of each plotted series
-//! (the plots carry no legend inside them, so the `legend` document names each colour).
+//! (each plot's legend and the `legend` document name each colour).
 
 /// Colour of a strain value on the diverging scale: blue (compressed by `range` or more), light
 /// grey (at rest), red (stretched by `range` or more).

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use rerun::RecordingStream;
 
 use super::error::RResult;
+use super::framing::{Framing, Visited};
 use super::options::RecordOptions;
 use super::palette::{color, strain_color};
 use super::series::When;
@@ -103,6 +104,11 @@ pub struct Recorder {
     pub(super) collider_paths: Vec<String>,
     /// `--springs` was not given: each body logs its default.
     pub(super) default_springs: bool,
+    /// How far above its spring the most strained spring's label stands: a quarter of the
+    /// bodies' starting size.
+    pub(super) label_rise_m: f32,
+    /// Where the bodies have been, for the 3D view's eye at the end of the run.
+    visited: Visited,
 }
 
 impl Recorder {
@@ -160,8 +166,12 @@ impl Recorder {
                 }
             })
             .collect();
+        let (lo, hi) = super::framing::extent(&model.initial.x);
+        let label_rise_m = (0.25 * (hi - lo).max_element()).clamp(0.02, 2.0);
         Self {
             rec,
+            label_rise_m,
+            visited: Visited::default(),
             labelled: super::strain_summary::labelled_springs(&model),
             model,
             strain_range: opts.strain_range,
@@ -184,11 +194,25 @@ impl Recorder {
         }
     }
 
+    /// Frames a whole recording's 3D view on every place its bodies went, once its frames are
+    /// logged: the layout is sent again with that eye, and a recording opened afterwards shows
+    /// it (a live viewer moves to it at the end of the run).
+    pub fn frame_what_was_seen(&self) -> RResult {
+        match (
+            self.root.is_whole(),
+            Framing::over_run(&self.model, &self.visited),
+        ) {
+            (true, Some(f)) => super::blueprint::send_blueprint(&self.rec, Some(f)),
+            _ => Ok(()),
+        }
+    }
+
     /// One frame on both timelines.
     pub fn log_snapshot(&mut self, snap: &Snapshot) -> RResult {
         let started = Instant::now();
         self.rec.set_time_sequence("frame", snap.frame as i64);
         self.rec.set_duration_secs("sim_time", snap.time_secs);
+        self.visited.see(&snap.positions);
         let range = self.strain_range;
         let strain_color = |s: f32| color(strain_color(s, range));
         for bi in 0..self.bodies.len() {

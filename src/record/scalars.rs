@@ -71,13 +71,26 @@ impl Recorder {
                         )),
                     ),
             )?;
+            // The spring, thick, and a thin leader up from its middle to the label, which
+            // stands beside the spring rather than over it (on the jello it hid the dent it
+            // named).
             let (a, b) = (snap.positions[sp.a as usize], snap.positions[sp.b as usize]);
+            let mid = 0.5 * (a + b);
+            let tag = mid + glam::Vec3::Y * self.label_rise_m;
             rec.log(
                 self.root.world("most_strained"),
                 &rerun::LineStrips3D::update_fields()
-                    .with_strips([[a, b]])
-                    .with_labels([label])
-                    .with_radii([rerun::Radius::new_ui_points(3.0)]),
+                    .with_strips([vec![a, b], vec![mid, tag]])
+                    .with_radii([
+                        rerun::Radius::new_ui_points(3.0),
+                        rerun::Radius::new_ui_points(0.75),
+                    ]),
+            )?;
+            rec.log(
+                self.root.world("most_strained/label"),
+                &rerun::Points3D::update_fields()
+                    .with_positions([tag])
+                    .with_labels([label]),
             )?;
         }
         Ok(())

@@ -6,6 +6,7 @@ use glam::Vec3;
 use rerun::RecordingStream;
 
 use super::error::RResult;
+use super::framing::{Framing, extent};
 use super::histogram;
 use super::palette::{COLLIDER, YELLOW, color};
 use super::recorder::{BodyRec, Recorder, Root};
@@ -29,6 +30,7 @@ impl Recorder {
         let root = &self.root;
         if root.is_whole() {
             self.log_documents(scene_name, scene_text, settings, backend)?;
+            super::blueprint::send_blueprint(rec, Framing::at_start(&self.model))?;
         }
         for series in all_series() {
             if self.has(series.when) {
@@ -50,8 +52,13 @@ impl Recorder {
         )?;
         rec.log_static(
             root.world("most_strained"),
-            &rerun::LineStrips3D::update_fields()
+            &rerun::LineStrips3D::update_fields().with_colors([color(YELLOW.rgb)]),
+        )?;
+        rec.log_static(
+            root.world("most_strained/label"),
+            &rerun::Points3D::update_fields()
                 .with_colors([color(YELLOW.rgb)])
+                .with_radii([rerun::Radius::new_ui_points(2.0)])
                 .with_show_labels(true),
         )?;
         for b in &self.bodies {
@@ -161,14 +168,6 @@ pub(super) fn point_radius(m: &Model, b: &BodyRec) -> f32 {
     } else {
         0.02
     }
-}
-
-/// Lowest and highest corner of a set of points.
-fn extent(x: &[Vec3]) -> (Vec3, Vec3) {
-    x.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    )
 }
 
 /// The most ground lines drawn each way, whatever the scene's extent.

@@ -11,7 +11,7 @@ use crossbeam_channel::Sender;
 
 use crate::backend::{Backend, BackendError};
 use crate::error::{Error, Result};
-use crate::record::{CompareLayout, CompareRecorder, EntryTally};
+use crate::record::{CompareLayout, CompareRecorder, EntryName, EntryTally};
 use crate::run::pacing::{Pacer, paced};
 use crate::run::prepare::PreparedComparison;
 use crate::run::progress::Progress;
@@ -55,7 +55,7 @@ impl EntryOutcome {
             Some((frame, _)) => format!("; stopped at frame {frame}"),
             None => String::new(),
         };
-        format!("{:<24} {cost}, {gap}, {drift}{end}", t.name)
+        format!("{:<24} {cost}, {gap}, {drift}{end}", t.label)
     }
 }
 
@@ -95,10 +95,16 @@ pub fn run_comparison(
     };
     let backend_name = first.backend.describe();
     let (frames, frame_rate_hz) = (first.settings.frames, first.settings.frame_rate_hz);
-    let names: Vec<String> = entries.iter().map(|e| e.name.clone()).collect();
+    let names: Vec<EntryName> = entries
+        .iter()
+        .map(|e| EntryName {
+            path: e.name.clone(),
+            label: e.label.clone(),
+        })
+        .collect();
     let settings: Vec<_> = entries.iter().map(|e| e.settings.clone()).collect();
     let substeps: Vec<u32> = settings.iter().map(|s| s.substeps).collect();
-    let which: Vec<CompareEntry> = entries.iter().map(|e| e.entry).collect();
+    let which: Vec<CompareEntry> = entries.iter().map(|e| e.entry.clone()).collect();
     let watches: Vec<SolverWatch> = entries
         .iter()
         .map(|e| SolverWatch::new(&model, &e.settings))
@@ -140,14 +146,14 @@ pub fn run_comparison(
             progress.suspend(|| {
                 eprintln!(
                     "entry {} {what} at frame {}: its frames before are recorded, and the other entries go on",
-                    names[i], f.frame
+                    names[i].label, f.frame
                 )
             });
             stopped[i] = Some((f.frame, e));
         }
         for (name, snap) in names.iter().zip(&f.snapshots) {
             for note in snap.iter().flat_map(|s| &s.notes) {
-                progress.suspend(|| eprintln!("entry {name}: {note}"));
+                progress.suspend(|| eprintln!("entry {}: {note}", name.label));
             }
         }
         let snaps: Vec<_> = f.snapshots.iter().map(Option::as_ref).collect();

@@ -137,9 +137,15 @@ pub fn run(
         cancel: &cancel,
         frame_rate_hz: settings.frame_rate_hz,
     };
-    let (outcome, recorded, recorder_error) =
+    let (outcome, recorded, mut recorder_error) =
         threads.simulate_and_record(simulate, log, &mut progress);
     progress.finish();
+    if recorder_error.is_none() {
+        recorder_error = recorder
+            .frame_what_was_seen()
+            .err()
+            .map(|e| Error::Rerun(e.into()));
+    }
     let outcome = end_recording(&rec, opts, outcome, recorder_error)?;
     if let Some(e) = outcome.failed {
         return Err(Error::Backend(e));

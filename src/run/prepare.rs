@@ -174,6 +174,9 @@ pub struct PreparedEntry {
     pub entry: CompareEntry,
     /// Its name in the recording (`world/<name>/…`), unique among the entries.
     pub name: String,
+    /// As the user wrote it, with `(2)`, `(3)` … on a repeat: its copy's label in 3D and its
+    /// lines' names in the plots.
+    pub label: String,
     pub settings: Settings,
     pub backend: Box<dyn Backend>,
 }
@@ -257,25 +260,23 @@ pub fn prepare_comparison(
                 }
             }
         }
-        planned.push((*entry, settings));
+        planned.push((entry.clone(), settings));
     }
     let mut names: Vec<String> = Vec::with_capacity(planned.len());
     let mut prepared = Vec::with_capacity(planned.len());
     for (entry, settings) in planned {
         let base = entry.name();
-        let name = (1..)
-            .map(|k| {
-                if k == 1 {
-                    base.clone()
-                } else {
-                    format!("{base}_{k}")
-                }
-            })
-            .find(|n| !names.contains(n))
-            .unwrap_or(base);
+        let k = (1..)
+            .find(|&k| !names.contains(&numbered(&base, k)))
+            .unwrap_or(1);
+        let name = numbered(&base, k);
         names.push(name.clone());
         let backend = request.device.create(model.clone(), settings.step())?;
         prepared.push(PreparedEntry {
+            label: match k {
+                1 => entry.to_string(),
+                _ => format!("{entry} ({k})"),
+            },
             entry,
             name,
             settings,
@@ -287,6 +288,14 @@ pub fn prepare_comparison(
         model,
         entries: prepared,
     })
+}
+
+/// An entry's name on its `k`-th use: `base`, then `base_2`, `base_3` …
+fn numbered(base: &str, k: u32) -> String {
+    match k {
+        1 => base.to_owned(),
+        _ => format!("{base}_{k}"),
+    }
 }
 
 /// The scene `scene` (a built-in name or a TOML file) as it is: loaded, its settings resolved

@@ -7,11 +7,13 @@ use std::fmt;
 
 use crate::integrator::Integrator;
 
-/// An integrator, and the step it takes when the entry gives one (else the scene's).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// An integrator, and the step it takes when the entry gives one (else the scene's), with the
+/// entry as the user wrote it (`implicit@1/60`), which labels its copy and its plot lines.
+#[derive(Debug, Clone, PartialEq)]
 pub struct CompareEntry {
     pub integrator: Integrator,
     pub dt_secs: Option<f64>,
+    pub typed: String,
 }
 
 /// Why an entry cannot be read.
@@ -56,6 +58,7 @@ impl CompareEntry {
         Ok(Self {
             integrator,
             dt_secs,
+            typed: text.split_whitespace().collect(),
         })
     }
 
@@ -116,12 +119,10 @@ fn parse_step(s: &str) -> Result<f64, EntryError> {
     Ok(value)
 }
 
+/// As the user wrote it, spaces aside.
 impl fmt::Display for CompareEntry {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.dt_secs {
-            None => f.write_str(self.integrator.name()),
-            Some(dt) => write!(f, "{}@{}", self.integrator.name(), short(dt)),
-        }
+        f.write_str(&self.typed)
     }
 }
 
@@ -140,6 +141,8 @@ mod tests {
         assert_eq!(e("implicit@1/60").name(), "implicit_dt_0.016667");
         assert_eq!(e("semi-implicit@1e-4").name(), "semi-implicit_dt_1e-4");
         assert_eq!(e("rk4").name(), "rk4");
+        assert_eq!(e(" xpbd @ 2e-4 ").to_string(), "xpbd@2e-4");
+        assert_eq!(e("implicit@1/60").to_string(), "implicit@1/60");
     }
 
     #[test]

@@ -186,11 +186,11 @@ pub fn stable_step_with(
         .contacts_as
         .and_then(|name| Integrator::ALL.into_iter().find(|i| i.name() == name));
     let unprojected = modes.unprojected.as_deref().zip(contacts_as);
-    if let Some(explicit) = unprojected.map(|(m, i)| limited_step(m, i)) {
-        if explicit.dt_secs < step.dt_secs {
-            step.dt_secs = explicit.dt_secs;
-            step.limit = explicit.limit;
-        }
+    if let Some(explicit) = unprojected.map(|(m, i)| limited_step(m, i))
+        && explicit.dt_secs < step.dt_secs
+    {
+        step.dt_secs = explicit.dt_secs;
+        step.limit = explicit.limit;
     }
     step
 }

@@ -1,8 +1,7 @@
-//! The default layout a recording opens with, and the legend settings Rerun's Rust blueprint API
-//! cannot express.
+//! The default layout a recording opens with, and the settings Rerun's Rust blueprint API cannot
+//! express: each plot's legend and the 3D view's eye.
 
 use rerun::RecordingStream;
-
 use rerun::blueprint::components::Corner2D;
 
 use super::error::RResult;

@@ -80,7 +80,7 @@ impl Recorder {
             rec.log(
                 self.root.world("most_strained"),
                 &rerun::LineStrips3D::update_fields()
-                    .with_strips([vec![a, b], vec![mid, tag]])
+                    .with_strips([[a, b], [mid, tag]])
                     .with_radii([
                         rerun::Radius::new_ui_points(3.0),
                         rerun::Radius::new_ui_points(0.75),

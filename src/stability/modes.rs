@@ -99,13 +99,6 @@ impl Modes {
         Self::over(model, 0..model.mass_count())
     }
 
-    /// The modes of the contacts and the drag alone, the springs aside.
-    fn unprojected(model: &Model, masses: std::ops::Range<usize>) -> Self {
-        let mut modes = Self::region(model, masses, false);
-        modes.reach = SweepReach::default();
-        modes
-    }
-
     /// The modes bounded by the rows of these masses only: what one mass's own springs and
     /// contacts allow (a divergence is explained by its mass's row).
     pub fn at_mass(model: &Model, mass: u32) -> Self {
@@ -114,7 +107,8 @@ impl Modes {
 
     fn over(model: &Model, masses: std::ops::Range<usize>) -> Self {
         let mut modes = Self::region(model, masses.clone(), true);
-        modes.unprojected = Some(Box::new(Self::unprojected(model, masses)));
+        // The contacts and the drag alone, the springs aside.
+        modes.unprojected = Some(Box::new(Self::region(model, masses, false)));
         modes.reach = SweepReach::of(model);
         modes
     }

@@ -71,26 +71,29 @@ impl SweepReach {
         self.0
             .iter()
             .filter(|b| b.k_over_m > 0.0)
-            .map(|b| {
-                // `corrected` falls as the step grows: bisect in log h over twelve decades.
-                let (mut lo, mut hi) = (1e-9_f64, 1e3_f64);
-                for _ in 0..80 {
-                    let mid = (lo * hi).sqrt();
-                    if corrected(b, mid, sweeps) >= SWEEPS_ENOUGH {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                Converging {
-                    dt_secs: lo,
-                    sweeps,
-                    hops: b.hops,
-                    pinned: b.pinned,
-                }
+            .map(|b| Converging {
+                dt_secs: converging_step(b, sweeps, 1e3),
+                sweeps,
+                hops: b.hops,
+                pinned: b.pinned,
             })
             .min_by(|a, b| a.dt_secs.total_cmp(&b.dt_secs))
     }
+}
+
+/// The largest step up to `below` at which `sweeps` sweeps still correct [`SWEEPS_ENOUGH`] of
+/// `b`'s slowest stretch: `corrected` falls as the step grows, so bisect in log h.
+fn converging_step(b: &BodySprings, sweeps: u32, below: f64) -> f64 {
+    let (mut lo, mut hi) = (1e-12 * below, below);
+    for _ in 0..80 {
+        let mid = (lo * hi).sqrt();
+        if corrected(b, mid, sweeps) >= SWEEPS_ENOUGH {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
 }
 
 /// What is known of a body's springs, independent of the step.
@@ -140,15 +143,7 @@ pub fn sweep_shortfall(model: &Model, settings: &Settings) -> Option<SweepShortf
             {
                 sweeps_needed *= 2;
             }
-            let (mut lo, mut hi) = (0.0, h);
-            for _ in 0..60 {
-                let mid = 0.5 * (lo + hi);
-                if corrected(&b, mid, sweeps) >= SWEEPS_ENOUGH {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
+            let lo = converging_step(&b, sweeps, h);
             SweepShortfall {
                 corrected: share,
                 hops: b.hops,

@@ -127,6 +127,10 @@ pub enum Error {
          whatever the viewer does, record it as well with --save FILE (streaming and saving together)"
     )]
     ViewerGone { url: String, frame: u64, why: Gone },
+
+    /// A sweep's file, folder or executor: the message names which and what would fix it.
+    #[error("{0}")]
+    Sweep(String),
 }
 
 /// What Rerun said when it refused.

@@ -25,6 +25,7 @@ pub mod record;
 pub mod error;
 pub mod run;
 pub mod accuracy;
+pub mod sweep;
 pub mod bench;
 
 pub use error::{Error, Result};

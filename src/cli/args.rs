@@ -38,6 +38,11 @@ pub enum Command {
         #[command(subcommand)]
         which: BenchCommand,
     },
+    /// Many runs of one scene, its values varied, here or on a Slurm cluster.
+    Sweep {
+        #[command(subcommand)]
+        which: super::SweepCommand,
+    },
     /// Simulate a scene and stream it to Rerun (spawns the viewer unless told otherwise).
     Run {
         /// Built-in scene name or path to a .toml scene file.

@@ -9,9 +9,11 @@ mod check_effects;
 mod run;
 mod scenes;
 mod sink;
+mod sweep;
 
 pub use args::{Cli, Command};
 pub use bench::bench;
 pub use check::check;
 pub use run::{Outcome, RunArgs, run};
 pub use scenes::scenes;
+pub use sweep::{SweepCommand, sweep};

@@ -100,6 +100,7 @@ fn comparison(
         (Some(_), _) => None,
         (None, prepare::SceneSource::Named(name)) => hooke::scene::load(name)?.scene.compare,
         (None, prepare::SceneSource::Variant(scene)) => scene.compare.clone(),
+        (None, prepare::SceneSource::Loaded(loaded)) => loaded.scene.compare.clone(),
     };
     let texts: Vec<String> = match (&args.compare.compare, &table) {
         (Some(list), _) => list.split(',').map(str::to_owned).collect(),

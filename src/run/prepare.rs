@@ -25,6 +25,9 @@ pub enum SceneSource {
     /// A variant of a loaded scene made in code (a benchmark's scene less one effect): it has
     /// no text of its own.
     Variant(Box<Scene>),
+    /// A scene already loaded from text made in code (a sweep's point): its text is what the
+    /// recording shows.
+    Loaded(Box<LoadedScene>),
 }
 
 /// How the time step is chosen.
@@ -135,6 +138,7 @@ pub fn plan(request: &Request, say: &mut dyn FnMut(Notice)) -> Result<Planned> {
             origin: SceneOrigin::Text,
             text: String::new(),
         },
+        SceneSource::Loaded(loaded) => loaded.as_ref().clone(),
     };
     let mut settings = Settings::resolve(&loaded.scene, &request.overrides)?;
     for &note in &settings.notes {

@@ -1,0 +1,300 @@
+//! One point of a sweep, run from the plan alone (`hooke sweep point DIR N`, which both
+//! executors start): its recording as `hooke run --save` makes it, with the point's parameters
+//! and results as the recording's properties; then its timed runs, stepping only; then its
+//! `result.json`, last and atomically. A point killed on the way leaves no result, and its next
+//! run starts it afresh.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use crate::backend::{self, StopFlags};
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::run::prepare::{self, Request, SceneSource};
+use crate::run::select::{BackendKind, Device};
+use crate::scene::LoadedScene;
+use crate::scene::settings::Settings;
+
+use super::plan::{self, Layout, Plan, PlannedPoint};
+use super::properties;
+use super::reference;
+use super::result::{EndEnergies, Load, PointResult, Status};
+
+/// How many substeps a timed run hands the backend at once (a GPU encodes them together).
+const BATCH: u32 = 1000;
+
+/// Run point `index` of the sweep in `dir`, unless it is done already: its result either way,
+/// or `Ok(None)` when `cancel` stopped it (nothing of it is kept as a result).
+pub fn run_point(
+    dir: &Path,
+    index: usize,
+    load: Load,
+    cancel: &Arc<AtomicBool>,
+) -> Result<Option<PointResult>> {
+    let plan = plan::read(dir)?;
+    let layout = Layout::new(dir);
+    let Some(point) = plan.points.get(index) else {
+        return Err(Error::Sweep(format!(
+            "the sweep in {} has {} points, numbered 0 to {}; there is no point {index}",
+            dir.display(),
+            plan.points.len(),
+            plan.points.len().saturating_sub(1)
+        )));
+    };
+    let result_path = layout.result(index);
+    if let Some(done) = super::result::read(&result_path).filter(|r| r.status != Status::Failed) {
+        return Ok(Some(done));
+    }
+    let folder = layout.point(index);
+    let io = |what: &str, e: std::io::Error| {
+        Error::Sweep(format!(
+            "point {index}: {what} in {}: {e}",
+            folder.display()
+        ))
+    };
+    std::fs::create_dir_all(&folder).map_err(|e| io("cannot make its folder", e))?;
+    std::fs::write(folder.join("scene.toml"), &point.scene_toml)
+        .map_err(|e| io("cannot write scene.toml", e))?;
+    let _held = Held::new(&folder);
+    let mut result = blank(point, load);
+    let ended = run(&plan, &layout, point, &mut result, cancel)?;
+    if !ended {
+        return Ok(None);
+    }
+    plan::write_json_atomic(&result_path, &result)
+        .map_err(|e| io("cannot write result.json", e))?;
+    Ok(Some(result))
+}
+
+/// The point's `running` file, naming the process that holds it (`sweep status` reads it),
+/// gone when the point is.
+struct Held(std::path::PathBuf);
+
+impl Held {
+    fn new(folder: &Path) -> Self {
+        let path = folder.join("running");
+        let _ = std::fs::write(&path, format!("{} {}\n", std::process::id(), host()));
+        Self(path)
+    }
+}
+
+impl Drop for Held {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+fn blank(point: &PlannedPoint, load: Load) -> PointResult {
+    PointResult {
+        index: point.index,
+        label: point.label(),
+        params: point.params.clone(),
+        status: Status::Failed,
+        message: None,
+        notes: Vec::new(),
+        backend: None,
+        integrator: None,
+        dt_secs: None,
+        substeps: None,
+        frames: None,
+        steps: None,
+        masses: None,
+        stable_dt_secs: None,
+        wall_secs: None,
+        wall_secs_each: Vec::new(),
+        load,
+        steps_per_sec: None,
+        energies: None,
+        error_rms_m: None,
+        digest: None,
+        recording: None,
+        host: host(),
+    }
+}
+
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_owned())
+        .or_else(|_| std::env::var("HOSTNAME"))
+        .unwrap_or_else(|_| "unknown".to_owned())
+}
+
+/// The device a planned backend names.
+pub fn device(backend: &str) -> Device {
+    match backend {
+        "cpu" => Device::cpu(),
+        _ => Device {
+            kind: BackendKind::Gpu,
+            ..Device::default()
+        },
+    }
+}
+
+/// The request for a planned scene's text.
+pub fn request(plan: &Plan, scene_toml: &str, backend: &str) -> Result<Request> {
+    let origin = plan.origin();
+    let scene =
+        crate::scene::from_toml(scene_toml, origin.clone()).map_err(|e| Error::Scene(e.into()))?;
+    Ok(Request {
+        scene: SceneSource::Loaded(Box::new(LoadedScene {
+            scene,
+            origin,
+            text: scene_toml.to_owned(),
+        })),
+        overrides: Default::default(),
+        dt: Default::default(),
+        device: device(backend),
+    })
+}
+
+/// Fill `result`: `false` when `cancel` stopped the point.
+fn run(
+    plan: &Plan,
+    layout: &Layout,
+    point: &PlannedPoint,
+    result: &mut PointResult,
+    cancel: &Arc<AtomicBool>,
+) -> Result<bool> {
+    let request = request(plan, &point.scene_toml, &point.backend)?;
+    let mut notes = Vec::new();
+    let prepared = match prepare::prepare(&request, &mut |n| notes.push(n.to_string())) {
+        Ok(p) => p,
+        Err(e) => {
+            result.notes = notes;
+            result.status = match e {
+                Error::Settings(_) | Error::Scene(_) | Error::Buried(_) => Status::Refused,
+                Error::BelowResolution(_) | Error::TooLarge(_) => Status::Refused,
+                _ => Status::Failed,
+            };
+            result.message = Some(e.to_string());
+            return Ok(true);
+        }
+    };
+    result.notes = notes;
+    let (model, settings) = (prepared.model.clone(), prepared.settings.clone());
+    describe(result, &model, &settings, &prepared.backend.describe());
+    let rrd = layout.recording(point.index);
+    result.recording = rrd
+        .strip_prefix(&layout.dir)
+        .ok()
+        .map(|p| p.to_string_lossy().into_owned());
+    let recording = properties::open(plan, point, &rrd)?;
+    let record = crate::record::RecordOptions::default().for_scene(&prepared.loaded.scene);
+    let mut opts = crate::run::RunOptions::unattended(None);
+    opts.record = record;
+    let recorded = crate::run::run(prepared, recording.rec.clone(), &opts, cancel.clone());
+    match recorded {
+        Ok(summary) if summary.cancelled => {
+            recording.end(None)?;
+            return Ok(false);
+        }
+        Ok(_) => {}
+        Err(Error::Backend(e)) => {
+            result.status = Status::Diverged;
+            result.message = Some(e.to_string());
+        }
+        Err(e) => {
+            result.status = Status::Failed;
+            result.message = Some(e.to_string());
+            recording.end(Some(result))?;
+            return Ok(true);
+        }
+    }
+    if result.status != Status::Diverged {
+        let Timed::Ended(end) = timed(plan, point, result, &model, &settings, cancel)? else {
+            recording.end(None)?;
+            return Ok(false);
+        };
+        if let (Some(r), Some(end)) = (&point.reference, end) {
+            let Some(reference) = reference::end(plan, layout, r, cancel)? else {
+                recording.end(None)?;
+                return Ok(false);
+            };
+            result.error_rms_m = Some(reference::rms_gap(&reference, &end)?);
+        }
+    }
+    recording.end(Some(result))?;
+    Ok(true)
+}
+
+/// How the timed runs ended.
+enum Timed {
+    /// With the end positions, where they got there.
+    Ended(Option<Vec<glam::Vec3>>),
+    Cancelled,
+}
+
+fn describe(result: &mut PointResult, model: &Model, settings: &Settings, backend: &str) {
+    let steps = settings.frames * u64::from(settings.substeps);
+    result.backend = Some(backend.to_owned());
+    result.integrator = Some(settings.integrator.name().to_owned());
+    result.dt_secs = Some(settings.dt_secs);
+    result.substeps = Some(settings.substeps);
+    result.frames = Some(settings.frames);
+    result.steps = Some(steps);
+    result.masses = Some(model.mass_count());
+    result.stable_dt_secs = crate::stability::stable_step_with(
+        &crate::stability::Modes::of(model),
+        settings.integrator,
+        &settings.options,
+    )
+    .finite_dt();
+}
+
+/// The timed runs, each on a fresh backend, stepping only: the median time, the end state's
+/// digest and energies, and the end positions.
+fn timed(
+    plan: &Plan,
+    point: &PlannedPoint,
+    result: &mut PointResult,
+    model: &Arc<Model>,
+    settings: &Settings,
+    cancel: &Arc<AtomicBool>,
+) -> Result<Timed> {
+    let device = device(&point.backend);
+    let steps = settings.frames * u64::from(settings.substeps);
+    let mut times = Vec::new();
+    let mut end_x = None;
+    for run in 0..plan.repeat.max(1) {
+        let mut be = device.create(model.clone(), settings.step())?;
+        be.watch(StopFlags::new([cancel.clone()]));
+        let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
+        let start = Instant::now();
+        let stepped = backend::advance_steps(be.as_mut(), steps, BATCH).and_then(|()| be.finish());
+        if cancel.load(Ordering::SeqCst) {
+            return Ok(Timed::Cancelled);
+        }
+        if let Err(e) = stepped {
+            // The recorded run got through, so this is the same divergence only if the
+            // backend is not deterministic: say what happened all the same.
+            result.status = Status::Diverged;
+            result.message = Some(format!("timed run {}: {e}", run + 1));
+            return Ok(Timed::Ended(None));
+        }
+        times.push(start.elapsed().as_secs_f64());
+        if run + 1 == plan.repeat.max(1) {
+            let end = be.snapshot(1, Default::default())?;
+            let state = be.state()?;
+            let e = end.energies;
+            result.energies = Some(EndEnergies {
+                kinetic_j: e.kinetic_j,
+                elastic_j: e.elastic_j,
+                gravity_j: e.gravity_j,
+                contact_j: e.contact_j,
+                balance_j: e.balance_j(),
+                balance_change_j: e.balance_j() - b0,
+            });
+            result.digest = Some(format!("{:016x}", state.digest()));
+            end_x = Some(state.x);
+        }
+    }
+    result.wall_secs_each = times.clone();
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    result.wall_secs = Some(median);
+    result.steps_per_sec = Some(steps as f64 / median.max(1e-12));
+    result.status = Status::Ok;
+    Ok(Timed::Ended(end_x))
+}

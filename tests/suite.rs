@@ -32,5 +32,6 @@ mod remote;
 mod self_collision;
 mod shaders;
 mod stability;
+mod sweep;
 mod vbd;
 mod xpbd;

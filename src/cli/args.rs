@@ -41,7 +41,7 @@ pub enum Command {
     /// Many runs of one scene, its values varied, here or on a Slurm cluster.
     Sweep {
         #[command(subcommand)]
-        which: super::SweepCommand,
+        which: super::sweep::SweepCommand,
     },
     /// Simulate a scene and stream it to Rerun (spawns the viewer unless told otherwise).
     Run {

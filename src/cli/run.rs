@@ -10,14 +10,8 @@ use hooke::run::prepare::{self, Prepared};
 use hooke::scene::compare_entry::CompareEntry;
 
 use super::args::{CompareArgs, DeviceArgs, OutputArgs, RecordingArgs, SolverArgs};
+use super::outcome::Outcome;
 use super::sink::{self, Sink};
-
-/// How a command ended without error.
-pub enum Outcome {
-    Done,
-    /// Ctrl-C or SIGTERM stopped a run; everything produced before it was recorded.
-    Interrupted,
-}
 
 /// What `hooke run` was given.
 pub struct RunArgs<'a> {

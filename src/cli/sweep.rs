@@ -11,10 +11,11 @@ use clap::Subcommand;
 use hooke::sweep::local::LocalOptions;
 use hooke::sweep::result::Load;
 use hooke::sweep::slurm::SlurmOptions;
-use hooke::sweep::status::{PointState, Tally};
+use hooke::sweep::status::PointState;
+use hooke::sweep::tally::Tally;
 use hooke::sweep::{self, Plan};
 
-use super::run::Outcome;
+use super::outcome::Outcome;
 
 #[derive(Debug, Subcommand)]
 pub enum SweepCommand {
@@ -101,13 +102,13 @@ pub struct ExecArgs {
 pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
     match which {
         SweepCommand::Plan { file } => {
-            let plan = sweep::plan_file(&file)?;
+            let plan = sweep::plan::from_file(&file)?;
             print!("{}", sweep::cost::describe(&plan)?);
             Ok(Outcome::Done)
         }
         SweepCommand::Run { file, out, exec } => {
-            let plan = sweep::plan_file(&file)?;
-            sweep::start(&plan, &out)?;
+            let plan = sweep::plan::from_file(&file)?;
+            sweep::plan::start(&plan, &out)?;
             eprintln!(
                 "sweep: {} points of '{}' in {}",
                 plan.points.len(),

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 
 use super::plan::{Layout, Plan};
 use super::result::Load;
-use super::status::Tally;
+use super::tally::Tally;
 
 #[derive(Debug, Clone)]
 pub struct LocalOptions {
@@ -50,7 +50,7 @@ pub fn run_local(
     } else {
         Load::Alone
     };
-    let bar = super::status::bar(indices.len() as u64, opts.bar);
+    let bar = super::tally::bar(indices.len() as u64, opts.bar);
     let mut left: std::collections::VecDeque<usize> = indices.iter().copied().collect();
     let mut running: Vec<Running> = Vec::new();
     let mut tally = Tally::default();
@@ -95,7 +95,7 @@ pub fn run_local(
                             log_tail(&layout, r.index)
                         )
                     });
-                    super::status::say(&bar, opts.bar, line);
+                    super::tally::say(&bar, opts.bar, line);
                     bar.inc(1);
                     bar.set_message(tally.brief());
                 }

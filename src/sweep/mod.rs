@@ -23,32 +23,6 @@ pub mod report;
 pub mod result;
 pub mod slurm;
 pub mod status;
-
-use std::path::Path;
-
-use crate::error::{Error, Result};
+pub mod tally;
 
 pub use plan::{Layout, Plan};
-
-/// Read the sweep file at `file` and plan it.
-pub fn plan_file(file: &Path) -> Result<Plan> {
-    let spec = self::file::read(file).map_err(|e| Error::Sweep(e.to_string()))?;
-    plan::make(&spec).map_err(|e| Error::Sweep(e.to_string()))
-}
-
-/// Make the sweep's folder `dir` with its plan. A folder that holds another sweep is refused:
-/// `resume` finishes that one.
-pub fn start(plan: &Plan, dir: &Path) -> Result<()> {
-    let layout = Layout::new(dir);
-    if layout.plan().exists() {
-        return Err(Error::Sweep(format!(
-            "{} already holds a sweep: `hooke sweep resume {}` finishes it, `hooke sweep status {}` says where it stands; or give another --out",
-            dir.display(),
-            dir.display(),
-            dir.display()
-        )));
-    }
-    let io = |e: std::io::Error| Error::Sweep(format!("cannot write {}: {e}", dir.display()));
-    std::fs::create_dir_all(layout.points()).map_err(io)?;
-    plan::write_json_atomic(&layout.plan(), plan).map_err(io)
-}

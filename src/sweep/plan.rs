@@ -6,6 +6,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::{Error, Result};
+use crate::run::prepare::{Request, SceneSource};
+use crate::run::select::{BackendKind, Device};
+use crate::scene::LoadedScene;
+
 use super::apply::apply;
 use super::file::{Key, Setting, SweepFileError, SweepSpec};
 use crate::scene::SceneOrigin;
@@ -277,23 +282,74 @@ pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Resul
 }
 
 /// The plan in `dir`, with a message that says what to do where there is none.
-pub fn read(dir: &Path) -> crate::Result<Plan> {
+pub fn read(dir: &Path) -> Result<Plan> {
     let path = Layout::new(dir).plan();
     let text = std::fs::read_to_string(&path).map_err(|e| {
-        crate::Error::Sweep(format!(
+        Error::Sweep(format!(
             "{}: {e}: is {} a sweep's folder? `hooke sweep run FILE --out DIR` makes one",
             path.display(),
             dir.display()
         ))
     })?;
     let plan: Plan = serde_json::from_str(&text)
-        .map_err(|e| crate::Error::Sweep(format!("{}: {e}", path.display())))?;
+        .map_err(|e| Error::Sweep(format!("{}: {e}", path.display())))?;
     if plan.format != FORMAT {
-        return Err(crate::Error::Sweep(format!(
+        return Err(Error::Sweep(format!(
             "{}: written by another version of hooke (format {}, this one reads {FORMAT}): run the sweep again into a new folder",
             path.display(),
             plan.format
         )));
     }
     Ok(plan)
+}
+
+/// The device a planned backend names.
+pub fn device(backend: &str) -> Device {
+    match backend {
+        "cpu" => Device::cpu(),
+        _ => Device {
+            kind: BackendKind::Gpu,
+            ..Device::default()
+        },
+    }
+}
+
+/// The request for a planned scene's text.
+pub fn request(plan: &Plan, scene_toml: &str, backend: &str) -> Result<Request> {
+    let origin = plan.origin();
+    let scene =
+        crate::scene::from_toml(scene_toml, origin.clone()).map_err(|e| Error::Scene(e.into()))?;
+    Ok(Request {
+        scene: SceneSource::Loaded(Box::new(LoadedScene {
+            scene,
+            origin,
+            text: scene_toml.to_owned(),
+        })),
+        overrides: Default::default(),
+        dt: Default::default(),
+        device: device(backend),
+    })
+}
+
+/// Read the sweep file at `file` and plan it.
+pub fn from_file(file: &Path) -> Result<Plan> {
+    let spec = super::file::read(file).map_err(|e| Error::Sweep(e.to_string()))?;
+    make(&spec).map_err(|e| Error::Sweep(e.to_string()))
+}
+
+/// Make the sweep's folder `dir` with its plan. A folder that holds another sweep is refused:
+/// `resume` finishes that one.
+pub fn start(plan: &Plan, dir: &Path) -> Result<()> {
+    let layout = Layout::new(dir);
+    if layout.plan().exists() {
+        return Err(Error::Sweep(format!(
+            "{} already holds a sweep: `hooke sweep resume {}` finishes it, `hooke sweep status {}` says where it stands; or give another --out",
+            dir.display(),
+            dir.display(),
+            dir.display()
+        )));
+    }
+    let io = |e: std::io::Error| Error::Sweep(format!("cannot write {}: {e}", dir.display()));
+    std::fs::create_dir_all(layout.points()).map_err(io)?;
+    write_json_atomic(&layout.plan(), plan).map_err(io)
 }

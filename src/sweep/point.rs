@@ -12,12 +12,10 @@ use std::time::Instant;
 use crate::backend::{self, StopFlags};
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::run::prepare::{self, Request, SceneSource};
-use crate::run::select::{BackendKind, Device};
-use crate::scene::LoadedScene;
+use crate::run::prepare;
 use crate::scene::settings::Settings;
 
-use super::plan::{self, Layout, Plan, PlannedPoint};
+use super::plan::{self, Layout, Plan, PlannedPoint, device, request};
 use super::properties;
 use super::reference;
 use super::result::{EndEnergies, Load, PointResult, Status};
@@ -119,34 +117,6 @@ fn host() -> String {
         .map(|h| h.trim().to_owned())
         .or_else(|_| std::env::var("HOSTNAME"))
         .unwrap_or_else(|_| "unknown".to_owned())
-}
-
-/// The device a planned backend names.
-pub fn device(backend: &str) -> Device {
-    match backend {
-        "cpu" => Device::cpu(),
-        _ => Device {
-            kind: BackendKind::Gpu,
-            ..Device::default()
-        },
-    }
-}
-
-/// The request for a planned scene's text.
-pub fn request(plan: &Plan, scene_toml: &str, backend: &str) -> Result<Request> {
-    let origin = plan.origin();
-    let scene =
-        crate::scene::from_toml(scene_toml, origin.clone()).map_err(|e| Error::Scene(e.into()))?;
-    Ok(Request {
-        scene: SceneSource::Loaded(Box::new(LoadedScene {
-            scene,
-            origin,
-            text: scene_toml.to_owned(),
-        })),
-        overrides: Default::default(),
-        dt: Default::default(),
-        device: device(backend),
-    })
 }
 
 /// Fill `result`: `false` when `cancel` stopped the point.

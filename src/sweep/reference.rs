@@ -41,7 +41,7 @@ pub fn end(
             "the sweep's reference cannot be run ({why}): give [reference] a step it is stable and supported at"
         ))
     };
-    let request = super::point::request(plan, &r.scene_toml, &r.backend)?;
+    let request = super::plan::request(plan, &r.scene_toml, &r.backend)?;
     let mut prepared =
         prepare::prepare(&request, &mut |_| {}).map_err(|e| failed(e.to_string()))?;
     let s = &prepared.settings;

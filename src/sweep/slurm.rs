@@ -13,7 +13,7 @@ use std::time::Duration;
 use crate::error::{Error, Result};
 
 use super::plan::{Layout, Plan};
-use super::status::Tally;
+use super::tally::Tally;
 
 #[derive(Debug, Clone, Default)]
 pub struct SlurmOptions {
@@ -236,7 +236,7 @@ pub fn follow(
     cancel: &AtomicBool,
 ) -> Result<Option<Tally>> {
     let layout = Layout::new(dir);
-    let bar = super::status::bar(indices.len() as u64, show_bar);
+    let bar = super::tally::bar(indices.len() as u64, show_bar);
     let mut tally = Tally::default();
     let mut open: Vec<usize> = indices.to_vec();
     let mut squeue_failures = 0;
@@ -277,7 +277,7 @@ pub fn follow(
                         .unwrap_or_default();
                     format!("{slurm_said}{}", task_tail(&layout, job, i))
                 });
-                super::status::say(&bar, show_bar, line);
+                super::tally::say(&bar, show_bar, line);
                 bar.inc(1);
                 bar.set_message(tally.brief());
             } else {

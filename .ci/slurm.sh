@@ -28,7 +28,7 @@ fi
 mkdir -p "$dir"
 # Slurm's commands read /etc/slurm/slurm.conf unless SLURM_CONF says otherwise: point it at ours
 # where the machine has none of its own, so that a plain `sbatch` (and `hooke sweep`) finds it.
-if [ ! -e /etc/slurm/slurm.conf ]; then
+if [ ! -e /etc/slurm/slurm.conf ] && [ ! -L /etc/slurm/slurm.conf ]; then
   mkdir -p /etc/slurm
   ln -s "$conf" /etc/slurm/slurm.conf
 fi

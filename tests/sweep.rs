@@ -367,3 +367,33 @@ fn the_readmes_sweep_file_is_one_hooke_plans() {
     let plan = run_ok(&["sweep", "plan", &file.to_string_lossy()]);
     assert!(plan.contains("sweep of 'cloth-64': 4 points"), "{plan}");
 }
+
+#[test]
+fn a_submission_slurm_refuses_is_one_message_in_slurms_words() {
+    if !slurm_here("a_submission_slurm_refuses_is_one_message_in_slurms_words") {
+        return;
+    }
+    let out = temp_dir("sweep-refused").join("sweep");
+    let said = hooke(&[
+        "sweep",
+        "run",
+        &repo(SMALL).to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--on",
+        "slurm",
+        "--partition",
+        "no-such-partition",
+    ]);
+    let err = text(&said.stderr);
+    assert!(!said.status.success());
+    assert!(
+        err.contains("error: Slurm refused the sweep's job: `sbatch --parsable")
+            && err.contains("sbatch: error:")
+            && err.to_lowercase().contains("partition"),
+        "{err}"
+    );
+    // Nothing ran, and a resume may submit it again once the partition is right.
+    let status = run_ok(&["sweep", "status", &out.to_string_lossy()]);
+    assert!(status.contains("8 points: 8 missing"), "{status}");
+}

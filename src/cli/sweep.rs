@@ -26,6 +26,7 @@ pub enum SweepCommand {
     },
     /// Run a sweep file's points into a new folder.
     Run {
+        /// The sweep file (TOML; examples/sweeps/ has some).
         file: PathBuf,
         /// The sweep's folder (made; it must not hold another sweep). On Slurm, on storage
         /// that the nodes share.
@@ -36,14 +37,19 @@ pub enum SweepCommand {
     },
     /// Run the points of a sweep's folder that have no result (or a failed one).
     Resume {
+        /// The sweep's folder (`run`'s --out).
         dir: PathBuf,
         #[command(flatten)]
         exec: ExecArgs,
     },
     /// Say which points are done (and how), running or missing.
-    Status { dir: PathBuf },
+    Status {
+        /// The sweep's folder (`run`'s --out).
+        dir: PathBuf,
+    },
     /// Write results.csv, results.md and results.svg from the points' results.
     Report {
+        /// The sweep's folder (`run`'s --out).
         dir: PathBuf,
         /// Where the files go (the sweep's folder by default).
         #[arg(long)]
@@ -51,7 +57,9 @@ pub enum SweepCommand {
     },
     /// Run one point (what each executor's task runs; rarely typed by hand).
     Point {
+        /// The sweep's folder.
         dir: PathBuf,
+        /// The point's number (from 0, as `plan` lists them).
         index: usize,
         /// Whether other points run beside this one (its time is then marked as not clean).
         #[arg(long, value_enum, default_value = "alone")]

@@ -74,15 +74,22 @@ impl State {
     /// A hash (64-bit FNV-1a) of the positions' and velocities' bits: equal exactly when every
     /// bit of the state is, so a deterministic backend gives the same digest on every run.
     pub fn digest(&self) -> u64 {
-        self.x
-            .iter()
-            .chain(&self.v)
-            .flat_map(|p| p.to_array())
-            .flat_map(|c| c.to_bits().to_le_bytes())
-            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-            })
+        fnv1a(
+            self.x
+                .iter()
+                .chain(&self.v)
+                .flat_map(|p| p.to_array())
+                .flat_map(|c| c.to_bits().to_le_bytes()),
+        )
     }
+}
+
+/// 64-bit FNV-1a of `bytes`: the state's digest, and the names a sweep gives its plan and
+/// references.
+pub fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
+    bytes.into_iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// The energies of one snapshot (J).

@@ -6,13 +6,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::accuracy::reference::Reference;
-use crate::backend::{self, BackendError};
+use crate::backend::{self, BackendError, StopFlags};
 use crate::error::{Error, Result};
 use crate::integrator::{Integrator, Step};
 use crate::model::Model;
 use crate::run::prepare::{self, Request};
 use crate::run::select::Device;
 use crate::scene::settings::SettingsError;
+use crate::state::{Snapshot, State};
 
 use super::report;
 use super::results::{Accuracy, Row, StableDt};
@@ -44,9 +45,63 @@ struct RunEnd {
     wall_secs: f64,
 }
 
-/// Run `model` for `steps` steps of `dt`, `repeat` times, each on a fresh backend and timed
-/// (the wait for the device included): the last run's end, and the median of the times. Each
-/// backend is deterministic, so the runs end alike; only the clock differs between them.
+/// What [`timed_runs`] leaves: the last run's end, and every run's wall time, in order.
+pub struct Timed {
+    /// The end as the recorder would see it (energies) and in full (positions, velocities).
+    pub end: Snapshot,
+    pub state: State,
+    /// The energy balance at the start (J): its change is energy from nowhere.
+    pub start_balance_j: f64,
+    pub wall_secs: Vec<f64>,
+    /// The backend as it describes itself.
+    pub backend: String,
+}
+
+impl Timed {
+    /// The median of the wall times.
+    pub fn median_secs(&self) -> f64 {
+        let mut t = self.wall_secs.clone();
+        t.sort_by(f64::total_cmp);
+        t.get(t.len() / 2).copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// Run `model` for `steps` steps of `step`, `repeat` times, each on a fresh backend watching
+/// `stop` and timed (the wait for the device included). Each backend is deterministic, so the
+/// runs end alike; only the clock differs between them. `bench accuracy` and a sweep's points
+/// time their runs here.
+pub fn timed_runs(
+    model: &Arc<Model>,
+    device: &Device,
+    step: Step,
+    steps: u64,
+    repeat: u32,
+    stop: &StopFlags,
+) -> std::result::Result<Timed, BackendError> {
+    let mut wall_secs = Vec::new();
+    loop {
+        let mut be = device.create(model.clone(), step)?;
+        be.watch(stop.clone());
+        let backend = be.describe();
+        let start_balance_j = be.snapshot(0, Default::default())?.energies.balance_j();
+        let start = Instant::now();
+        backend::advance_steps(be.as_mut(), steps, 1000)?;
+        be.finish()?;
+        wall_secs.push(start.elapsed().as_secs_f64());
+        if wall_secs.len() < repeat.max(1) as usize {
+            continue;
+        }
+        return Ok(Timed {
+            end: be.snapshot(1, Default::default())?,
+            state: be.state()?,
+            start_balance_j,
+            wall_secs,
+            backend,
+        });
+    }
+}
+
+/// `timed_runs` of `integrator` at `dt`: the end, and the backend's name.
 fn run(
     model: &Arc<Model>,
     device: &Device,
@@ -55,30 +110,23 @@ fn run(
     dt: f64,
     steps: u64,
 ) -> std::result::Result<(RunEnd, String), BackendError> {
-    let mut times = Vec::new();
-    loop {
-        // XPBD at its default of one iteration per substep: the chart's dial is the substep.
-        let mut be = device.create(model.clone(), Step::new(integrator, dt))?;
-        let name = be.describe();
-        let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
-        let start = Instant::now();
-        backend::advance_steps(be.as_mut(), steps, 1000)?;
-        be.finish()?;
-        times.push(start.elapsed().as_secs_f64());
-        if times.len() < repeat.max(1) as usize {
-            continue;
-        }
-        let end = be.snapshot(1, Default::default())?;
-        times.sort_by(f64::total_cmp);
-        return Ok((
-            RunEnd {
-                x: end.positions,
-                balance_change_j: end.energies.balance_j() - b0,
-                wall_secs: times[times.len() / 2],
-            },
-            name,
-        ));
-    }
+    // XPBD at its default of one iteration per substep: the chart's dial is the substep.
+    let t = timed_runs(
+        model,
+        device,
+        Step::new(integrator, dt),
+        steps,
+        repeat,
+        &StopFlags::default(),
+    )?;
+    Ok((
+        RunEnd {
+            balance_change_j: t.end.energies.balance_j() - t.start_balance_j,
+            wall_secs: t.median_secs(),
+            x: t.end.positions,
+        },
+        t.backend,
+    ))
 }
 
 /// Measure `scene_arg`, telling `progress` what each stage finished (the whole takes minutes).

@@ -13,7 +13,7 @@ mod stable_dt;
 
 pub use chart::svg;
 pub use limits::{LimitRow, Measured, limits_markdown, measure_limits};
-pub use measure::{AccuracyOptions, accuracy};
+pub use measure::{AccuracyOptions, Timed, accuracy, timed_runs};
 pub use report::{cheapest_per_level, markdown};
 pub use results::{Accuracy, Found, Row, StableDt};
 pub use stable_dt::{

@@ -23,5 +23,6 @@ pub use error::{LoadError, SceneError, SceneOrigin};
 pub use format::*;
 pub use format_body::*;
 pub use load::{LoadedScene, from_toml, load};
+pub use locate::line_col;
 pub use rules::{MAX_START_SPEED_M_PER_S, MOST_SWEEPS};
 pub use validate::MAX_COLLIDERS;

@@ -17,6 +17,11 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::de::{DeTable, DeValue};
 
+use crate::scene::line_col;
+
+/// A 1-based line and column.
+type LineCol = (usize, usize);
+
 /// A problem with a sweep file, where it is.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{}{}: {message}", file.display(), at.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
@@ -420,15 +425,4 @@ fn setting(name: &str, value: toml::Value, at: Option<(usize, usize)>) -> Result
         value,
         at,
     })
-}
-
-/// A 1-based line and column.
-type LineCol = (usize, usize);
-
-/// 1-based line and column of byte `offset` in `text`.
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
 }

@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::run::prepare::{Request, SceneSource};
 use crate::run::select::{BackendKind, Device};
 use crate::scene::LoadedScene;
+use crate::state::fnv1a;
 
 use super::apply::apply;
 use super::file::{Key, Setting, SweepFileError, SweepSpec};
@@ -185,7 +186,7 @@ pub fn make(spec: &SweepSpec) -> Result<Plan, SweepFileError> {
                 let (scene, backend) = with(&settings)?;
                 let text = toml::to_string(&scene)
                     .map_err(|e| fail(None, format!("the reference: {e}")))?;
-                let key = format!("{:016x}", fnv(format!("{backend}\n{text}").as_bytes()));
+                let key = format!("{:016x}", fnv1a(format!("{backend}\n{text}").into_bytes()));
                 Some(PlannedReference {
                     backend,
                     scene_toml: text,
@@ -220,7 +221,7 @@ pub fn make(spec: &SweepSpec) -> Result<Plan, SweepFileError> {
         format: FORMAT,
         id: format!(
             "{:012x}",
-            fnv(format!("{}{stamp}{}", sweep_file.display(), std::process::id()).as_bytes())
+            fnv1a(format!("{}{stamp}{}", sweep_file.display(), std::process::id()).into_bytes())
                 & 0xffff_ffff_ffff
         ),
         sweep_file,
@@ -257,13 +258,6 @@ fn check_scene(scene: &toml::Table, origin: &SceneOrigin) -> Result<(), String> 
             true => e.message,
             false => format!("{}: {}", e.field, e.message),
         })
-}
-
-/// 64-bit FNV-1a.
-pub fn fnv(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
 }
 
 /// Write `value` as JSON to `path` atomically: a reader finds the whole file or none (written

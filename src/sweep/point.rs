@@ -7,9 +7,8 @@
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
 
-use crate::backend::{self, StopFlags};
+use crate::backend::{BackendError, StopFlags};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::run::prepare;
@@ -19,9 +18,6 @@ use super::plan::{self, Layout, Plan, PlannedPoint, device, request};
 use super::properties;
 use super::reference;
 use super::result::{EndEnergies, Load, PointResult, Status};
-
-/// How many substeps a timed run hands the backend at once (a GPU encodes them together).
-const BATCH: u32 = 1000;
 
 /// Run point `index` of the sweep in `dir`, unless it is done already: its result either way,
 /// or `Ok(None)` when `cancel` stopped it (nothing of it is kept as a result).
@@ -73,7 +69,10 @@ struct Held(std::path::PathBuf);
 impl Held {
     fn new(folder: &Path) -> Self {
         let path = folder.join("running");
-        let _ = std::fs::write(&path, format!("{} {}\n", std::process::id(), host()));
+        let _ = std::fs::write(
+            &path,
+            format!("{} {}\n", std::process::id(), super::result::host()),
+        );
         Self(path)
     }
 }
@@ -108,15 +107,8 @@ fn blank(point: &PlannedPoint, load: Load) -> PointResult {
         error_rms_m: None,
         digest: None,
         recording: None,
-        host: host(),
+        host: super::result::host(),
     }
-}
-
-fn host() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .map(|h| h.trim().to_owned())
-        .or_else(|_| std::env::var("HOSTNAME"))
-        .unwrap_or_else(|_| "unknown".to_owned())
 }
 
 /// Fill `result`: `false` when `cancel` stopped the point.
@@ -173,7 +165,7 @@ fn run(
         }
     }
     if result.status != Status::Diverged {
-        let Timed::Ended(end) = timed(plan, point, result, &model, &settings, cancel)? else {
+        let TimedEnd::Ended(end) = timed(plan, point, result, &model, &settings, cancel)? else {
             recording.end(None)?;
             return Ok(false);
         };
@@ -190,7 +182,7 @@ fn run(
 }
 
 /// How the timed runs ended.
-enum Timed {
+enum TimedEnd {
     /// With the end positions, where they got there.
     Ended(Option<Vec<glam::Vec3>>),
     Cancelled,
@@ -222,49 +214,44 @@ fn timed(
     model: &Arc<Model>,
     settings: &Settings,
     cancel: &Arc<AtomicBool>,
-) -> Result<Timed> {
-    let device = device(&point.backend);
+) -> Result<TimedEnd> {
     let steps = settings.frames * u64::from(settings.substeps);
-    let mut times = Vec::new();
-    let mut end_x = None;
-    for run in 0..plan.repeat.max(1) {
-        let mut be = device.create(model.clone(), settings.step())?;
-        be.watch(StopFlags::new([cancel.clone()]));
-        let b0 = be.snapshot(0, Default::default())?.energies.balance_j();
-        let start = Instant::now();
-        let stepped = backend::advance_steps(be.as_mut(), steps, BATCH).and_then(|()| be.finish());
-        if cancel.load(Ordering::SeqCst) {
-            return Ok(Timed::Cancelled);
-        }
-        if let Err(e) = stepped {
+    let runs = crate::accuracy::timed_runs(
+        model,
+        &device(&point.backend),
+        settings.step(),
+        steps,
+        plan.repeat,
+        &StopFlags::new([cancel.clone()]),
+    );
+    if cancel.load(Ordering::SeqCst) {
+        return Ok(TimedEnd::Cancelled);
+    }
+    let t = match runs {
+        Ok(t) => t,
+        Err(e @ (BackendError::Device(_) | BackendError::Internal(_))) => return Err(e.into()),
+        Err(e) => {
             // The recorded run got through, so this is the same divergence only if the
             // backend is not deterministic: say what happened all the same.
             result.status = Status::Diverged;
-            result.message = Some(format!("timed run {}: {e}", run + 1));
-            return Ok(Timed::Ended(None));
+            result.message = Some(format!("a timed run: {e}"));
+            return Ok(TimedEnd::Ended(None));
         }
-        times.push(start.elapsed().as_secs_f64());
-        if run + 1 == plan.repeat.max(1) {
-            let end = be.snapshot(1, Default::default())?;
-            let state = be.state()?;
-            let e = end.energies;
-            result.energies = Some(EndEnergies {
-                kinetic_j: e.kinetic_j,
-                elastic_j: e.elastic_j,
-                gravity_j: e.gravity_j,
-                contact_j: e.contact_j,
-                balance_j: e.balance_j(),
-                balance_change_j: e.balance_j() - b0,
-            });
-            result.digest = Some(format!("{:016x}", state.digest()));
-            end_x = Some(state.x);
-        }
-    }
-    result.wall_secs_each = times.clone();
-    times.sort_by(f64::total_cmp);
-    let median = times[times.len() / 2];
+    };
+    let e = t.end.energies;
+    result.energies = Some(EndEnergies {
+        kinetic_j: e.kinetic_j,
+        elastic_j: e.elastic_j,
+        gravity_j: e.gravity_j,
+        contact_j: e.contact_j,
+        balance_j: e.balance_j(),
+        balance_change_j: e.balance_j() - t.start_balance_j,
+    });
+    result.digest = Some(format!("{:016x}", t.state.digest()));
+    let median = t.median_secs();
     result.wall_secs = Some(median);
     result.steps_per_sec = Some(steps as f64 / median.max(1e-12));
+    result.wall_secs_each = t.wall_secs;
     result.status = Status::Ok;
-    Ok(Timed::Ended(end_x))
+    Ok(TimedEnd::Ended(Some(t.state.x)))
 }

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::backend::{self, StopFlags};
+use crate::backend::StopFlags;
 use crate::error::{Error, Result};
 use crate::run::prepare;
 
@@ -42,17 +42,16 @@ pub fn end(
         ))
     };
     let request = super::plan::request(plan, &r.scene_toml, &r.backend)?;
-    let mut prepared =
-        prepare::prepare(&request, &mut |_| {}).map_err(|e| failed(e.to_string()))?;
-    let s = &prepared.settings;
+    let planned = prepare::plan(&request, &mut |_| {}).map_err(|e| failed(e.to_string()))?;
+    let s = &planned.settings;
     let steps = s.frames * u64::from(s.substeps);
-    prepared.backend.watch(StopFlags::new([cancel.clone()]));
-    let stepped = backend::advance_steps(prepared.backend.as_mut(), steps, 1000);
+    let stop = StopFlags::new([cancel.clone()]);
+    let run =
+        crate::accuracy::timed_runs(&planned.model, &request.device, s.step(), steps, 1, &stop);
     if cancel.load(Ordering::SeqCst) {
         return Ok(None);
     }
-    stepped.map_err(|e| failed(e.to_string()))?;
-    let state = prepared.backend.state()?;
+    let state = run.map_err(|e| failed(e.to_string()))?.state;
     let end = ReferenceEnd {
         integrator: s.integrator.name().to_owned(),
         dt_secs: s.dt_secs,

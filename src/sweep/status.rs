@@ -47,8 +47,7 @@ fn running_here(layout: &Layout, index: usize) -> bool {
     let (Some(pid), Some(host)) = (words.next(), words.next()) else {
         return false;
     };
-    let here = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    host == here.trim() && Path::new("/proc").join(pid).exists()
+    host == result::host() && Path::new("/proc").join(pid).exists()
 }
 
 /// The points a resume runs: those without a result, or with a failed one, that nothing runs now.

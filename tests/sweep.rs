@@ -397,3 +397,40 @@ fn a_submission_slurm_refuses_is_one_message_in_slurms_words() {
     let status = run_ok(&["sweep", "status", &out.to_string_lossy()]);
     assert!(status.contains("8 points: 8 missing"), "{status}");
 }
+
+#[test]
+fn what_a_point_was_told_stays_with_its_result() {
+    let dir = temp_dir("sweep-notes");
+    let file = dir.join("notes.toml");
+    // 1/740 s does not divide the frame: the run rounds it, and says so.
+    std::fs::write(
+        &file,
+        "scene = \"hair\"\n[set]\nbackend = \"cpu\"\n\"solver.duration_secs\" = 0.25\n[axes]\ndt_secs = [\"1/740\", \"1/720\"]\n",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let out = dir.join("sweep");
+    let said = run_ok(&[
+        "sweep",
+        "run",
+        &file.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    assert!(said.contains("ok, with 1 note(s)"), "{said}");
+    let r = results(&out, 2);
+    assert!(
+        r[0].notes
+            .iter()
+            .any(|n| n.contains("does not divide the frame")),
+        "{:?}",
+        r[0].notes
+    );
+    assert!(
+        r[1].notes.is_empty(),
+        "1/720 s divides the frame: {:?}",
+        r[1].notes
+    );
+    run_ok(&["sweep", "report", &out.to_string_lossy()]);
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(md.contains("ok, 1 note(s): note: dt ="), "{md}");
+}

@@ -71,6 +71,9 @@ pub struct RunSummary {
     pub sim_time_secs: f64,
     pub wall_secs: f64,
     pub cancelled: bool,
+    /// What the run's watch said on the way (a solver short of its rule, energy from nowhere),
+    /// each as printed.
+    pub notes: Vec<String>,
 }
 
 /// Run a scene into `rec`. On divergence every good frame is recorded and flushed before the
@@ -122,9 +125,11 @@ pub fn run(
             Some(&back_rx),
         )
     };
+    let mut notes = Vec::new();
     let log = |snap: Snapshot, progress: &mut Progress| {
         for note in &snap.notes {
             progress.suspend(|| eprintln!("{note}"));
+            notes.push(note.to_string());
         }
         recorder.log_snapshot(&snap)?;
         let frame = snap.frame;
@@ -158,6 +163,7 @@ pub fn run(
             / settings.frame_rate_hz,
         wall_secs: start.elapsed().as_secs_f64(),
         cancelled: outcome.cancelled,
+        notes,
     })
 }
 

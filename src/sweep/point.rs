@@ -152,7 +152,8 @@ fn run(
             recording.end(None)?;
             return Ok(false);
         }
-        Ok(_) => {}
+        // A run that went on past a warning is a result the user must be told about with it.
+        Ok(summary) => result.notes.extend(summary.notes),
         Err(Error::Backend(e)) => {
             result.status = Status::Diverged;
             result.message = Some(e.to_string());

@@ -40,7 +40,7 @@ pub fn csv(plan: &Plan, results: &[PointResult]) -> String {
         out.push(',');
         out.push_str(&csv_field(v));
     }
-    out.push_str(",status,integrator,dt_secs,substeps,steps,masses,stable_dt_secs,above_estimate,wall_secs,repeats,load,steps_per_sec,error_rms_m,balance_change_j,digest,message\n");
+    out.push_str(",status,integrator,dt_secs,substeps,steps,masses,stable_dt_secs,above_estimate,wall_secs,repeats,load,steps_per_sec,error_rms_m,balance_change_j,digest,message,notes\n");
     for r in results {
         let _ = write!(out, "{}", r.index);
         for v in &plan.varied {
@@ -53,7 +53,7 @@ pub fn csv(plan: &Plan, results: &[PointResult]) -> String {
         }
         let _ = writeln!(
             out,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.status,
             r.integrator.as_deref().unwrap_or(""),
             num(r.dt_secs),
@@ -73,6 +73,7 @@ pub fn csv(plan: &Plan, results: &[PointResult]) -> String {
             num(r.energies.map(|e| e.balance_change_j)),
             r.digest.as_deref().unwrap_or(""),
             csv_field(r.message.as_deref().unwrap_or("")),
+            csv_field(&r.notes.join(" | ")),
         );
     }
     out
@@ -100,9 +101,16 @@ pub fn markdown(plan: &Plan, results: &[PointResult]) -> String {
     out.push_str("| # | point | status | dt (s) | wall (s) | steps/s | error RMS (m) | balance change (J) |\n");
     out.push_str("|---:|---|---|---:|---:|---:|---:|---:|\n");
     for r in results {
-        let status = match (&r.status, &r.message) {
-            (Status::Ok, _) | (_, None) => r.status.to_string(),
-            (s, Some(m)) => format!("{s}: {}", m.replace('|', "/").lines().next().unwrap_or("")),
+        let status = match (&r.status, &r.message, r.notes.first()) {
+            (Status::Ok, _, None) | (_, None, None) => r.status.to_string(),
+            // What the run warned of stands beside an ok (results.csv has every note).
+            (Status::Ok, _, Some(n)) | (_, None, Some(n)) => format!(
+                "{}, {} note(s): {}",
+                r.status,
+                r.notes.len(),
+                n.replace('|', "/").lines().next().unwrap_or("")
+            ),
+            (s, Some(m), _) => format!("{s}: {}", m.replace('|', "/").lines().next().unwrap_or("")),
         };
         let _ = writeln!(
             out,

@@ -61,7 +61,9 @@ pub struct PointResult {
     pub status: Status,
     /// Why a point diverged, was refused or failed.
     pub message: Option<String>,
-    /// What the run said about how its values were applied (a rounded step, a warning).
+    /// What the run said about how its values were applied (a rounded step, a step above the
+    /// estimate) and what its watch said on the way (a solver short of its rule, energy from
+    /// nowhere).
     pub notes: Vec<String>,
     /// The device it ran on, as the run describes it.
     pub backend: Option<String>,

@@ -34,7 +34,13 @@ impl Tally {
                     Status::Refused => self.refused += 1,
                     Status::Failed => self.failed += 1,
                 }
-                let why = r.message.map(|m| format!(": {m}")).unwrap_or_default();
+                let why = match (r.message, r.notes.len()) {
+                    (Some(m), _) => format!(": {m}"),
+                    (None, 0) => String::new(),
+                    (None, n) => {
+                        format!(", with {n} note(s) (result.json has them): {}", r.notes[0])
+                    }
+                };
                 format!("point {index} ({label}): {}{why}", r.status)
             }
             None => {

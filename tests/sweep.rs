@@ -37,6 +37,13 @@ fn run_ok(args: &[&str]) -> String {
     said
 }
 
+/// `hooke sweep run FILE --out OUT EXTRA…`, which must succeed: what it said.
+fn sweep_run(file: &str, out: &str, extra: &[&str]) -> String {
+    let mut args = vec!["sweep", "run", file, "--out", out];
+    args.extend_from_slice(extra);
+    run_ok(&args)
+}
+
 /// Whether a Slurm cluster answers here; a missing one fails under `HOOKE_REQUIRE_SLURM=1`.
 fn slurm_here(test: &str) -> bool {
     let answers = Command::new("sinfo")
@@ -122,13 +129,7 @@ fn a_local_sweep_converges_at_each_integrators_order_and_writes_its_report() {
         plan.contains("8 points varying integrator, dt_secs, bodies.cloth.springs.structural.stiffness_n_per_m"),
         "{plan}"
     );
-    run_ok(&[
-        "sweep",
-        "run",
-        &repo(SMALL).to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-    ]);
+    sweep_run(&repo(SMALL).to_string_lossy(), &out.to_string_lossy(), &[]);
     let r = results(&out, 8);
     assert!(r.iter().all(|p| p.status == Status::Ok), "{r:#?}");
     // Grid order: integrator slowest, then dt (1/1200, 1/600), then stiffness. Halving the step
@@ -219,16 +220,8 @@ fn a_slurm_sweep_ends_bit_for_bit_where_the_local_one_does() {
     let dir = temp_dir("sweep-slurm");
     let (local, slurm) = (dir.join("local"), dir.join("slurm"));
     let file = repo(SMALL).to_string_lossy().into_owned();
-    run_ok(&["sweep", "run", &file, "--out", &local.to_string_lossy()]);
-    let said = run_ok(&[
-        "sweep",
-        "run",
-        &file,
-        "--out",
-        &slurm.to_string_lossy(),
-        "--on",
-        "slurm",
-    ]);
+    sweep_run(&file, &local.to_string_lossy(), &[]);
+    let said = sweep_run(&file, &slurm.to_string_lossy(), &["--on", "slurm"]);
     assert!(said.contains("submitted Slurm job"), "{said}");
     let script =
         std::fs::read_to_string(slurm.join("slurm/array.sh")).unwrap_or_else(|e| panic!("{e}"));
@@ -272,16 +265,11 @@ fn a_slurm_task_killed_mid_point_leaves_no_result_and_resume_completes_the_sweep
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let out = dir.join("sweep");
-    let said = run_ok(&[
-        "sweep",
-        "run",
+    let said = sweep_run(
         &file.to_string_lossy(),
-        "--out",
         &out.to_string_lossy(),
-        "--on",
-        "slurm",
-        "--detach",
-    ]);
+        &["--on", "slurm", "--detach"],
+    );
     let job = said
         .split("submitted Slurm job ")
         .nth(1)
@@ -410,13 +398,7 @@ fn what_a_point_was_told_stays_with_its_result() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let out = dir.join("sweep");
-    let said = run_ok(&[
-        "sweep",
-        "run",
-        &file.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-    ]);
+    let said = sweep_run(&file.to_string_lossy(), &out.to_string_lossy(), &[]);
     assert!(said.contains("ok, with 1 note(s)"), "{said}");
     let r = results(&out, 2);
     assert!(

@@ -90,7 +90,7 @@ fn dispatch(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<Outcome> {
             })?;
             cli::check(&planned, &device)?;
         }
-        Command::Bench { which } => cli::bench(which)?,
+        Command::Bench { which } => return cli::bench(which),
         Command::Sweep { which } => return cli::sweep(which),
         Command::Run {
             scene,

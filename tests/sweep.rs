@@ -45,7 +45,7 @@ fn sweep_run(file: &str, out: &str, extra: &[&str]) -> String {
 }
 
 /// Whether a Slurm cluster answers here; a missing one fails under `HOOKE_REQUIRE_SLURM=1`.
-fn slurm_here(test: &str) -> bool {
+pub(crate) fn slurm_here(test: &str) -> bool {
     let answers = Command::new("sinfo")
         .args(["-h", "-o", "%T"])
         .output()

@@ -1,10 +1,10 @@
-//! The work-precision chart: RMS error against wall time per simulated second, log–log, as SVG.
+//! The work-precision chart, log–log, as SVG: error against cost, one line of points per
+//! series (an integrator), each point labelled (by its step). `bench accuracy`'s chart and
+//! `sweep report`'s are this one.
 
 use std::fmt::Write as _;
 
 use crate::integrator::Integrator;
-
-use super::results::Accuracy;
 
 /// One colour per integrator, in `Integrator::ALL`'s order (a new integrator fails the build
 /// until it has its own).
@@ -13,15 +13,70 @@ const COLORS: [&str; Integrator::ALL.len()] = [
     "#bcbd22",
 ];
 
-/// The work-precision chart: RMS error against wall time per simulated second, log–log.
-pub fn svg(r: &Accuracy) -> String {
-    let pts: Vec<(f64, f64)> = r
-        .rows
+/// The colour of an integrator's line.
+pub fn color_of(integrator: Integrator) -> &'static str {
+    let k = Integrator::ALL
         .iter()
-        .filter(|p| p.stable && p.rms_error_m > 0.0)
-        .map(|p| (p.wall_secs_per_sim_sec.max(1e-9), p.rms_error_m))
+        .position(|&i| i == integrator)
+        .unwrap_or(0);
+    COLORS[k % COLORS.len()]
+}
+
+/// What a chart shows.
+#[derive(Debug, Clone)]
+pub struct Chart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+    /// Below the legend: what was left out.
+    pub note: Option<String>,
+}
+
+/// One line of points, in the order given.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub name: String,
+    pub color: &'static str,
+    pub points: Vec<ChartPoint>,
+}
+
+#[derive(Debug, Clone)]
+pub struct ChartPoint {
+    pub x: f64,
+    pub y: f64,
+    /// Beside the point (its step).
+    pub label: String,
+    /// On hovering it.
+    pub title: String,
+}
+
+impl ChartPoint {
+    /// Both coordinates positive and finite: drawable on log axes.
+    fn drawable(&self) -> bool {
+        self.x > 0.0 && self.y > 0.0 && self.x.is_finite() && self.y.is_finite()
+    }
+}
+
+/// The chart as SVG.
+pub fn svg(chart: &Chart) -> String {
+    let pts: Vec<(f64, f64)> = chart
+        .series
+        .iter()
+        .flat_map(|s| &s.points)
+        .filter(|p| p.drawable())
+        .map(|p| (p.x, p.y))
         .collect();
-    let (w, h, ml, mr, mt, mb) = (760.0, 500.0, 80.0, 190.0, 40.0, 60.0);
+    let legend_chars = chart
+        .series
+        .iter()
+        .map(|s| s.name.chars().count())
+        .chain(chart.note.iter().map(|n| n.chars().count()))
+        .max()
+        .unwrap_or(0);
+    // The legend's column is as wide as its longest entry (6.5 px a character at 12 px).
+    let mr = (60.0 + 6.5 * legend_chars as f64).clamp(120.0, 320.0);
+    let (w, h, ml, mt, mb) = (580.0 + mr, 500.0, 80.0, 40.0, 60.0);
     let lx = |v: f64| v.log10();
     let bounds = |f: fn(&(f64, f64)) -> f64| {
         let lo = pts
@@ -53,8 +108,8 @@ pub fn svg(r: &Accuracy) -> String {
         y: (y0, y1),
     };
     let mut s = String::new();
-    frame(&plot, r, &mut s);
-    series(&plot, r, &mut s);
+    frame(&plot, chart, &mut s);
+    series(&plot, chart, &mut s);
     s.push_str("</svg>\n");
     s
 }
@@ -85,7 +140,7 @@ impl Plot {
 }
 
 /// The frame: title, grid lines with their decades, axis labels.
-fn frame(plot: &Plot, r: &Accuracy, s: &mut String) {
+fn frame(plot: &Plot, chart: &Chart, s: &mut String) {
     let Plot {
         w,
         h,
@@ -105,8 +160,9 @@ fn frame(plot: &Plot, r: &Accuracy, s: &mut String) {
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="{}" y="22" font-size="15">What accuracy costs: {} ({} s simulated)</text>"#,
-        ml, r.scene, r.duration_secs
+        r#"<text x="{}" y="22" font-size="15">{}</text>"#,
+        ml,
+        xml(&chart.title)
     );
     for d in (x0 as i32)..=(x1 as i32) {
         let x = px(10f64.powi(d));
@@ -129,48 +185,48 @@ fn frame(plot: &Plot, r: &Accuracy, s: &mut String) {
     }
     let _ = writeln!(
         s,
-        r#"<text x="{}" y="{}" text-anchor="middle">wall time per simulated second (s)</text>"#,
+        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
         (ml + w - mr) / 2.0,
-        h - 15.0
+        h - 15.0,
+        xml(&chart.x_label)
     );
     let _ = writeln!(
         s,
-        r#"<text x="18" y="{}" transform="rotate(-90 18 {})" text-anchor="middle">RMS position error (m)</text>"#,
+        r#"<text x="18" y="{}" transform="rotate(-90 18 {})" text-anchor="middle">{}</text>"#,
         (mt + h - mb) / 2.0,
-        (mt + h - mb) / 2.0
+        (mt + h - mb) / 2.0,
+        xml(&chart.y_label)
     );
 }
 
-/// One line of points per integrator, and the legend.
-fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
+/// One line of points per series, and the legend.
+fn series(plot: &Plot, chart: &Chart, s: &mut String) {
     let Plot { w, mr, mt, .. } = *plot;
     let px = |v: f64| plot.px(v);
     let py = |v: f64| plot.py(v);
-    for (k, integrator) in Integrator::ALL.iter().enumerate() {
-        let c = COLORS[k];
-        let points: Vec<(f64, f64, f64)> = r
-            .rows
+    for (k, one) in chart.series.iter().enumerate() {
+        let c = one.color;
+        let points: Vec<&ChartPoint> = one.points.iter().filter(|p| p.drawable()).collect();
+        let path: Vec<String> = points
             .iter()
-            .filter(|p| p.integrator == *integrator && p.stable && p.rms_error_m > 0.0)
-            .map(|p| {
-                let x = px(p.wall_secs_per_sim_sec.max(1e-9));
-                (x, py(p.rms_error_m), p.dt_secs)
-            })
+            .map(|p| format!("{:.1},{:.1}", px(p.x), py(p.y)))
             .collect();
-        let line: Vec<(f64, f64)> = points.iter().map(|&(x, y, _)| (x, y)).collect();
-        let path: Vec<String> = line.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
-        let _ = writeln!(
-            s,
-            r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="2"/>"#,
-            path.join(" ")
-        );
-        // Each point names its step.
-        for (x, y, dt) in &points {
+        if path.len() > 1 {
             let _ = writeln!(
                 s,
-                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{c}"><title>{integrator} at dt = {dt:.3e} s</title></circle><text x="{:.1}" y="{:.1}" font-size="9" fill="{c}">{dt:.1e}</text>"#,
+                r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="2"/>"#,
+                path.join(" ")
+            );
+        }
+        for p in &points {
+            let (x, y) = (px(p.x), py(p.y));
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{c}"><title>{}</title></circle><text x="{:.1}" y="{:.1}" font-size="9" fill="{c}">{}</text>"#,
+                xml(&p.title),
                 x + 5.0,
-                y - 5.0
+                y - 5.0,
+                xml(&p.label)
             );
         }
         let ly = mt + 20.0 + 22.0 * k as f64;
@@ -181,14 +237,24 @@ fn series(plot: &Plot, r: &Accuracy, s: &mut String) {
             w - mr + 40.0,
             w - mr + 46.0,
             ly + 4.0,
-            integrator
+            xml(&one.name)
         );
     }
-    let _ = writeln!(
-        s,
-        r##"<text x="{}" y="{}" fill="#666">diverged runs are left out</text>"##,
-        w - mr + 15.0,
-        // Below the last legend entry, not over one (it overprinted xpbd's).
-        mt + 20.0 + 22.0 * Integrator::ALL.len() as f64 + 4.0
-    );
+    if let Some(note) = &chart.note {
+        let _ = writeln!(
+            s,
+            r##"<text x="{}" y="{}" fill="#666">{}</text>"##,
+            w - mr + 15.0,
+            // Below the last legend entry, not over one (it overprinted xpbd's).
+            mt + 20.0 + 22.0 * chart.series.len() as f64 + 4.0,
+            xml(note)
+        );
+    }
+}
+
+fn xml(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

@@ -69,8 +69,22 @@ impl Reference {
 
     /// Advance to `until` with RK4 steps of at most `h` (the last one shortened to land on it).
     pub fn advance_to(&mut self, until: f64, h: f64) {
+        self.advance_to_unless(until, h, &std::sync::atomic::AtomicBool::new(false));
+    }
+
+    /// [`Self::advance_to`], stopping between steps once `cancel` is set: `false` when it did
+    /// (a long reference is interruptible like any run).
+    pub fn advance_to_unless(
+        &mut self,
+        until: f64,
+        h: f64,
+        cancel: &std::sync::atomic::AtomicBool,
+    ) -> bool {
         let stick_dt = h;
         while self.time_secs < until - 1e-12 {
+            if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                return false;
+            }
             let h = h.min(until - self.time_secs);
             let t = self.time_secs;
             let (x, v) = (&self.x, &self.v);
@@ -97,6 +111,7 @@ impl Reference {
             self.v = v_next;
             self.time_secs += h;
         }
+        true
     }
 }
 

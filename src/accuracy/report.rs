@@ -7,7 +7,6 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::integrator::Integrator;
 
-use super::chart::svg;
 use super::results::{Accuracy, Found, Row};
 
 fn fmt_num(v: f64) -> String {
@@ -22,8 +21,11 @@ pub fn markdown(r: &Accuracy) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Scene `{}`, {} s simulated, against f64 RK4 at dt = {:.3e} s.\n",
-        r.scene, r.duration_secs, r.reference_dt_secs
+        "Scene `{}`, {} s simulated, against f64 RK4 at dt = {:.3e} s. Wall time: the median of {}.\n",
+        r.scene,
+        r.duration_secs,
+        r.reference_dt_secs,
+        repeats_text(r.repeats)
     );
     let _ = writeln!(
         s,
@@ -82,6 +84,17 @@ pub fn markdown(r: &Accuracy) -> String {
     s
 }
 
+/// How many timed runs a row's wall time is the median of, in words.
+fn repeats_text(r: super::timing::Repeats) -> String {
+    match (r.most.max(1), r.while_first_under_secs) {
+        (1, _) => "1 timed run of each point".to_owned(),
+        (n, Some(under)) => format!(
+            "{n} timed runs of each point whose first took under {under} s (1 of the others)"
+        ),
+        (n, None) => format!("{n} timed runs of each point"),
+    }
+}
+
 /// The fast end: each solver at one step per frame, cheapest first, and how wrong it is there
 /// ("what is the cheapest way to run this scene at one step per frame, and how wrong is it").
 fn at_frame_rate(r: &Accuracy) -> String {
@@ -131,27 +144,44 @@ const ERROR_LEVELS_M: [f64; 7] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
 /// that large, and must not decide the answer.
 pub const TIE_SHARE: f64 = 0.10;
 
-/// For each error level, the cheapest runs (least wall time per simulated second) that stayed
-/// stable and reached it, every run within [`TIE_SHARE`] of the cheapest included, in the
-/// report's own order (integrator, then dt): "which solver for this accuracy, at what cost".
-pub fn cheapest_per_level(r: &Accuracy) -> Vec<(f64, Vec<&Row>)> {
+/// For each error level, the cheapest of `items` that reached it, every one within
+/// [`TIE_SHARE`] of the cheapest's cost included, in the items' own order: "which solver for
+/// this accuracy, at what cost". `measure` gives an item's error (m) and cost, or `None` for
+/// one that is no answer (diverged). `bench accuracy`'s guidance and `sweep report`'s table.
+pub fn cheapest_per_level<T>(
+    items: &[T],
+    measure: impl Fn(&T) -> Option<(f64, f64)>,
+) -> Vec<(f64, Vec<&T>)> {
     ERROR_LEVELS_M
         .iter()
         .map(|&level| {
-            let reached = || {
-                r.rows
-                    .iter()
-                    .filter(move |row| row.stable && row.rms_error_m <= level)
-            };
-            let least = reached()
-                .map(|row| row.wall_secs_per_sim_sec)
+            let reached: Vec<(&T, f64)> = items
+                .iter()
+                .filter_map(|item| {
+                    let (error, cost) = measure(item)?;
+                    (error <= level && cost.is_finite()).then_some((item, cost))
+                })
+                .collect();
+            let least = reached
+                .iter()
+                .map(|&(_, cost)| cost)
                 .fold(f64::INFINITY, f64::min);
-            let tied = reached()
-                .filter(|row| row.wall_secs_per_sim_sec <= least * (1.0 + TIE_SHARE))
+            let tied = reached
+                .into_iter()
+                .filter(|&(_, cost)| cost <= least * (1.0 + TIE_SHARE))
+                .map(|(item, _)| item)
                 .collect();
             (level, tied)
         })
         .collect()
+}
+
+/// [`cheapest_per_level`] of a measurement's stable rows, by wall time per simulated second.
+pub fn cheapest_rows(r: &Accuracy) -> Vec<(f64, Vec<&Row>)> {
+    cheapest_per_level(&r.rows, |row| {
+        row.stable
+            .then_some((row.rms_error_m, row.wall_secs_per_sim_sec))
+    })
 }
 
 fn guidance(r: &Accuracy) -> String {
@@ -159,7 +189,7 @@ fn guidance(r: &Accuracy) -> String {
         "\n| RMS error at most | cheapest solver measured (within {:.0}% of each other: a tie) | dt (s) | wall s per sim s |\n|---:|---|---:|---:|\n",
         100.0 * TIE_SHARE
     );
-    for (level, tied) in cheapest_per_level(r) {
+    for (level, tied) in cheapest_rows(r) {
         if tied.is_empty() {
             let _ = writeln!(s, "| {level:.0e} m | none of the runs | — | — |");
             continue;
@@ -218,7 +248,7 @@ fn csv(r: &Accuracy) -> String {
 }
 
 /// `dir` can hold the outputs: it is a folder, or can be made one.
-pub(super) fn check_out_dir(dir: &Path) -> Result<()> {
+pub fn check_out_dir(dir: &Path) -> Result<()> {
     let io = |source: std::io::Error| Error::WriteOutput {
         path: dir.to_owned(),
         source,
@@ -232,13 +262,18 @@ pub(super) fn check_out_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(io)
 }
 
-pub(super) fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
+/// `accuracy-SCENE.md`, `.csv` and `.svg` (`chart`, the work-precision chart) in `dir`.
+pub fn write_outputs(r: &Accuracy, chart: &str, dir: &Path) -> Result<()> {
     let io = |source: std::io::Error, p: &Path| Error::WriteOutput {
         path: p.to_owned(),
         source,
     };
     check_out_dir(dir)?;
-    for (ext, text) in [("md", markdown(r)), ("csv", csv(r)), ("svg", svg(r))] {
+    for (ext, text) in [
+        ("md", markdown(r)),
+        ("csv", csv(r)),
+        ("svg", chart.to_owned()),
+    ] {
         let p = dir.join(format!("accuracy-{}.{ext}", r.scene));
         std::fs::write(&p, text).map_err(|e| io(e, &p))?;
     }
@@ -247,7 +282,7 @@ pub(super) fn write_outputs(r: &Accuracy, dir: &Path) -> Result<()> {
 
 /// The same series in Rerun: per integrator, error and cost along the `dt_index` timeline
 /// (0 = coarsest step).
-pub(super) fn record(r: &Accuracy, path: &Path) -> Result<()> {
+pub fn record(r: &Accuracy, path: &Path) -> Result<()> {
     let rec = rerun::RecordingStreamBuilder::new("hooke-accuracy")
         .save(path)
         .map_err(|e| Error::rerun_while(format!("creating {}", path.display()), e))?;

@@ -68,4 +68,6 @@ pub struct Accuracy {
     pub frame_dt_secs: Option<f64>,
     pub rows: Vec<Row>,
     pub stable: Vec<StableDt>,
+    /// How each row's wall time was taken: the median of this many timed runs.
+    pub repeats: super::timing::Repeats,
 }

@@ -15,7 +15,7 @@ use super::results::Found;
 pub const IMPLICIT_SEARCH_UP_TO_SECS: f64 = 0.1;
 
 /// The energy against which a run's balance drift is judged: the initial mechanical energy.
-pub(super) fn energy_scale(model: &Model) -> f64 {
+pub fn energy_scale(model: &Model) -> f64 {
     let e0 = crate::cpu::compute_energies(model, &model.springs, &model.initial);
     e0.total_j().abs().max(e0.kinetic_j).max(1e-6)
 }
@@ -23,12 +23,12 @@ pub(super) fn energy_scale(model: &Model) -> f64 {
 /// Stable: stays finite, and gains less than a tenth of the initial mechanical energy (a weakly
 /// unstable scheme grows without ever overflowing in a short run). Losing energy is not
 /// instability: a damped, bounded run is stable, and its loss is reported apart.
-pub(super) fn stayed_stable(balance_change_j: f64, scale: f64) -> bool {
+pub fn stayed_stable(balance_change_j: f64, scale: f64) -> bool {
     balance_change_j.is_finite() && balance_change_j < 0.1 * scale
 }
 
 /// Energy lost beyond the ledger, in percent of `scale`.
-pub(super) fn dissipated_pct(balance_change_j: f64, scale: f64) -> f64 {
+pub fn dissipated_pct(balance_change_j: f64, scale: f64) -> f64 {
     if balance_change_j.is_finite() {
         100.0 * (-balance_change_j).max(0.0) / scale
     } else {

@@ -1,7 +1,8 @@
 //! `hooke bench`: how fast a backend steps (`throughput`, `--effects`), what the recorder costs
-//! (`record`), and whether a long run holds its memory (`soak`). `bench accuracy` has a module of
-//! its own, [`crate::accuracy`].
+//! (`record`), whether a long run holds its memory (`soak`), and what accuracy costs
+//! (`accuracy`: a sweep of [`crate::accuracy`]'s ladder).
 
+pub mod accuracy;
 mod effects;
 mod record;
 mod soak;

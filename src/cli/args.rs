@@ -187,8 +187,9 @@ pub enum BenchCommand {
         /// frame (1/60 s at 60 frames/s), where only implicit Euler, VBD and XPBD survive.
         #[arg(long)]
         no_fast_end: bool,
-        /// Timed runs of each point; its wall time is their median (the physics of every run is
-        /// the same, bit for bit). Single runs of milliseconds let noise pick the cheapest solver.
+        /// Timed runs of each point whose first run takes under a second; its wall time is their
+        /// median (the physics of every run is the same, bit for bit). Single runs of
+        /// milliseconds let noise pick the cheapest solver.
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
         repeat: u32,
         /// Where the table, CSV and chart go.
@@ -197,6 +198,9 @@ pub enum BenchCommand {
         /// Also record the series to this .rrd file.
         #[arg(long)]
         save: Option<std::path::PathBuf>,
+        /// Where the runs go: they are a sweep's points (OUT/accuracy-SCENE.sweep).
+        #[command(flatten)]
+        exec: super::sweep::ExecArgs,
     },
     /// Each integrator's estimated stable step (`hooke check`'s) against the largest
     /// stable step measured by bisection, per scene: the estimate must never overshoot.

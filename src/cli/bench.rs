@@ -1,10 +1,13 @@
 //! `hooke bench`: each benchmark run through the library, its figures printed.
 
+use hooke::bench::accuracy::AccuracyOptions;
 use hooke::{accuracy, bench};
 
 use super::args::BenchCommand;
+use super::outcome::Outcome;
+use super::sweep::{ExecArgs, execute, on_interrupt};
 
-pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
+pub fn bench(which: BenchCommand) -> anyhow::Result<Outcome> {
     match which {
         BenchCommand::Soak {
             scene,
@@ -26,29 +29,21 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             repeat,
             out,
             save,
+            exec,
         } => {
-            let opts = accuracy::AccuracyOptions {
+            let opts = AccuracyOptions {
                 device: device.device(),
                 duration_secs: duration,
-                points,
-                coarsest,
-                fast_end: !no_fast_end,
+                ladder: accuracy::LadderOptions {
+                    points,
+                    coarsest,
+                    fast_end: !no_fast_end,
+                },
                 repeat,
                 out_dir: out.clone(),
                 rrd: save.clone(),
             };
-            let start = std::time::Instant::now();
-            let report = accuracy::accuracy(&scene, &opts, &mut |done| {
-                eprintln!("[{:>5.0} s] {done}", start.elapsed().as_secs_f64());
-            })?;
-            println!("{}", accuracy::markdown(&report));
-            println!(
-                "wrote {0}/accuracy-{1}.md, .csv and .svg (the work-precision chart){2}",
-                out.display(),
-                report.scene,
-                save.map(|p| format!("; recording {}", p.display()))
-                    .unwrap_or_default()
-            );
+            return bench_accuracy(&scene, &opts, &exec);
         }
         BenchCommand::Stability {
             scenes,
@@ -131,7 +126,51 @@ pub fn bench(which: BenchCommand) -> anyhow::Result<()> {
             throughput(scenes, &opts, Shown { effects, json })?;
         }
     }
-    Ok(())
+    Ok(Outcome::Done)
+}
+
+/// `bench accuracy`: its ladder planned as a sweep, the reference computed, the points run where
+/// `exec` says, then the stable steps searched and the tables written.
+fn bench_accuracy(scene: &str, opts: &AccuracyOptions, exec: &ExecArgs) -> anyhow::Result<Outcome> {
+    if exec.detach {
+        anyhow::bail!(
+            "bench accuracy waits for its points to write its tables: leave out --detach (`hooke sweep run --detach` submits a sweep and returns)"
+        );
+    }
+    let start = std::time::Instant::now();
+    let mut say = |done: &str| eprintln!("[{:>5.0} s] {done}", start.elapsed().as_secs_f64());
+    let sweep = bench::accuracy::plan(scene, opts)?;
+    let cancel = on_interrupt();
+    say(&format!(
+        "reference: f64 RK4 at dt = {:.3e} s",
+        sweep.reference_dt_secs()
+    ));
+    if !bench::accuracy::reference(&sweep, &cancel)? {
+        eprintln!("bench accuracy: interrupted while computing its reference");
+        return Ok(Outcome::Interrupted);
+    }
+    say(&format!(
+        "{} points (integrator × step) in {}",
+        sweep.plan.points.len(),
+        sweep.dir.display()
+    ));
+    let all: Vec<usize> = (0..sweep.plan.points.len()).collect();
+    if let Outcome::Interrupted = execute(&sweep.dir, &sweep.plan, &all, exec, &cancel)? {
+        return Ok(Outcome::Interrupted);
+    }
+    let report = bench::accuracy::finish(&sweep, opts, &mut say)?;
+    println!("{}", accuracy::markdown(&report));
+    println!(
+        "wrote {0}/accuracy-{1}.md, .csv and .svg (the work-precision chart){2}; each point's result in {3}",
+        opts.out_dir.display(),
+        report.scene,
+        opts.rrd
+            .as_ref()
+            .map(|p| format!("; recording {}", p.display()))
+            .unwrap_or_default(),
+        sweep.dir.display()
+    );
+    Ok(Outcome::Done)
 }
 
 /// What `bench throughput` prints besides its table.

@@ -124,7 +124,7 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 out.display()
             );
             let all: Vec<usize> = (0..plan.points.len()).collect();
-            execute(&out, &plan, &all, &exec)
+            execute(&out, &plan, &all, &exec, &on_interrupt())
         }
         SweepCommand::Resume { dir, exec } => {
             let plan = sweep::plan::read(&dir)?;
@@ -143,7 +143,7 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 plan.points.len(),
                 dir.display()
             );
-            execute(&dir, &plan, &left, &exec)
+            execute(&dir, &plan, &left, &exec, &on_interrupt())
         }
         SweepCommand::Status { dir } => {
             let plan = sweep::plan::read(&dir)?;
@@ -183,8 +183,9 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
     }
 }
 
-/// Ctrl-C and SIGTERM (Slurm's `scancel`) set the flag.
-fn on_interrupt() -> Arc<AtomicBool> {
+/// Ctrl-C and SIGTERM (Slurm's `scancel`) set the flag (once a process: a second handler is
+/// refused).
+pub fn on_interrupt() -> Arc<AtomicBool> {
     let cancel = Arc::new(AtomicBool::new(false));
     let flag = cancel.clone();
     if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {
@@ -193,11 +194,17 @@ fn on_interrupt() -> Arc<AtomicBool> {
     cancel
 }
 
-fn execute(dir: &Path, plan: &Plan, indices: &[usize], exec: &ExecArgs) -> anyhow::Result<Outcome> {
+/// Run `indices` of the sweep in `dir` where `exec` says, until they end or `cancel` is set.
+pub fn execute(
+    dir: &Path,
+    plan: &Plan,
+    indices: &[usize],
+    exec: &ExecArgs,
+    cancel: &Arc<AtomicBool>,
+) -> anyhow::Result<Outcome> {
     let binary = std::env::current_exe()
         .and_then(|p| p.canonicalize())
         .map_err(|e| anyhow::anyhow!("cannot find this hooke binary's own path: {e}"))?;
-    let cancel = on_interrupt();
     let bar = std::io::stderr().is_terminal();
     let tally = match exec.on {
         Executor::Local => {
@@ -208,7 +215,7 @@ fn execute(dir: &Path, plan: &Plan, indices: &[usize], exec: &ExecArgs) -> anyho
                 gpu_jobs: exec.gpu_jobs,
                 bar,
             };
-            sweep::local::run_local(dir, plan, indices, &opts, &cancel)?
+            sweep::local::run_local(dir, plan, indices, &opts, cancel)?
         }
         Executor::Slurm => {
             let opts = SlurmOptions {
@@ -233,7 +240,7 @@ fn execute(dir: &Path, plan: &Plan, indices: &[usize], exec: &ExecArgs) -> anyho
                 );
                 return Ok(Outcome::Done);
             }
-            match sweep::slurm::follow(dir, plan, &job, indices, &opts, bar, &cancel)? {
+            match sweep::slurm::follow(dir, plan, &job, indices, &opts, bar, cancel)? {
                 Some(t) => t,
                 None => {
                     eprintln!(
@@ -245,10 +252,10 @@ fn execute(dir: &Path, plan: &Plan, indices: &[usize], exec: &ExecArgs) -> anyho
             }
         }
     };
-    finish(dir, &tally, &cancel)
+    finish(dir, plan, &tally, cancel)
 }
 
-fn finish(dir: &Path, tally: &Tally, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
+fn finish(dir: &Path, plan: &Plan, tally: &Tally, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
     if cancel.load(Ordering::SeqCst) {
         eprintln!(
             "sweep: interrupted ({}); `hooke sweep resume {}` runs the points left",
@@ -266,11 +273,17 @@ fn finish(dir: &Path, tally: &Tally, cancel: &AtomicBool) -> anyhow::Result<Outc
             dir.display()
         );
     }
-    eprintln!(
-        "sweep: `hooke sweep report {}` writes the tables and chart; `rerun server -d {}` serves the recordings as one dataset",
-        dir.display(),
-        sweep::Layout::new(dir).points().display()
-    );
+    match plan.record {
+        true => eprintln!(
+            "sweep: `hooke sweep report {}` writes the tables and chart; `rerun server -d {}` serves the recordings as one dataset",
+            dir.display(),
+            sweep::Layout::new(dir).points().display()
+        ),
+        false => eprintln!(
+            "sweep: `hooke sweep report {}` writes the tables and chart",
+            dir.display()
+        ),
+    }
     Ok(Outcome::Done)
 }
 

@@ -23,7 +23,8 @@ pub use verdict::{TOLERANCE_M, Verdict};
 use crate::gpu::GpuBackend;
 
 /// When a run probes its adapter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Verify {
     /// The families with no verdict in the cache (a run's default).
     #[default]

@@ -76,6 +76,9 @@ pub struct SweepSpec {
     pub scene: String,
     /// Timed runs of each point; `None`: the sweep does not time (one run, its time kept).
     pub repeat: Option<u32>,
+    /// Whether each point is recorded before it is timed (`record = false` saves the time and
+    /// the disk when only the numbers matter).
+    pub record: bool,
     /// Applied to every point, before its own values.
     pub set: Vec<Setting>,
     /// Each point's own values, in the grid's order (the first axis varies slowest).
@@ -92,6 +95,8 @@ struct Raw {
     scene: String,
     #[serde(default)]
     repeat: Option<u32>,
+    #[serde(default)]
+    record: Option<bool>,
     #[serde(default)]
     set: Option<toml::Table>,
     #[serde(default)]
@@ -126,7 +131,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SweepSpec, SweepFileError> {
         file: path.to_owned(),
         at: e.span().map(|s| line_col(text, s.start)),
         message: format!(
-            "{} (a sweep file holds scene, repeat, [set], [axes] or [[points]], and [reference])",
+            "{} (a sweep file holds scene, repeat, record, [set], [axes] or [[points]], and [reference])",
             e.message().trim()
         ),
     })?;
@@ -207,6 +212,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SweepSpec, SweepFileError> {
         file: path.to_owned(),
         scene,
         repeat: raw.repeat,
+        record: raw.record.unwrap_or(true),
         set,
         points,
         varied,

@@ -18,7 +18,7 @@ pub mod local;
 pub mod plan;
 pub mod point;
 mod properties;
-mod reference;
+pub mod reference;
 pub mod report;
 pub mod result;
 pub mod slurm;

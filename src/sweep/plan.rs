@@ -17,7 +17,7 @@ use super::file::{Key, Setting, SweepFileError, SweepSpec};
 use crate::scene::SceneOrigin;
 
 /// The version of `plan.json`'s format.
-const FORMAT: u32 = 1;
+const FORMAT: u32 = 2;
 
 /// One varied value of a point, as the sweep file gives it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -29,11 +29,42 @@ pub struct Param {
 /// What a point's error is measured against: the same scene under the reference's solver.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlannedReference {
-    pub backend: String,
+    pub solver: ReferenceSolver,
     pub scene_toml: String,
     /// Names the reference's cached end (`references/KEY.json`): points that share a scene and
-    /// backend share it.
+    /// solver share it.
     pub key: String,
+}
+
+/// How a reference's end is computed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ReferenceSolver {
+    /// The scene as its solver section says, on a backend ("cpu" or "gpu"): a sweep file's
+    /// `[reference]`.
+    Run { backend: String },
+    /// Classic RK4 in double precision at this step, over the scene's duration
+    /// ([`crate::accuracy::reference`]): `bench accuracy`'s, free of f32 round-off.
+    F64Rk4 { dt_secs: f64 },
+}
+
+impl PlannedReference {
+    /// A reference of `solver` on `scene_toml`, keyed by both.
+    pub fn new(solver: ReferenceSolver, scene_toml: String) -> Self {
+        let tag = match &solver {
+            ReferenceSolver::Run { backend } => backend.clone(),
+            ReferenceSolver::F64Rk4 { dt_secs } => format!("f64-rk4 {dt_secs:e}"),
+        };
+        let key = format!(
+            "{:016x}",
+            fnv1a(format!("{tag}\n{scene_toml}").into_bytes())
+        );
+        Self {
+            solver,
+            scene_toml,
+            key,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -69,16 +100,26 @@ pub fn short_name(name: &str) -> &str {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Plan {
     pub format: u32,
-    /// The sweep file the plan was made from (absolute).
-    pub sweep_file: PathBuf,
+    /// What the plan was made from: a sweep file (its absolute path), or the command that made
+    /// it (`bench accuracy hair`).
+    pub made_from: String,
     /// Unique to this plan: the points' recordings are named by it in a dataset.
     pub id: String,
     /// The base scene: a built-in name, or an absolute path (its meshes are found from there).
     pub scene: String,
     /// Timed runs of each point (1 where the sweep does not time).
     pub repeat: u32,
+    /// Runs after the first only for a point whose first run took less than this (s): short
+    /// points are noisy, long ones not worth timing again. `None`: every point `repeat` times.
+    pub repeat_under_secs: Option<f64>,
     /// Whether the sweep file asked for timing (`repeat`): its points are then run alone.
     pub timed: bool,
+    /// Whether each point is recorded (`DIR/points/NNNN.rrd`) before its timed runs.
+    pub record: bool,
+    /// The GPU adapter GPU points use (the first whose name contains this), and when they probe
+    /// it against the CPU reference.
+    pub adapter: Option<String>,
+    pub verify: crate::conformance::Verify,
     /// The names of what varies, in the file's order.
     pub varied: Vec<String>,
     pub points: Vec<PlannedPoint>,
@@ -90,6 +131,26 @@ impl Plan {
         match crate::scene::BUILT_IN.iter().any(|b| b.name == self.scene) {
             true => SceneOrigin::BuiltIn(self.scene.clone()),
             false => SceneOrigin::File(PathBuf::from(&self.scene)),
+        }
+    }
+
+    /// The device a planned backend ("cpu" or "gpu") names.
+    pub fn device(&self, backend: &str) -> Device {
+        match backend {
+            "cpu" => Device::cpu(),
+            _ => Device {
+                kind: BackendKind::Gpu,
+                adapter: self.adapter.clone(),
+                verify: self.verify,
+            },
+        }
+    }
+
+    /// How many times a point is timed, and when only once.
+    pub fn repeats(&self) -> crate::accuracy::Repeats {
+        crate::accuracy::Repeats {
+            most: self.repeat,
+            while_first_under_secs: self.repeat_under_secs,
         }
     }
 }
@@ -186,12 +247,10 @@ pub fn make(spec: &SweepSpec) -> Result<Plan, SweepFileError> {
                 let (scene, backend) = with(&settings)?;
                 let text = toml::to_string(&scene)
                     .map_err(|e| fail(None, format!("the reference: {e}")))?;
-                let key = format!("{:016x}", fnv1a(format!("{backend}\n{text}").into_bytes()));
-                Some(PlannedReference {
-                    backend,
-                    scene_toml: text,
-                    key,
-                })
+                Some(PlannedReference::new(
+                    ReferenceSolver::Run { backend },
+                    text,
+                ))
             }
             None => None,
         };
@@ -209,10 +268,12 @@ pub fn make(spec: &SweepSpec) -> Result<Plan, SweepFileError> {
             reference,
         });
     }
-    let sweep_file = spec
+    let made_from = spec
         .file
         .canonicalize()
-        .unwrap_or_else(|_| spec.file.clone());
+        .unwrap_or_else(|_| spec.file.clone())
+        .display()
+        .to_string();
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos())
@@ -221,13 +282,17 @@ pub fn make(spec: &SweepSpec) -> Result<Plan, SweepFileError> {
         format: FORMAT,
         id: format!(
             "{:012x}",
-            fnv1a(format!("{}{stamp}{}", sweep_file.display(), std::process::id()).into_bytes())
+            fnv1a(format!("{made_from}{stamp}{}", std::process::id()).into_bytes())
                 & 0xffff_ffff_ffff
         ),
-        sweep_file,
+        made_from,
         scene: spec.scene.clone(),
         repeat: spec.repeat.unwrap_or(1),
+        repeat_under_secs: None,
         timed: spec.repeat.is_some(),
+        record: spec.record,
+        adapter: None,
+        verify: Default::default(),
         varied: spec.varied.clone(),
         points,
     })
@@ -297,17 +362,6 @@ pub fn read(dir: &Path) -> Result<Plan> {
     Ok(plan)
 }
 
-/// The device a planned backend names.
-pub fn device(backend: &str) -> Device {
-    match backend {
-        "cpu" => Device::cpu(),
-        _ => Device {
-            kind: BackendKind::Gpu,
-            ..Device::default()
-        },
-    }
-}
-
 /// The request for a planned scene's text.
 pub fn request(plan: &Plan, scene_toml: &str, backend: &str) -> Result<Request> {
     let origin = plan.origin();
@@ -321,7 +375,7 @@ pub fn request(plan: &Plan, scene_toml: &str, backend: &str) -> Result<Request> 
         })),
         overrides: Default::default(),
         dt: Default::default(),
-        device: device(backend),
+        device: plan.device(backend),
     })
 }
 

@@ -14,7 +14,7 @@ use crate::model::Model;
 use crate::run::prepare;
 use crate::scene::settings::Settings;
 
-use super::plan::{self, Layout, Plan, PlannedPoint, device, request};
+use super::plan::{self, Layout, Plan, PlannedPoint, request};
 use super::properties;
 use super::reference;
 use super::result::{EndEnergies, Load, PointResult, Status};
@@ -105,6 +105,7 @@ fn blank(point: &PlannedPoint, load: Load) -> PointResult {
         steps_per_sec: None,
         energies: None,
         error_rms_m: None,
+        error_max_m: None,
         digest: None,
         recording: None,
         host: super::result::host(),
@@ -121,10 +122,16 @@ fn run(
 ) -> Result<bool> {
     let request = request(plan, &point.scene_toml, &point.backend)?;
     let mut notes = Vec::new();
-    let prepared = match prepare::prepare(&request, &mut |n| notes.push(n.to_string())) {
-        Ok(p) => p,
+    let mut say = |n: prepare::Notice| notes.push(n.to_string());
+    // A point that is not recorded opens no backend here: its timed runs open their own.
+    let made = match plan.record {
+        true => prepare::prepare(&request, &mut say).map(Made::ToRecord),
+        false => prepare::plan(&request, &mut say).map(Made::ToTime),
+    };
+    result.notes = notes;
+    let made = match made {
+        Ok(m) => m,
         Err(e) => {
-            result.notes = notes;
             result.status = match e {
                 Error::Settings(_) | Error::Scene(_) | Error::Buried(_) => Status::Refused,
                 Error::BelowResolution(_) | Error::TooLarge(_) => Status::Refused,
@@ -134,9 +141,49 @@ fn run(
             return Ok(true);
         }
     };
-    result.notes = notes;
+    let prepared = match made {
+        Made::ToTime(p) => {
+            describe(result, &p.model, &p.settings, &point.backend);
+            return measure(plan, layout, point, result, &p.model, &p.settings, cancel);
+        }
+        Made::ToRecord(p) => p,
+    };
     let (model, settings) = (prepared.model.clone(), prepared.settings.clone());
     describe(result, &model, &settings, &prepared.backend.describe());
+    let (recording, ran) = record(plan, layout, point, result, prepared, cancel)?;
+    let ended = match ran {
+        Recorded::Cancelled => false,
+        Recorded::Diverged | Recorded::Failed => true,
+        Recorded::Ran => measure(plan, layout, point, result, &model, &settings, cancel)?,
+    };
+    recording.end(ended.then_some(&*result))?;
+    Ok(ended)
+}
+
+/// A point made ready: to record (its backend open), or only to time.
+enum Made {
+    ToRecord(prepare::Prepared),
+    ToTime(prepare::Planned),
+}
+
+/// How a point's recorded run ended.
+enum Recorded {
+    Ran,
+    /// A result already: diverged, or failed, with its message.
+    Diverged,
+    Failed,
+    Cancelled,
+}
+
+/// The recorded run, exactly as `hooke run --save` makes it, into the point's `.rrd`.
+fn record(
+    plan: &Plan,
+    layout: &Layout,
+    point: &PlannedPoint,
+    result: &mut PointResult,
+    prepared: prepare::Prepared,
+    cancel: &Arc<AtomicBool>,
+) -> Result<(properties::PointRecording, Recorded)> {
     let rrd = layout.recording(point.index);
     result.recording = rrd
         .strip_prefix(&layout.dir)
@@ -146,39 +193,48 @@ fn run(
     let record = crate::record::RecordOptions::default().for_scene(&prepared.loaded.scene);
     let mut opts = crate::run::RunOptions::unattended(None);
     opts.record = record;
-    let recorded = crate::run::run(prepared, recording.rec.clone(), &opts, cancel.clone());
-    match recorded {
-        Ok(summary) if summary.cancelled => {
-            recording.end(None)?;
-            return Ok(false);
-        }
+    let ran = match crate::run::run(prepared, recording.rec.clone(), &opts, cancel.clone()) {
+        Ok(summary) if summary.cancelled => Recorded::Cancelled,
         // A run that went on past a warning is a result the user must be told about with it.
-        Ok(summary) => result.notes.extend(summary.notes),
+        Ok(summary) => {
+            result.notes.extend(summary.notes);
+            Recorded::Ran
+        }
         Err(Error::Backend(e)) => {
             result.status = Status::Diverged;
             result.message = Some(e.to_string());
+            Recorded::Diverged
         }
         Err(e) => {
             result.status = Status::Failed;
             result.message = Some(e.to_string());
-            recording.end(Some(result))?;
-            return Ok(true);
+            Recorded::Failed
         }
-    }
-    if result.status != Status::Diverged {
-        let TimedEnd::Ended(end) = timed(plan, point, result, &model, &settings, cancel)? else {
-            recording.end(None)?;
+    };
+    Ok((recording, ran))
+}
+
+/// The timed runs, then the error against the reference: `false` when `cancel` stopped them.
+fn measure(
+    plan: &Plan,
+    layout: &Layout,
+    point: &PlannedPoint,
+    result: &mut PointResult,
+    model: &Arc<Model>,
+    settings: &Settings,
+    cancel: &Arc<AtomicBool>,
+) -> Result<bool> {
+    let TimedEnd::Ended(end) = timed(plan, point, result, model, settings, cancel)? else {
+        return Ok(false);
+    };
+    if let (Some(r), Some(end)) = (&point.reference, end) {
+        let Some(reference) = reference::end(plan, layout, r, cancel)? else {
             return Ok(false);
         };
-        if let (Some(r), Some(end)) = (&point.reference, end) {
-            let Some(reference) = reference::end(plan, layout, r, cancel)? else {
-                recording.end(None)?;
-                return Ok(false);
-            };
-            result.error_rms_m = Some(reference::rms_gap(&reference, &end)?);
-        }
+        let gap = reference::gap(&reference, &end)?;
+        result.error_rms_m = Some(gap.rms_m);
+        result.error_max_m = Some(gap.max_m);
     }
-    recording.end(Some(result))?;
     Ok(true)
 }
 
@@ -219,10 +275,10 @@ fn timed(
     let steps = settings.frames * u64::from(settings.substeps);
     let runs = crate::accuracy::timed_runs(
         model,
-        &device(&point.backend),
+        &plan.device(&point.backend),
         settings.step(),
         steps,
-        plan.repeat,
+        plan.repeats(),
         &StopFlags::new([cancel.clone()]),
     );
     if cancel.load(Ordering::SeqCst) {
@@ -253,6 +309,18 @@ fn timed(
     result.wall_secs = Some(median);
     result.steps_per_sec = Some(steps as f64 / median.max(1e-12));
     result.wall_secs_each = t.wall_secs;
-    result.status = Status::Ok;
+    // Finite but with energy from nowhere past a tenth of the start's: not an answer
+    // (`bench accuracy`'s rule for a stable run).
+    let gained = e.balance_j() - t.start_balance_j;
+    let scale = crate::accuracy::energy_scale(model);
+    if crate::accuracy::stayed_stable(gained, scale) {
+        result.status = Status::Ok;
+    } else {
+        result.status = Status::Diverged;
+        result.message = Some(format!(
+            "diverged by energy: the energy balance grew by {gained:.3e} J, {:.0}% of the initial mechanical energy (more than 10%); a smaller step or a stabler integrator holds it",
+            100.0 * gained / scale
+        ));
+    }
     Ok(TimedEnd::Ended(Some(t.state.x)))
 }

@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+use crate::accuracy::chart::{Chart, ChartPoint, Series, color_of, svg};
+use crate::integrator::Integrator;
+
 use super::plan::{Layout, Plan, short_name};
 use super::result::{self, Load, PointResult, Status};
 
@@ -89,9 +92,8 @@ pub fn markdown(plan: &Plan, results: &[PointResult]) -> String {
     let shared = results.iter().any(|r| r.load == Load::Shared);
     let _ = writeln!(
         out,
-        "Wall time is the median of {} run{} of each point, stepping only{}. `*` marks a step above `check`'s estimate of the integrator's stable step.\n",
-        plan.repeat,
-        if plan.repeat == 1 { "" } else { "s" },
+        "Wall time is the median of {} of each point, stepping only{}. `*` marks a step above `check`'s estimate of the integrator's stable step.\n",
+        repeats_text(plan),
         if shared {
             "; **timed beside other points (parallel load): not clean times**"
         } else {
@@ -132,124 +134,146 @@ pub fn markdown(plan: &Plan, results: &[PointResult]) -> String {
                 .unwrap_or_default(),
         );
     }
+    out.push_str(&cheapest_table(results));
     out
 }
 
-/// Wall time (x) against error (y), both logarithmic: the error against the reference where the
-/// sweep has one, else the size of the energy balance's change.
-pub fn svg(plan: &Plan, results: &[PointResult]) -> String {
+/// A point's cost: wall seconds (the median of its timed runs) per simulated second.
+fn cost(r: &PointResult) -> Option<f64> {
+    let simulated = r.steps? as f64 * r.dt_secs?;
+    Some(r.wall_secs? / simulated).filter(|c| c.is_finite())
+}
+
+/// The accuracy-versus-cost chart: each ok point's error against the reference (where the
+/// sweep has one, else the size of its energy balance's change) against its cost, log–log. A
+/// sweep that varies the integrator draws a line per integrator through its points in order
+/// of step, each labelled by its other values; any other sweep, its points labelled by theirs.
+pub fn chart(plan: &Plan, results: &[PointResult]) -> Chart {
     let has_error = results.iter().any(|r| r.error_rms_m.is_some());
+    let by_integrator = plan.varied.iter().any(|v| v == "integrator");
     let y_of = |r: &PointResult| match has_error {
         true => r.error_rms_m,
         false => r.energies.map(|e| e.balance_change_j.abs()),
     };
-    let pts: Vec<(f64, f64, &PointResult)> = results
-        .iter()
-        .filter(|r| r.status == Status::Ok)
-        .filter_map(|r| Some((r.wall_secs?, y_of(r)?, r)))
-        .filter(|(x, y, _)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
-        .collect();
-    let (w, h, left, right, top, bottom) = (900.0, 600.0, 90.0, 260.0, 50.0, 70.0);
-    let span = |v: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x.log10()), hi.max(x.log10()))
-        });
-        match lo.is_finite() {
-            true => (lo.floor(), hi.ceil().max(lo.floor() + 1.0)),
-            false => (0.0, 1.0),
-        }
-    };
-    let (x0, x1) = span(&mut pts.iter().map(|p| p.0));
-    let (y0, y1) = span(&mut pts.iter().map(|p| p.1));
-    let px = |x: f64| left + (x.log10() - x0) / (x1 - x0) * (w - left - right);
-    let py = |y: f64| h - bottom - (y.log10() - y0) / (y1 - y0) * (h - top - bottom);
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    );
-    let _ = writeln!(
-        s,
-        "<text x=\"{left}\" y=\"24\" font-size=\"15\">{}: {} against wall time, {} of {} points</text>",
-        xml(&plan.scene),
-        if has_error {
-            "error against the reference"
-        } else {
-            "|energy balance change|"
-        },
-        pts.len(),
-        plan.points.len()
-    );
-    for k in (x0 as i32)..=(x1 as i32) {
-        let x = px(10f64.powi(k));
-        let _ = writeln!(
-            s,
-            "<line x1=\"{x:.1}\" y1=\"{top}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"#ddd\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">1e{k}</text>",
-            h - bottom,
-            h - bottom + 16.0
-        );
-    }
-    for k in (y0 as i32)..=(y1 as i32) {
-        let y = py(10f64.powi(k));
-        let _ = writeln!(
-            s,
-            "<line x1=\"{left}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{y:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">1e{k}</text>",
-            w - right,
-            left - 6.0,
-            y + 4.0
-        );
-    }
-    let _ = writeln!(
-        s,
-        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">wall time (s, median of {})</text>",
-        (left + w - right) / 2.0,
-        h - 24.0,
-        plan.repeat
-    );
-    let _ = writeln!(
-        s,
-        "<text transform=\"translate(22 {:.1}) rotate(-90)\" text-anchor=\"middle\">{}</text>",
-        (top + h - bottom) / 2.0,
-        if has_error {
-            "error RMS (m)"
-        } else {
-            "|balance change| (J)"
-        }
-    );
-    for (x, y, r) in &pts {
+    let point = |r: &PointResult| {
         let label: Vec<String> = r
             .params
             .iter()
-            .map(|p| format!("{}={}", short_name(&p.name), p.value))
+            .filter(|p| !(by_integrator && p.name == "integrator"))
+            .map(|p| match p.name.as_str() {
+                "dt_secs" => r
+                    .dt_secs
+                    .map_or_else(|| p.value.clone(), |d| format!("{d:.1e}")),
+                _ => format!("{}={}", short_name(&p.name), p.value),
+            })
             .collect();
-        let _ = writeln!(
-            s,
-            "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"4\" fill=\"#1f77b4\"><title>{}</title></circle><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">{}</text>",
-            px(*x),
-            py(*y),
-            xml(&r.label),
-            px(*x) + 6.0,
-            py(*y) + 3.0,
-            xml(&label.join(" "))
-        );
+        Some(ChartPoint {
+            x: cost(r)?,
+            y: y_of(r)?,
+            label: label.join(" "),
+            title: r.label.clone(),
+        })
+    };
+    let ok: Vec<&PointResult> = results.iter().filter(|r| r.status == Status::Ok).collect();
+    let series = match by_integrator {
+        true => Integrator::ALL
+            .iter()
+            .filter_map(|&i| {
+                let mut mine: Vec<&&PointResult> = ok
+                    .iter()
+                    .filter(|r| r.integrator.as_deref() == Some(i.name()))
+                    .collect();
+                mine.sort_by(|a, b| {
+                    b.dt_secs
+                        .partial_cmp(&a.dt_secs)
+                        .unwrap_or(std::cmp::Ordering::Equal)
+                });
+                let points: Vec<ChartPoint> = mine.iter().filter_map(|r| point(r)).collect();
+                (!points.is_empty()).then(|| Series {
+                    name: i.name().to_owned(),
+                    color: color_of(i),
+                    points,
+                })
+            })
+            .collect(),
+        false => vec![Series {
+            name: "points".to_owned(),
+            color: "#1f77b4",
+            points: ok.iter().filter_map(|r| point(r)).collect(),
+        }],
+    };
+    let drawn: usize = series.iter().map(|s| s.points.len()).sum();
+    let left_out = results.len() - drawn;
+    Chart {
+        title: format!(
+            "{}: {} against cost, {drawn} of {} points",
+            plan.scene,
+            if has_error {
+                "error against the reference"
+            } else {
+                "|energy balance change|"
+            },
+            plan.points.len()
+        ),
+        x_label: format!(
+            "wall time per simulated second (s, median of {})",
+            repeats_text(plan)
+        ),
+        y_label: match has_error {
+            true => "error RMS (m)".to_owned(),
+            false => "|balance change| (J)".to_owned(),
+        },
+        series,
+        note: (left_out > 0).then(|| format!("{left_out} point(s) diverged or not run: left out")),
     }
-    let left_out = results.len() - pts.len();
-    let _ = writeln!(
-        s,
-        "<text x=\"{:.1}\" y=\"{:.1}\">{}</text>\n</svg>",
-        w - right + 10.0,
-        top + 10.0,
-        match left_out {
-            0 => String::new(),
-            n => format!("{n} point(s) not ok, left out"),
-        }
-    );
-    s
 }
 
-fn xml(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
+/// How many runs a point's time is the median of.
+fn repeats_text(plan: &Plan) -> String {
+    match (plan.repeat, plan.repeat_under_secs) {
+        (1, _) => "1 run".to_owned(),
+        (n, Some(under)) => format!("up to {n} runs, 1 where it took over {under} s"),
+        (n, None) => format!("{n} runs"),
+    }
+}
+
+/// For each error level, the cheapest ok points that reached it (costs within 10% a tie), where
+/// the sweep has a reference.
+fn cheapest_table(results: &[PointResult]) -> String {
+    if !results.iter().any(|r| r.error_rms_m.is_some()) {
+        return String::new();
+    }
+    let mut out = format!(
+        "\n| error RMS at most | cheapest point (within {:.0}% of each other: a tie) | wall s per simulated s |\n|---:|---|---:|\n",
+        100.0 * crate::accuracy::TIE_SHARE
+    );
+    let levels = crate::accuracy::cheapest_per_level(results, |r| {
+        (r.status == Status::Ok).then_some((r.error_rms_m?, cost(r)?))
+    });
+    for (level, tied) in levels {
+        let join = |f: &dyn Fn(&PointResult) -> String| {
+            tied.iter().map(|r| f(r)).collect::<Vec<_>>().join(" = ")
+        };
+        match tied.is_empty() {
+            true => {
+                let _ = writeln!(out, "| {level:.0e} m | none of the points | — |");
+            }
+            false => {
+                let _ = writeln!(
+                    out,
+                    "| {level:.0e} m | {} | {} |",
+                    join(&|r| format!(
+                        "#{} {}{}",
+                        r.index,
+                        r.label,
+                        if above_estimate(r) { " *" } else { "" }
+                    )),
+                    join(&|r| cost(r).map(|c| format!("{c:.3e}")).unwrap_or_default()),
+                );
+            }
+        }
+    }
+    out
 }
 
 /// Write the three files to `out`: their paths.
@@ -261,7 +285,7 @@ pub fn write(dir: &Path, plan: &Plan, out: &Path) -> Result<Vec<PathBuf>> {
     let files = [
         ("results.csv", csv(plan, &results)),
         ("results.md", markdown(plan, &results)),
-        ("results.svg", svg(plan, &results)),
+        ("results.svg", svg(&chart(plan, &results))),
     ];
     let mut paths = Vec::new();
     for (name, text) in files {

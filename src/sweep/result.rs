@@ -83,6 +83,9 @@ pub struct PointResult {
     pub energies: Option<EndEnergies>,
     /// RMS over the masses of the distance to the reference's end, where the sweep has one.
     pub error_rms_m: Option<f64>,
+    /// The largest distance of a mass from the reference's end.
+    #[serde(default)]
+    pub error_max_m: Option<f64>,
     /// A hash of the end state's positions and velocities (`State::digest`, hex): the same on
     /// every run of a deterministic backend.
     pub digest: Option<String>,

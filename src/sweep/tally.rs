@@ -35,6 +35,11 @@ impl Tally {
                     Status::Failed => self.failed += 1,
                 }
                 let why = match (r.message, r.notes.len()) {
+                    // A divergence's first sentence says where; its advice is in result.json.
+                    (Some(m), _) if r.status == Status::Diverged => match m.split_once(". ") {
+                        Some((first, _)) => format!(": {first}. (result.json has the rest)"),
+                        None => format!(": {m}"),
+                    },
                     (Some(m), _) => format!(": {m}"),
                     (None, 0) => String::new(),
                     (None, n) => {

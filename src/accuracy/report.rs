@@ -21,11 +21,15 @@ pub fn markdown(r: &Accuracy) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Scene `{}`, {} s simulated, against f64 RK4 at dt = {:.3e} s. Wall time: the median of {}.\n",
+        "Scene `{}`, {} s simulated, against f64 RK4 at dt = {:.3e} s. Wall time: the median of {}{}.\n",
         r.scene,
         r.duration_secs,
         r.reference_dt_secs,
-        repeats_text(r.repeats)
+        repeats_text(r.repeats),
+        match r.timed_alone {
+            true => "",
+            false => "; **timed beside other runs (parallel load): not clean times**",
+        }
     );
     let _ = writeln!(
         s,

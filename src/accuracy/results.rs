@@ -70,4 +70,6 @@ pub struct Accuracy {
     pub stable: Vec<StableDt>,
     /// How each row's wall time was taken: the median of this many timed runs.
     pub repeats: super::timing::Repeats,
+    /// Whether the runs were timed one at a time (their times clean), not beside each other.
+    pub timed_alone: bool,
 }

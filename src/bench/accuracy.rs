@@ -19,7 +19,7 @@ use crate::scene::settings::SettingsError;
 use crate::stability::StableStep;
 use crate::sweep::file::{Key, Setting, SweepSpec};
 use crate::sweep::plan::{Param, Plan, PlannedReference, ReferenceSolver};
-use crate::sweep::result::{PointResult, Status};
+use crate::sweep::result::{Load, PointResult, Status};
 use crate::sweep::{Layout, plan, report};
 
 #[derive(Debug, Clone)]
@@ -266,6 +266,7 @@ pub fn finish(
         rows,
         stable,
         repeats: sweep.plan.repeats(),
+        timed_alone: results.iter().all(|r| r.load == Load::Alone),
     };
     let mut chart = report::chart(&sweep.plan, &results);
     chart.title = format!(

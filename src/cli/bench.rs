@@ -155,7 +155,8 @@ fn bench_accuracy(scene: &str, opts: &AccuracyOptions, exec: &ExecArgs) -> anyho
         sweep.dir.display()
     ));
     let all: Vec<usize> = (0..sweep.plan.points.len()).collect();
-    if let Outcome::Interrupted = execute(&sweep.dir, &sweep.plan, &all, exec, &cancel)? {
+    if let Outcome::Interrupted = execute(&sweep.dir, &sweep.plan, &all, exec, &cancel, false)? {
+        eprintln!("bench accuracy: interrupted before its tables; run it again to measure afresh");
         return Ok(Outcome::Interrupted);
     }
     let report = bench::accuracy::finish(&sweep, opts, &mut say)?;

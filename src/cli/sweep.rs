@@ -124,7 +124,7 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 out.display()
             );
             let all: Vec<usize> = (0..plan.points.len()).collect();
-            execute(&out, &plan, &all, &exec, &on_interrupt())
+            execute(&out, &plan, &all, &exec, &on_interrupt(), true)
         }
         SweepCommand::Resume { dir, exec } => {
             let plan = sweep::plan::read(&dir)?;
@@ -143,7 +143,7 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 plan.points.len(),
                 dir.display()
             );
-            execute(&dir, &plan, &left, &exec, &on_interrupt())
+            execute(&dir, &plan, &left, &exec, &on_interrupt(), true)
         }
         SweepCommand::Status { dir } => {
             let plan = sweep::plan::read(&dir)?;
@@ -194,13 +194,15 @@ pub fn on_interrupt() -> Arc<AtomicBool> {
     cancel
 }
 
-/// Run `indices` of the sweep in `dir` where `exec` says, until they end or `cancel` is set.
+/// Run `indices` of the sweep in `dir` where `exec` says, until they end or `cancel` is set;
+/// `hint`: end by saying how to see the results (a caller that shows them itself does not).
 pub fn execute(
     dir: &Path,
     plan: &Plan,
     indices: &[usize],
     exec: &ExecArgs,
     cancel: &Arc<AtomicBool>,
+    hint: bool,
 ) -> anyhow::Result<Outcome> {
     let binary = std::env::current_exe()
         .and_then(|p| p.canonicalize())
@@ -252,10 +254,16 @@ pub fn execute(
             }
         }
     };
-    finish(dir, plan, &tally, cancel)
+    finish(dir, plan, &tally, cancel, hint)
 }
 
-fn finish(dir: &Path, plan: &Plan, tally: &Tally, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
+fn finish(
+    dir: &Path,
+    plan: &Plan,
+    tally: &Tally,
+    cancel: &AtomicBool,
+    hint: bool,
+) -> anyhow::Result<Outcome> {
     if cancel.load(Ordering::SeqCst) {
         eprintln!(
             "sweep: interrupted ({}); `hooke sweep resume {}` runs the points left",
@@ -274,6 +282,7 @@ fn finish(dir: &Path, plan: &Plan, tally: &Tally, cancel: &AtomicBool) -> anyhow
         );
     }
     match plan.record {
+        _ if !hint => {}
         true => eprintln!(
             "sweep: `hooke sweep report {}` writes the tables and chart; `rerun server -d {}` serves the recordings as one dataset",
             dir.display(),

@@ -305,6 +305,8 @@ fn timed(
         balance_change_j: e.balance_j() - t.start_balance_j,
     });
     result.digest = Some(format!("{:016x}", t.state.digest()));
+    // As the backend describes itself (a point not recorded had only "cpu" or "gpu" so far).
+    result.backend = Some(t.backend.clone());
     let median = t.median_secs();
     result.wall_secs = Some(median);
     result.steps_per_sec = Some(steps as f64 / median.max(1e-12));

@@ -19,7 +19,7 @@ pub use limits::{LimitRow, Measured, limits_markdown, measure_limits};
 pub use report::{
     TIE_SHARE, cheapest_per_level, cheapest_rows, check_out_dir, markdown, record, write_outputs,
 };
-pub use results::{Accuracy, Found, Row, StableDt};
+pub use results::{Accuracy, Found, Outcome, Row, StableDt};
 pub use stable_dt::{
     IMPLICIT_SEARCH_UP_TO_SECS, dissipated_pct, energy_scale, is_stable, is_stable_on,
     search_range, search_stable_dt, search_stable_dt_on, stayed_stable,

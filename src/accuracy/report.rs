@@ -51,7 +51,7 @@ pub fn markdown(r: &Accuracy) -> String {
             fmt_num(row.rms_error_m),
             fmt_num(row.max_error_m),
             fmt_num(row.energy_drift_j),
-            if row.stable { "yes" } else { "diverged" },
+            row.outcome.label().replace('|', "/"),
             if row.dissipated_pct.is_finite() {
                 format!("{:.1}", row.dissipated_pct)
             } else {
@@ -111,8 +111,8 @@ fn at_frame_rate(r: &Accuracy) -> String {
         .filter(|row| (row.dt_secs / frame_dt - 1.0).abs() < 1e-9)
         .collect();
     rows.sort_by(|a, b| {
-        (!a.stable, a.wall_secs_per_sim_sec)
-            .partial_cmp(&(!b.stable, b.wall_secs_per_sim_sec))
+        (!a.outcome.is_stable(), a.wall_secs_per_sim_sec)
+            .partial_cmp(&(!b.outcome.is_stable(), b.wall_secs_per_sim_sec))
             .unwrap_or(std::cmp::Ordering::Equal)
     });
     let mut s = format!(
@@ -129,7 +129,7 @@ At one step per frame (dt = {frame_dt:.3e} s), cheapest first:
             "| {} | {} | {} | {} | {} |",
             row.integrator,
             fmt_num(row.rms_error_m),
-            if row.stable { "yes" } else { "diverged" },
+            row.outcome.label().replace('|', "/"),
             if row.dissipated_pct.is_finite() {
                 format!("{:.1}", row.dissipated_pct)
             } else {
@@ -183,7 +183,8 @@ pub fn cheapest_per_level<T>(
 /// [`cheapest_per_level`] of a measurement's stable rows, by wall time per simulated second.
 pub fn cheapest_rows(r: &Accuracy) -> Vec<(f64, Vec<&Row>)> {
     cheapest_per_level(&r.rows, |row| {
-        row.stable
+        row.outcome
+            .is_stable()
             .then_some((row.rms_error_m, row.wall_secs_per_sim_sec))
     })
 }
@@ -228,12 +229,12 @@ fn guidance(r: &Accuracy) -> String {
 
 fn csv(r: &Accuracy) -> String {
     let mut s = String::from(
-        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend,at_estimate\n",
+        "scene,integrator,dt_secs,steps,rms_error_m,max_error_m,energy_drift_j,stable,dissipated_pct,wall_secs_per_sim_sec,backend,at_estimate,status\n",
     );
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\",{}",
+            "{},{},{:e},{},{:e},{:e},{:e},{},{:e},{:e},\"{}\",{},{}",
             r.scene,
             row.integrator,
             row.dt_secs,
@@ -241,11 +242,12 @@ fn csv(r: &Accuracy) -> String {
             row.rms_error_m,
             row.max_error_m,
             row.energy_drift_j,
-            row.stable,
+            row.outcome.is_stable(),
             row.dissipated_pct,
             row.wall_secs_per_sim_sec,
             row.backend,
-            row.at_estimate
+            row.at_estimate,
+            row.outcome.status()
         );
     }
     s
@@ -299,7 +301,7 @@ pub fn record(r: &Accuracy, path: &Path) -> Result<()> {
             .enumerate()
         {
             rec.set_time_sequence("dt_index", k as i64);
-            if row.stable {
+            if row.outcome.is_stable() {
                 rec.log(
                     format!("accuracy/{integrator}/rms_error_m"),
                     &rerun::Scalars::single(row.rms_error_m),

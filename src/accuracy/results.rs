@@ -13,10 +13,8 @@ pub struct Row {
     pub max_error_m: f64,
     /// Change of (mechanical + dissipated − collider work) over the run.
     pub energy_drift_j: f64,
-    /// Did not diverge: stayed finite and below the runaway speed, and gained less than 10% of
-    /// the initial mechanical energy. A run that loses energy the ledger does not count (the
-    /// numerical damping of implicit Euler) is stable; `dissipated_pct` says how much it lost.
-    pub stable: bool,
+    /// How the run ended: stable, diverged, or not run at all (refused, failed) and why.
+    pub outcome: Outcome,
     /// Energy lost beyond what the ledger counts, as a percentage of the initial mechanical
     /// energy (0 when the balance held or grew).
     pub dissipated_pct: f64,
@@ -27,6 +25,47 @@ pub struct Row {
     /// whole steps), beside the ladder every integrator shares: the cheapest stable answers lie
     /// near it.
     pub at_estimate: bool,
+}
+
+/// How a row's run ended. A row that was refused or failed has no error, like a diverged one,
+/// but the table says which it was and why, so that a refusal never reads as instability.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Did not diverge: stayed finite and below the runaway speed, and gained less than 10% of
+    /// the initial mechanical energy. A run that loses energy the ledger does not count (the
+    /// numerical damping of implicit Euler) is stable; `dissipated_pct` says how much it lost.
+    Stable,
+    Diverged,
+    /// The run was not made: the scene or the step is one the integrator refuses.
+    Refused(String),
+    /// The run could not be made or measured (no adapter, no error against the reference).
+    Failed(String),
+}
+
+impl Outcome {
+    pub fn is_stable(&self) -> bool {
+        matches!(self, Outcome::Stable)
+    }
+
+    /// As the tables' "stable" column says it.
+    pub fn label(&self) -> String {
+        match self {
+            Outcome::Stable => "yes".to_owned(),
+            Outcome::Diverged => "diverged".to_owned(),
+            Outcome::Refused(why) => format!("refused: {why}"),
+            Outcome::Failed(why) => format!("failed: {why}"),
+        }
+    }
+
+    /// As the CSV's `status` column says it.
+    pub fn status(&self) -> &'static str {
+        match self {
+            Outcome::Stable => "stable",
+            Outcome::Diverged => "diverged",
+            Outcome::Refused(_) => "refused",
+            Outcome::Failed(_) => "failed",
+        }
+    }
 }
 
 #[derive(Debug, Clone)]

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::accuracy::{self, Accuracy, LadderOptions, Row, StableDt};
+use crate::accuracy::{self, Accuracy, LadderOptions, Outcome, Row, StableDt};
 use crate::error::{Error, Result};
 use crate::integrator::Integrator;
 use crate::model::Model;
@@ -291,6 +291,18 @@ fn row(
 ) -> Row {
     let drift = r.energies.map_or(f64::NAN, |e| e.balance_change_j);
     let rms = r.error_rms_m.unwrap_or(f64::NAN);
+    // The table has room for the reason's first sentence; result.json keeps the whole message.
+    let why = || {
+        let m = r.message.as_deref().unwrap_or("no reason given");
+        m.split_once(". ").map_or(m, |(first, _)| first).to_owned()
+    };
+    let outcome = match r.status {
+        Status::Ok if rms.is_finite() => Outcome::Stable,
+        Status::Ok => Outcome::Failed("no error against the reference".to_owned()),
+        Status::Diverged => Outcome::Diverged,
+        Status::Refused => Outcome::Refused(why()),
+        Status::Failed => Outcome::Failed(why()),
+    };
     Row {
         integrator,
         dt_secs: r.dt_secs.unwrap_or(f64::NAN),
@@ -298,10 +310,49 @@ fn row(
         rms_error_m: rms,
         max_error_m: r.error_max_m.unwrap_or(f64::NAN),
         energy_drift_j: drift,
-        stable: r.status == Status::Ok && rms.is_finite(),
+        outcome,
         dissipated_pct: accuracy::dissipated_pct(drift, scale),
         wall_secs_per_sim_sec: r.wall_secs.map_or(f64::NAN, |w| w / duration),
         backend: r.backend.clone().unwrap_or_default(),
         at_estimate,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point the run refused (or that failed) is no instability: its row says which it was
+    /// and why, where it used to read "diverged".
+    #[test]
+    fn a_refused_point_reads_as_refused_with_its_reason() {
+        let result = |status: &str, message: &str| -> PointResult {
+            serde_json::from_value(serde_json::json!({
+                "index": 3, "label": "dt_secs=0.1", "params": [], "status": status,
+                "message": message, "notes": [], "wall_secs_each": [], "load": "alone",
+                "host": "here",
+            }))
+            .expect("a result.json of a point that did not run")
+        };
+        let integrator = Integrator::ALL[0];
+        let refused = result("refused", "The step is refused here. Use a smaller one.");
+        let outcome = row_of(&refused, integrator);
+        assert_eq!(
+            outcome,
+            Outcome::Refused("The step is refused here".to_owned())
+        );
+        assert_eq!(outcome.label(), "refused: The step is refused here");
+        assert!(!outcome.is_stable());
+        let failed = row_of(&result("failed", "no adapter"), integrator);
+        assert_eq!(failed.label(), "failed: no adapter");
+        let diverged = row_of(
+            &result("diverged", "diverged at frame 3. Try less."),
+            integrator,
+        );
+        assert_eq!(diverged, Outcome::Diverged);
+    }
+
+    fn row_of(r: &PointResult, integrator: Integrator) -> Outcome {
+        row(r, integrator, false, 1.0, 1.0).outcome
     }
 }

@@ -56,12 +56,21 @@ pub fn complex_sqrt(re: f64, im: f64) -> (f64, f64) {
 /// The largest modulus of the roots of z³ + a z² + b z + c: one real root by bisection (a
 /// cubic always has one), then the quadratic left after dividing it out.
 fn cubic_spectral_radius(a: f64, b: f64, c: f64) -> f64 {
+    if c == 0.0 {
+        // z (z² + a z + b): a scheme that keeps no acceleration between steps has the root 0,
+        // which the bisection below would chase through 200 halvings towards zero.
+        return quadratic_spectral_radius(a, b);
+    }
     let p = |z: f64| ((z + a) * z + b) * z + c;
     // Cauchy's bound holds every root.
     let bound = 1.0 + a.abs().max(b.abs()).max(c.abs());
     let (mut lo, mut hi) = (-bound, bound);
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
+        // No float lies between them: the rest of the 200 would change nothing.
+        if mid <= lo || mid >= hi {
+            break;
+        }
         if p(mid) < 0.0 {
             lo = mid;
         } else {
@@ -71,12 +80,46 @@ fn cubic_spectral_radius(a: f64, b: f64, c: f64) -> f64 {
     let r = 0.5 * (lo + hi);
     // z³ + a z² + b z + c = (z − r)(z² + q1 z + q0).
     let (q1, q0) = (a + r, b + r * (a + r));
+    r.abs().max(quadratic_spectral_radius(q1, q0))
+}
+
+/// The largest modulus of the roots of z² + q1 z + q0.
+fn quadratic_spectral_radius(q1: f64, q0: f64) -> f64 {
     let disc = q1 * q1 / 4.0 - q0;
-    let quadratic = if disc >= 0.0 {
+    if disc >= 0.0 {
         let sq = disc.sqrt();
         (-q1 / 2.0 + sq).abs().max((-q1 / 2.0 - sq).abs())
     } else {
         q0.abs().sqrt()
-    };
-    r.abs().max(quadratic)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Forward Euler on the undamped oscillator multiplies by 1 ± iωh: ρ = √(1 + (ωh)²), with
+    /// the root 0 of the acceleration it does not keep (the quadratic's path). Cubics whose
+    /// roots are known take the bisection's.
+    #[test]
+    fn spectral_radii_match_their_closed_forms() {
+        let euler: OneStep = |o, [x, v, _]| [x + o.dt * v, v + o.dt * o.acc(x, v), 0.0];
+        for wdt in [1e-3, 0.1, 1.0, 3.0] {
+            let o = Oscillator {
+                omega: 1.0,
+                zeta: 0.0,
+                dt: wdt,
+            };
+            let r = radius_of_step(euler, &o);
+            assert!(
+                (r - (1.0 + wdt * wdt).sqrt()).abs() < 1e-12,
+                "ωh = {wdt}: ρ = {r}"
+            );
+        }
+        // (z + 3/4)(z² − 0.2 z + 0.05) = z³ + 0.55 z² − 0.1 z + 0.0375: the complex pair has
+        // modulus √0.05, so the real root's 3/4 is the radius.
+        assert!((cubic_spectral_radius(0.55, -0.1, 0.0375) - 0.75).abs() < 1e-12);
+        // (z − 0.1)(z² + 0.9²): the pair ±0.9i is the radius.
+        assert!((cubic_spectral_radius(-0.1, 0.81, -0.081) - 0.9).abs() < 1e-12);
+    }
 }

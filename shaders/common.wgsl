@@ -374,10 +374,14 @@ const PRODUCT: u32 = 5u;
 const DIAGONAL: u32 = 6u;
 const DIAGONAL_OFF: u32 = 7u;
 const SOLVER_VECTORS: u32 = 8u;
-// BDF2's last step start, after the solver's vectors in the work buffer (never in workgroup
-// memory: it outlives the step).
-const HISTORY_X: u32 = 8u;
-const HISTORY_V: u32 = 9u;
+// After the solver's vectors in the work buffer (never in workgroup memory: written once a
+// Newton iteration, read once a step): Δv and the ledger rates at the iterate with the least
+// residual Newton solved from, where a step short of its rule ends (implicit_final_at);
+const BEST_DV: u32 = 8u;
+const BEST_RATES: u32 = 9u;
+// then BDF2's last step start, which outlives the step.
+const HISTORY_X: u32 = 10u;
+const HISTORY_V: u32 = 11u;
 
 fn block(k: u32, i: u32) -> u32 {
     return k * params.mass_count + i;

@@ -81,10 +81,14 @@ fn implicit_iterate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(loca
     }
 }
 
+// A step whose Newton iterations ran out wandering (not converged, and not halted for a
+// replay) ends at its best iterate.
 @compute @workgroup_size(SOLVER_THREADS)
 fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let sv = scratch.solver;
+    let at_best = sv.converged == 0u && newton_wandered(sv.evaluated, sv.best);
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
-        implicit_final_at(i);
+        implicit_final_at(i, at_best);
     }
 }
 
@@ -92,7 +96,7 @@ fn implicit_final(@builtin(global_invocation_id) gid: vec3<u32>) {
 // nothing.
 @compute @workgroup_size(1)
 fn solver_begin() {
-    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, F32_MAX, 0u, 0.0, 0u);
+    scratch.solver = Solver(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, F32_MAX, 0u, 0.0, F32_MAX);
     if (scratch.frame.overran != 0u) {
         scratch.solver.converged = 1u;
     }
@@ -155,6 +159,11 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     }
     sv.halvings = 0u;
     sv.last_residual = b_norm;
+    sv.evaluated = b_norm;
+    if (sv.newton > 0u && b_norm <= sv.best) {
+        // newton_update keeps this iterate (sv.best == sv.last_residual).
+        sv.best = b_norm;
+    }
     sv.rz = t.x;
     sv.iterations = 0u;
     sv.newton_pending = 1u;
@@ -270,6 +279,9 @@ fn newton_update(
         if (sv.newton_pending == NEWTON_HALVING) {
             newton_halve_at(i);
         } else {
+            if (sv.best == sv.last_residual) {
+                keep_best_at(i);
+            }
             if (sv.iterations == 0u) {
                 solve_begin_at(i);
             }
@@ -282,6 +294,12 @@ fn newton_update(
 // Bit of scratch.frame.overran for a step that used its whole Newton budget unconverged; bit j
 // below it for a solve of Newton iteration j still running at the end of its CG budget.
 const NEWTON_OVERRAN: u32 = 0x80000000u;
+
+// The residual a step out of Newton iterations is booked with: the best iterate's where it
+// wandered and ends there (implicit_final), else its last evaluated iterate's.
+fn ended_at(sv: Solver) -> f32 {
+    return select(sv.evaluated, sv.best, newton_wandered(sv.evaluated, sv.best));
+}
 
 // Whether Newton has converged; the step's solve figures are booked for the snapshot and the
 // frame's budgets. A solve still running here has run out of its budget: the frame halts.
@@ -312,17 +330,19 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
         // A halving counts as an iteration; whether Newton converged is judged after solves.
         sv.newton += 1u;
         if (sv.newton >= NEWTON_MAX_ITERATIONS) {
-            book_step(sv.newton, relative(sv.evaluated, sv.scale), false);
+            book_step(sv.newton, relative(ended_at(sv), sv.scale), false);
         }
     } else {
         scratch.frame.cg_most[sv.newton] = max(scratch.frame.cg_most[sv.newton], sv.iterations);
         sv.newton += 1u;
         sv.max_residual = max(sv.max_residual, sv.residual);
         sv.converged = select(0u, 1u, newton_converged(t.x, t.y));
-        // The step ends here: its update was too small to matter, or its iterations ran out
-        // short of the rule (sv.last_residual: the last iterate's, before this update).
-        if (sv.converged != 0u || sv.newton >= NEWTON_MAX_ITERATIONS) {
-            book_step(sv.newton, relative(sv.last_residual, sv.scale), sv.converged != 0u);
+        // The step ends here: its update was too small to matter (sv.last_residual: the last
+        // iterate's, before this update), or its iterations ran out short of the rule.
+        if (sv.converged != 0u) {
+            book_step(sv.newton, relative(sv.last_residual, sv.scale), true);
+        } else if (sv.newton >= NEWTON_MAX_ITERATIONS) {
+            book_step(sv.newton, relative(ended_at(sv), sv.scale), false);
         }
     }
     if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {

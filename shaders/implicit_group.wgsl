@@ -86,6 +86,8 @@ fn step_in_group(lid: u32) {
     var met = false;
     var step_residual = 0.0;
     var halvings = 0u;
+    var best = F32_MAX;
+    var last_evaluated = F32_MAX;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
         for (var i = lid; i < n; i += GROUP_THREADS) {
             implicit_iterate_at(i);
@@ -103,6 +105,7 @@ fn step_in_group(lid: u32) {
             scale = sqrt(t.z);
         }
         step_residual = relative(b_norm, scale);
+        last_evaluated = b_norm;
         if ((newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) && newton_may_end(t.w)) {
             met = true;
             break;
@@ -118,6 +121,13 @@ fn step_in_group(lid: u32) {
         }
         halvings = 0u;
         last_residual = b_norm;
+        if (newton > 0u && b_norm <= best) {
+            // Each thread keeps its own masses', which only it wrote and reads.
+            best = b_norm;
+            for (var i = lid; i < n; i += GROUP_THREADS) {
+                keep_best_at(i);
+            }
+        }
         newtons += 1u;
         let solved = solve_in_group(lid, t.x, b_norm);
         iterations += u32(solved.x);
@@ -132,8 +142,12 @@ fn step_in_group(lid: u32) {
             break;
         }
     }
+    let at_best = !met && newton_wandered(last_evaluated, best);
+    if (at_best) {
+        step_residual = relative(best, scale);
+    }
     for (var i = lid; i < n; i += GROUP_THREADS) {
-        implicit_final_at(i);
+        implicit_final_at(i, at_best);
     }
     if (lid == 0u) {
         book_solve(iterations, max_residual);

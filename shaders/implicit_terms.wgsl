@@ -153,12 +153,27 @@ fn implicit_iterate_at(i: u32) {
     x_in[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
 }
 
-// The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU).
-fn implicit_final_at(i: u32) {
-    let vn = v[i].xyz + vector_at(DV_TOTAL, i).xyz;
+// The iterate just solved from has the least residual so far: keep its Δv and its forces'
+// ledger rates (src/cpu/implicit.rs's implicit_step keeps them as best_dv and its power).
+fn keep_best_at(i: u32) {
+    work[block(BEST_DV, i)] = vector_at(DV_TOTAL, i);
+    work[block(BEST_RATES, i)] = deriv[2u * i + 1u];
+}
+
+// The ledger takes the rates of the last iterate's forces (backward quadrature, as on the CPU);
+// a step short of its rule that wandered (`at_best`) ends at the best iterate it solved from,
+// with its rates.
+fn implicit_final_at(i: u32, at_best: bool) {
+    var dv = vector_at(DV_TOTAL, i).xyz;
+    var rates = deriv[2u * i + 1u];
+    if (at_best) {
+        dv = work[block(BEST_DV, i)].xyz;
+        rates = work[block(BEST_RATES, i)];
+    }
+    let vn = v[i].xyz + dv;
     v[i] = vec4<f32>(vn, 0.0);
     x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
-    ledger[i] += stage.whole_dt * deriv[2u * i + 1u];
+    ledger[i] += stage.whole_dt * rates;
     check_state(x[i].xyz, vn);
 }
 
@@ -277,6 +292,13 @@ fn cg_direction_at(i: u32, beta: f32) {
 // (src/cpu/newton_rules.rs's newton_overshot).
 fn newton_overshot(residual: f32, last: f32, halvings: u32) -> bool {
     return residual > NEWTON_OVERSHOOT * last && halvings < NEWTON_BACKTRACKS;
+}
+
+// Whether a step whose Newton iterations ran out wandered: the last iterate it evaluated
+// (residual `last`) more than NEWTON_OVERSHOOT times worse than the best it solved from (`best`,
+// F32_MAX while none), so that it ends at the best (src/cpu/newton_rules.rs's newton_wandered).
+fn newton_wandered(last: f32, best: f32) -> bool {
+    return best < F32_MAX && last > NEWTON_OVERSHOOT * best;
 }
 
 // The last update halved: δ ← δ / 2, Δv ← Δv − δ (src/cpu/implicit.rs's newton_halve).

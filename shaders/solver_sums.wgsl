@@ -33,10 +33,13 @@ struct Solver {
     // Halvings of the last update so far (newton_overshot); 2 in newton_pending while one is
     // to be applied.
     halvings: u32,
-    // |h f − M Δv| at the iterate a halving was evaluated at, booked if the step ends there.
+    // |h f − M Δv| at the last iterate evaluated (solved from, or halved).
     evaluated: f32,
-    // To 64 bytes: the partials after the two statuses and the frame record start 16-aligned.
-    _pad0: u32,
+    // The least |h f − M Δv| of the iterates solved from after the first (BEST_DV keeps its
+    // Δv), where a step whose iterations run out wandering ends (newton_wandered). With it the
+    // status is 64 bytes: the partials after the two statuses and the frame record start
+    // 16-aligned.
+    best: f32,
 }
 
 // What the per-pass kernels learn of a frame, read back once by the host (src/gpu/layout.rs's

@@ -167,7 +167,8 @@ pub struct StepStats {
 pub struct RuleOutcome {
     /// The largest residual of backward Euler's equations a step ended with, |h f − M Δv| /
     /// |h f| at its last iterate evaluated (Newton's before its last update, where that update
-    /// ended it).
+    /// ended it; for a Newton step short of its rule, at the best iterate it solved from, where
+    /// it ended).
     pub step_residual: f64,
     /// Steps that ended without meeting the rule: Newton out of iterations short of its
     /// tolerance, VBD's sweeps short of `physics::VBD_RESIDUAL`.

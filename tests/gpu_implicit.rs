@@ -137,6 +137,56 @@ fn the_cloth_and_the_jello_at_one_step_per_frame_end_where_the_cpu_ends() {
     }
 }
 
+/// Where a body first meets a collider, Newton can run out of iterations: the ramp's cube
+/// touches its plane at 1/60 s in its third step, and the iterates alternate between clear of
+/// the plane and deep in it. Such a step ends at the best iterate it solved from, with that
+/// iterate's ledger rates, on the GPU as on the CPU, on both paths: bit for bit on lavapipe.
+#[test]
+fn a_step_short_of_newtons_rule_ends_at_its_best_iterate_as_on_the_cpu() {
+    use hooke::gpu::ImplicitPath;
+    if !have_adapter() || !common::parity::gpu_rounds_as_the_cpu() {
+        return;
+    }
+    let (model, _) = scene_model("ramp");
+    let step = Step::new(Integrator::Implicit, 1.0 / 60.0);
+    for path in [ImplicitPath::InGroup, ImplicitPath::Passes] {
+        let mut cpu = CpuBackend::new(model.clone(), step);
+        let tuning = hooke::gpu::Tuning {
+            implicit: path,
+            ..hooke::gpu::Tuning::for_run(&model, step)
+        };
+        let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
+        if gpu.implicit_path() != Some(path) {
+            println!("{path:?}: this driver takes {:?}", gpu.implicit_path());
+            continue;
+        }
+        let (mut unmet_cpu, mut unmet_gpu) = (0, 0);
+        step_alike((&mut cpu, &mut gpu), (5, 1), |frame, (_, sc), (gpu, sg)| {
+            let sg = ok(gpu.snapshot(frame, sg)).stats;
+            unmet_cpu += sc.rule.map_or(0, |r| r.unmet_steps);
+            unmet_gpu += sg.rule.map_or(0, |r| r.unmet_steps);
+            assert_eq!(sc.rule, sg.rule, "{path:?} frame {frame}: how Newton went");
+        });
+        assert!(
+            unmet_cpu > 0,
+            "{path:?}: no step ran short of Newton's rule"
+        );
+        assert_eq!(unmet_cpu, unmet_gpu, "{path:?}");
+        let (c, g) = (ok(cpu.state()), ok(gpu.state()));
+        let apart = hooke::conformance::Apart::of(&c, &g);
+        assert!(
+            apart.same_bits,
+            "{path:?}: the GPU ends {:.3e} m from the CPU",
+            apart.farthest_m
+        );
+        let (lc, lg) = (c.ledger.dissipated_j(), g.ledger.dissipated_j());
+        assert!(
+            (lc - lg).abs() <= 1e-6 * lc.abs().max(1e-9),
+            "{path:?}: the ledgers part: {lc} J on the CPU, {lg} J on the GPU"
+        );
+    }
+}
+
 /// The conformance probe holds implicit Euler's and BDF2's steps with block Jacobi to the CPU's
 /// bits on lavapipe, on whichever path the driver allows, as the tests above do, and says so.
 #[test]

@@ -35,14 +35,21 @@ pub enum Measured {
     Refused(Unsupported),
 }
 
+/// How far a search must find a scheme stable before its estimate "any step" counts as holding.
+/// A tenth of a second is six frames at 60 Hz: no scene is stepped coarser.
+pub const ANY_STEP_MEASURED_TO_SECS: f64 = 0.1;
+
 impl LimitRow {
-    /// The estimate is at or below the measured step (or both say "no stable step").
+    /// The estimate is at or below the measured step (or both say "no stable step"). An
+    /// estimate of any step holds where the search found the scheme stable up to its top, at
+    /// least [`ANY_STEP_MEASURED_TO_SECS`]; a largest stable step, at any size, refutes it.
     pub fn holds(&self) -> bool {
         let Measured::Found(found) = self.measured else {
             return true;
         };
         match (self.estimate_secs, found) {
             (None, _) => true,
+            (Some(e), Found::AtLeast(m)) if e.is_infinite() => m >= ANY_STEP_MEASURED_TO_SECS,
             (Some(e), Found::Largest(m) | Found::AtLeast(m)) => e <= m,
             (Some(_), Found::Unstable) => false,
         }
@@ -112,6 +119,7 @@ pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String
     let _ = writeln!(s, "|---|---|---:|---:|---|---:|---:|");
     for r in rows {
         let estimate = match (r.estimate_secs, r.dashpot_line_secs) {
+            (Some(e), _) if e.is_infinite() => "any".to_owned(),
             (Some(e), _) => format!("{e:.3e} s"),
             (None, Some(line)) => format!("none for sure (dashpots: {line:.3e} s)"),
             (None, None) => "none".to_owned(),
@@ -123,7 +131,7 @@ pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String
             Measured::Refused(why) => (format!("refused ({})", why.effect()), None),
         };
         let ratio = match (r.estimate_secs, found) {
-            (Some(e), Some(m)) => format!("{:.2}", e / m),
+            (Some(e), Some(m)) if e.is_finite() => format!("{:.2}", e / m),
             _ => "—".to_owned(),
         };
         let _ = writeln!(
@@ -137,4 +145,35 @@ pub fn limits_markdown(rows: &[LimitRow], duration: f64, device: &str) -> String
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(estimate_secs: Option<f64>, found: Found) -> LimitRow {
+        LimitRow {
+            scene: "s".to_owned(),
+            integrator: Integrator::ALL[0],
+            scene_dt_secs: 1e-3,
+            estimate_secs,
+            limit: None,
+            dashpot_line_secs: None,
+            measured: Measured::Found(found),
+        }
+    }
+
+    /// "Any step" holds only where the search found no limit up to a tenth of a second or
+    /// more; a limit found, however large, refutes it.
+    #[test]
+    fn any_step_holds_only_as_far_as_it_was_measured() {
+        let any = Some(f64::INFINITY);
+        assert!(row(any, Found::AtLeast(0.142)).holds());
+        assert!(!row(any, Found::AtLeast(0.05)).holds());
+        assert!(!row(any, Found::Largest(0.135)).holds());
+        assert!(row(Some(1e-3), Found::Largest(2e-3)).holds());
+        assert!(!row(Some(3e-3), Found::Largest(2e-3)).holds());
+        assert!(!row(Some(1e-3), Found::Unstable).holds());
+        assert!(row(None, Found::Unstable).holds());
+    }
 }

@@ -24,23 +24,23 @@
 //! stepped here anyway, it would enter through f only, and stiff contacts would stall Newton.
 
 use glam::{Mat3, Vec3, Vec4};
-use rayon::prelude::*;
 
 use super::backward::residual_work;
 use super::cg::{
     cg_direction, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
-use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair};
+use super::chunks::{each_mass, each_mass_pair};
 use super::forces::{Gather, compute_forces};
-use super::implicit_work::{ImplicitWork, Linearisation, SolveStats};
+use super::implicit_work::{ImplicitWork, Linearisation, SolveStats, linearise};
 use super::newton_rules::{
-    NewtonRules, newton_converged, newton_done, newton_overshot, newton_stalled, relative,
+    NewtonRules, newton_converged, newton_done, newton_overshot, newton_stalled, newton_wandered,
+    relative,
 };
 use super::solver_sums::{group_max, group_reduce};
-use super::system_blocks::{ContactBlock, SpringTerms, block_times, invert_block, own_block};
+use super::system_blocks::{block_times, invert_block, own_block};
 use crate::backend::StopFlags;
 use crate::integrator::Integrator;
-use crate::model::{Model, Spring, poses_at};
+use crate::model::Model;
 use crate::physics::{BackwardStep, NEWTON_MAX_ITERATIONS};
 use crate::state::{Power, State};
 
@@ -83,49 +83,11 @@ fn system_times(
     out
 }
 
-fn linearise(
-    model: &Model,
-    springs: &[Spring],
-    x: &[Vec3],
-    t: f64,
-    h: f32,
-    lin: &mut Linearisation,
-) {
-    let terms_of = |terms: &mut SpringTerms, s: &Spring| {
-        *terms = SpringTerms::at(s, x[s.a as usize], x[s.b as usize], h);
-    };
-    if lin.springs.len() >= PARALLEL_MIN_MASSES {
-        lin.springs
-            .par_chunks_mut(CHUNK)
-            .zip(springs.par_chunks(CHUNK))
-            .for_each(|(t, s)| t.iter_mut().zip(s).for_each(|(t, s)| terms_of(t, s)));
-    } else {
-        lin.springs
-            .iter_mut()
-            .zip(springs)
-            .for_each(|(t, s)| terms_of(t, s));
-    }
-    let poses = poses_at(&model.effects.colliders, t);
-    each_mass(&mut lin.contacts, |i, contacts| {
-        *contacts = if model.inv_mass[i] == 0.0 {
-            ContactBlock::default()
-        } else {
-            ContactBlock::at(&model.effects, &poses, x[i], model.mass_kg[i], h)
-        };
-    });
-}
-
-/// The system linearised at `x` (for the tests of its preconditioners).
-#[cfg(test)]
-pub(super) fn linearised_at(model: &Model, x: &[Vec3], h: f32) -> Linearisation {
-    let mut lin = Linearisation::new(model);
-    linearise(model, &model.springs, x, 0.0, h, &mut lin);
-    lin
-}
-
 /// One step of `dt` of `integrator`, implicit Euler or BDF2 (`physics::BackwardStep`): backward
 /// Euler from the step's blended start. The ledger takes the dissipation rates at the converged
 /// iterate, the end of the step, over the whole step (backward quadrature, as the scheme itself).
+/// A step whose iterations run out short of Newton's rule, wandering (`newton_wandered`), ends
+/// at the iterate with the least residual it solved from after its first, with its rates.
 pub fn implicit_step(
     model: &Model,
     gather: &mut Gather,
@@ -149,7 +111,11 @@ pub fn implicit_step(
         .implicit_blend(step, keep, &mut state.x, &mut state.v);
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
-    for _ in 0..NEWTON_MAX_ITERATIONS {
+    // The iterate with the least residual that Newton solved from after its first (Δv = 0, no
+    // solution at all): its residual and rates.
+    let mut best = (f32::MAX, Power::default());
+    let mut last_evaluated = f32::MAX;
+    for k in 0..NEWTON_MAX_ITERATIONS {
         if stop.asked() {
             break;
         }
@@ -164,6 +130,7 @@ pub fn implicit_step(
             scale = sums.z.sqrt();
         }
         stats.step_residual = f64::from(relative(residual, scale));
+        last_evaluated = residual;
         if (newton_done(residual, scale, rules.tolerance)
             || newton_stalled(residual, last_residual, scale, rules.floor))
             && (!keep || sums.w <= 0.0)
@@ -179,6 +146,10 @@ pub fn implicit_step(
         }
         halvings = 0;
         last_residual = residual;
+        if k > 0 && residual <= best.0 {
+            best = (residual, power);
+            w.best_dv.copy_from_slice(&w.dv_total);
+        }
         let (iterations, residual) = solve(model, w, h, (residual, sums.x), stop);
         stats.newton += 1;
         stats.iterations += iterations;
@@ -191,6 +162,16 @@ pub fn implicit_step(
             stats.met = true;
             break;
         }
+    }
+    if !stats.met && newton_wandered(last_evaluated, best.0) {
+        // Short of its rule and wandering, the step ends where it was best, not at its last
+        // update, which no evaluation judged (nor did the ledger's rates, which were the last
+        // iterate's). At contact onset Newton alternates between an iterate clear of the
+        // collider and one deep in it (its damper switches on at full strength on touching), and
+        // ending on the deep one stored energy in the contact from nowhere (docs/stability.md).
+        w.dv_total.copy_from_slice(&w.best_dv);
+        power = best.1;
+        stats.step_residual = f64::from(relative(best.0, scale));
     }
     implicit_final(state, &w.dv_total, h);
     state.ledger.accumulate(&power, f64::from(dt));

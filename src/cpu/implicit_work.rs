@@ -1,12 +1,15 @@
 //! What implicit Euler's and BDF2's CPU solve keeps between steps: the system linearised at the
-//! step's start, the solver's vectors, the preconditioner, and how each step's solve went.
+//! step's start (and `linearise`, which makes it), the solver's vectors, the preconditioner, and
+//! how each step's solve went.
 
 use glam::{Mat3, Vec3};
+use rayon::prelude::*;
 
 use super::backward::History;
+use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass};
 use super::multigrid::Multigrid;
 use super::system_blocks::{ContactBlock, SpringTerms};
-use crate::model::Model;
+use crate::model::{Model, Spring, poses_at};
 use crate::physics::Preconditioner;
 
 /// How one implicit step's linear solve went.
@@ -20,7 +23,8 @@ pub struct SolveStats {
     /// it started from: at most CG_FORCING when every solve converged, up to 1 when one ran
     /// out of iterations. (VBD: the step's residual |h f − M Δv| relative to |h f|.)
     pub residual: f64,
-    /// |h f − M Δv| / |h f| at the step's last iterate evaluated, and whether the step met its
+    /// |h f − M Δv| / |h f| at the iterate the step ended at (Newton: the last evaluated, or
+    /// for a step short of its rule the best it solved from), and whether the step met its
     /// rule (Newton: tolerance, floor or a negligible update in its iterations; VBD_RESIDUAL).
     pub step_residual: f64,
     pub met: bool,
@@ -57,6 +61,9 @@ pub struct ImplicitWork {
     pub(super) block_inv: Vec<Mat3>,
     /// Δv so far, and the iterate's state.
     pub(super) dv_total: Vec<Vec3>,
+    /// Δv at the iterate with the least residual Newton solved from, where a step that ends
+    /// short of its rule ends (`implicit_step`).
+    pub(super) best_dv: Vec<Vec3>,
     pub(super) xk: Vec<Vec3>,
     pub(super) vk: Vec<Vec3>,
     /// Large systems' preconditioner (block Jacobi without it).
@@ -82,6 +89,7 @@ impl ImplicitWork {
             dv: zeros(),
             block_inv: vec![Mat3::IDENTITY; n],
             dv_total: zeros(),
+            best_dv: zeros(),
             xk: zeros(),
             vk: zeros(),
             multigrid: match preconditioner {
@@ -91,4 +99,45 @@ impl ImplicitWork {
             history: History::default(),
         }
     }
+}
+
+/// The system at `x` and time `t`: each spring's terms and each movable mass's contacts.
+pub(super) fn linearise(
+    model: &Model,
+    springs: &[Spring],
+    x: &[Vec3],
+    t: f64,
+    h: f32,
+    lin: &mut Linearisation,
+) {
+    let terms_of = |terms: &mut SpringTerms, s: &Spring| {
+        *terms = SpringTerms::at(s, x[s.a as usize], x[s.b as usize], h);
+    };
+    if lin.springs.len() >= PARALLEL_MIN_MASSES {
+        lin.springs
+            .par_chunks_mut(CHUNK)
+            .zip(springs.par_chunks(CHUNK))
+            .for_each(|(t, s)| t.iter_mut().zip(s).for_each(|(t, s)| terms_of(t, s)));
+    } else {
+        lin.springs
+            .iter_mut()
+            .zip(springs)
+            .for_each(|(t, s)| terms_of(t, s));
+    }
+    let poses = poses_at(&model.effects.colliders, t);
+    each_mass(&mut lin.contacts, |i, contacts| {
+        *contacts = if model.inv_mass[i] == 0.0 {
+            ContactBlock::default()
+        } else {
+            ContactBlock::at(&model.effects, &poses, x[i], model.mass_kg[i], h)
+        };
+    });
+}
+
+/// The system linearised at `x` (for the tests of its preconditioners).
+#[cfg(test)]
+pub(super) fn linearised_at(model: &Model, x: &[Vec3], h: f32) -> Linearisation {
+    let mut lin = Linearisation::new(model);
+    linearise(model, &model.springs, x, 0.0, h, &mut lin);
+    lin
 }

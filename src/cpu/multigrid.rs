@@ -225,10 +225,8 @@ impl Multigrid {
 #[cfg(test)]
 mod tests {
     use super::super::forces::Gather;
-    use super::super::implicit::{
-        apply_system, block_of_mass, implicit_step, linearised_at, own_and_contacts,
-    };
-    use super::super::implicit_work::ImplicitWork;
+    use super::super::implicit::{apply_system, block_of_mass, implicit_step, own_and_contacts};
+    use super::super::implicit_work::{ImplicitWork, linearised_at};
     use super::super::system_blocks::invert_block;
     use super::*;
     use crate::integrator::Integrator;

@@ -46,6 +46,14 @@ pub fn newton_overshot(residual: f32, last: f32, halvings: u32) -> bool {
     residual > NEWTON_OVERSHOOT as f32 * last && halvings < NEWTON_BACKTRACKS
 }
 
+/// Whether a step whose Newton iterations ran out wandered: the last iterate it evaluated
+/// (residual `last`) was more than `physics::NEWTON_OVERSHOOT` times worse than the best it
+/// solved from (`best`, `f32::MAX` while none), so that it ends at the best instead of its last
+/// update. A step that ran out near its floor (a very stiff spring) ends at its last update.
+pub fn newton_wandered(last: f32, best: f32) -> bool {
+    best < f32::MAX && last > NEWTON_OVERSHOOT as f32 * best
+}
+
 /// Newton has converged when its update `step` (the largest |δ|) is small against Δv (the
 /// largest |Δv|, `size`), or below 1e-7 m/s.
 pub fn newton_converged(step: f32, size: f32) -> bool {
@@ -91,6 +99,9 @@ mod tests {
         assert!(!newton_overshot(1.2, 1.0, NEWTON_BACKTRACKS));
         assert!(!newton_overshot(1.0, f32::MAX, 0));
         assert!(newton_converged(1e-5, 1.0) && !newton_converged(1e-3, 1.0));
+        // Out of iterations: at the best iterate only if the last was well above it.
+        assert!(newton_wandered(3.33, 0.3755) && !newton_wandered(1.05, 1.0));
+        assert!(!newton_wandered(3.0, f32::MAX));
         assert_eq!(relative(1.0, 0.0), 0.0);
     }
 }

@@ -127,10 +127,13 @@ pub struct SolverStatus {
     pub last_residual: f32,
     /// Halvings of the last Newton update so far (`physics::NEWTON_BACKTRACKS`).
     pub halvings: u32,
-    /// |h f − M Δv| at the iterate a halving was evaluated at.
+    /// |h f − M Δv| at the last iterate evaluated (solved from, or halved).
     pub evaluated: f32,
-    /// To 64 bytes, so that the partials after two statuses and a `FrameSolve` start 16-aligned.
-    pub _pad: u32,
+    /// The least |h f − M Δv| of the iterates solved from after the first, where a step whose
+    /// Newton iterations run out wandering ends (`BEST_DV` in WGSL keeps its Δv). With it the
+    /// status is 64 bytes, so that the partials after two statuses and a `FrameSolve` start
+    /// 16-aligned.
+    pub best: f32,
 }
 
 /// Room in [`FrameSolve::cg_most`]: one per Newton iteration a step may take.

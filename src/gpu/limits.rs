@@ -67,9 +67,10 @@ pub fn multigrid_unbound_by(model: &Model, limits: &wgpu::Limits) -> Option<Mult
 pub fn scratch_bytes(model: &Model, integrator: Integrator) -> u64 {
     // VBD keeps each mass's velocity at the last step's start in [i] and its residual's workgroup
     // sums after those (RK4 and Verlet use three per mass);
-    // BDF2 keeps the last step's start after the solver's vectors (HISTORY_X, HISTORY_V).
+    // After the solver's vectors: the best iterate's Δv and rates (BEST_DV, BEST_RATES), then
+    // BDF2's last step start (HISTORY_X, HISTORY_V).
     let per_mass = match integrator.scheme().solve {
-        Solve::Newton { history } => 16 * (SOLVER_VECTORS + if history { 2 } else { 0 }),
+        Solve::Newton { history } => 16 * (SOLVER_VECTORS + 2 + if history { 2 } else { 0 }),
         Solve::Explicit(_) | Solve::Sweeps(_) => 48,
     };
     per_mass * model.mass_count() as u64

@@ -116,9 +116,32 @@ fn documents() -> rerun::blueprint::ContainerLike {
 /// series also has a fixed colour, named in the `legend` document. Rerun 0.36's Rust blueprint
 /// API cannot set a view's legend or eye, so those properties are logged into the blueprint's
 /// own store beside the layout, as the viewer reads them.
-pub fn send_blueprint(rec: &RecordingStream, framing: Option<Framing>) -> RResult {
+pub fn send_blueprint(rec: &RecordingStream, framing: Option<Framing>, takes: Takes) -> RResult {
     let (blueprint, props) = layout(framing);
-    send_layout(rec, blueprint, &props)
+    send_layout(rec, blueprint, &props, takes)
+}
+
+/// How a layout takes effect in a viewer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Takes {
+    /// At once, and as the default a reset returns to: a recording opened later shows it.
+    Now,
+    /// As the default only: a viewer watching the run keeps its view (its eye where the user put
+    /// it) until its layout is reset.
+    AsDefault,
+}
+
+impl Takes {
+    /// The layout framed on a whole run, sent at its end, for a run recorded to a live viewer
+    /// (`Some(with a file beside it)`) or not (`None`: a file, a pipe, a server). A viewer alone
+    /// keeps the view its user has rather than jumping to the new eye; wherever a file is
+    /// written, the framing takes effect, so that the file opens with it.
+    pub fn at_run_end(viewer_with_file: Option<bool>) -> Self {
+        match viewer_with_file {
+            Some(false) => Takes::AsDefault,
+            Some(true) | None => Takes::Now,
+        }
+    }
 }
 
 /// A comparison's layout: every copy in one 3D view (the paths in `hidden` left out: each copy's
@@ -189,19 +212,20 @@ pub fn send_comparison_blueprint(
     .with_blueprint_panel(rerun::blueprint::BlueprintPanel::from_state(
         PanelState::Collapsed,
     ));
-    send_layout(rec, blueprint, &props)
+    send_layout(rec, blueprint, &props, Takes::Now)
 }
 
-/// `blueprint` sent to `rec`, made active at once, with its `props`.
+/// `blueprint` sent to `rec` with its `props`, taking effect as `takes` says.
 fn send_layout(
     rec: &RecordingStream,
     blueprint: rerun::blueprint::Blueprint,
     props: &Properties,
+    takes: Takes,
 ) -> RResult {
     use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreKind};
     use rerun::external::re_sdk_types::blueprint::archetypes::{EyeControls3D, PlotLegend};
     let activation = rerun::blueprint::BlueprintActivation {
-        make_active: true,
+        make_active: takes == Takes::Now,
         make_default: true,
     };
     // The layout's messages, as the SDK makes them, caught in memory.
@@ -255,4 +279,16 @@ fn send_layout(
         },
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_live_viewer_alone_keeps_its_view_at_the_end() {
+        assert_eq!(Takes::at_run_end(Some(false)), Takes::AsDefault);
+        assert_eq!(Takes::at_run_end(Some(true)), Takes::Now);
+        assert_eq!(Takes::at_run_end(None), Takes::Now);
+    }
 }

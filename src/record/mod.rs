@@ -44,7 +44,7 @@ pub mod surface;
 pub mod surface_strain;
 pub mod viewer;
 
-pub use blueprint::{APPLICATION_ID, send_blueprint};
+pub use blueprint::{APPLICATION_ID, Takes, send_blueprint};
 pub use compare::{CompareRecorder, EntryName};
 pub use compare_layout::{ColourBy, CompareLayout, EntryTally};
 pub use digest::{Digester, digesting};

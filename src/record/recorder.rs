@@ -195,14 +195,14 @@ impl Recorder {
     }
 
     /// Frames a whole recording's 3D view on every place its bodies went, once its frames are
-    /// logged: the layout is sent again with that eye, and a recording opened afterwards shows
-    /// it (a live viewer moves to it at the end of the run).
-    pub fn frame_what_was_seen(&self) -> RResult {
+    /// logged: the layout is sent again with that eye, taking effect as `takes` says; a
+    /// recording opened afterwards shows it.
+    pub fn frame_what_was_seen(&self, takes: super::blueprint::Takes) -> RResult {
         match (
             self.root.is_whole(),
             Framing::over_run(&self.model, &self.visited),
         ) {
-            (true, Some(f)) => super::blueprint::send_blueprint(&self.rec, Some(f)),
+            (true, Some(f)) => super::blueprint::send_blueprint(&self.rec, Some(f), takes),
             _ => Ok(()),
         }
     }

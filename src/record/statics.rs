@@ -30,7 +30,11 @@ impl Recorder {
         let root = &self.root;
         if root.is_whole() {
             self.log_documents(scene_name, scene_text, settings, backend)?;
-            super::blueprint::send_blueprint(rec, Framing::at_start(&self.model))?;
+            super::blueprint::send_blueprint(
+                rec,
+                Framing::at_start(&self.model),
+                super::blueprint::Takes::Now,
+            )?;
         }
         for series in all_series() {
             if self.has(series.when) {

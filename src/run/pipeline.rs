@@ -41,6 +41,12 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
+    /// How the layout framed on the whole run takes effect at its end
+    /// (`record::Takes::at_run_end`).
+    pub fn end_framing_takes(&self) -> crate::record::Takes {
+        crate::record::Takes::at_run_end(self.viewer.as_ref().map(|v| v.file.is_some()))
+    }
+
     /// A run that nobody watches: every frame recorded (into `file`, when given, else where the
     /// recording stream goes), no progress shown, as fast as it goes, the default recording.
     pub fn unattended(file: Option<RrdFile>) -> Self {
@@ -147,7 +153,7 @@ pub fn run(
     progress.finish();
     if recorder_error.is_none() {
         recorder_error = recorder
-            .frame_what_was_seen()
+            .frame_what_was_seen(opts.end_framing_takes())
             .err()
             .map(|e| Error::Rerun(e.into()));
     }

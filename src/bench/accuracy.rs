@@ -292,10 +292,7 @@ fn row(
     let drift = r.energies.map_or(f64::NAN, |e| e.balance_change_j);
     let rms = r.error_rms_m.unwrap_or(f64::NAN);
     // The table has room for the reason's first sentence; result.json keeps the whole message.
-    let why = || {
-        let m = r.message.as_deref().unwrap_or("no reason given");
-        m.split_once(". ").map_or(m, |(first, _)| first).to_owned()
-    };
+    let why = || r.first_sentence().unwrap_or("no reason given").to_owned();
     let outcome = match r.status {
         Status::Ok if rms.is_finite() => Outcome::Stable,
         Status::Ok => Outcome::Failed("no error against the reference".to_owned()),

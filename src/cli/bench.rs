@@ -5,7 +5,7 @@ use hooke::{accuracy, bench};
 
 use super::args::BenchCommand;
 use super::outcome::Outcome;
-use super::sweep::{ExecArgs, execute, on_interrupt};
+use super::sweep::{Afterwards, ExecArgs, execute, on_interrupt};
 
 pub fn bench(which: BenchCommand) -> anyhow::Result<Outcome> {
     match which {
@@ -155,7 +155,14 @@ fn bench_accuracy(scene: &str, opts: &AccuracyOptions, exec: &ExecArgs) -> anyho
         sweep.dir.display()
     ));
     let all: Vec<usize> = (0..sweep.plan.points.len()).collect();
-    if let Outcome::Interrupted = execute(&sweep.dir, &sweep.plan, &all, exec, &cancel, false)? {
+    if let Outcome::Interrupted = execute(
+        &sweep.dir,
+        &sweep.plan,
+        &all,
+        exec,
+        &cancel,
+        Afterwards::Quiet,
+    )? {
         eprintln!("bench accuracy: interrupted before its tables; run it again to measure afresh");
         return Ok(Outcome::Interrupted);
     }

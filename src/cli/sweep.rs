@@ -124,7 +124,14 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 out.display()
             );
             let all: Vec<usize> = (0..plan.points.len()).collect();
-            execute(&out, &plan, &all, &exec, &on_interrupt(), true)
+            execute(
+                &out,
+                &plan,
+                &all,
+                &exec,
+                &on_interrupt(),
+                Afterwards::SayHowToSeeResults,
+            )
         }
         SweepCommand::Resume { dir, exec } => {
             let plan = sweep::plan::read(&dir)?;
@@ -143,7 +150,14 @@ pub fn sweep(which: SweepCommand) -> anyhow::Result<Outcome> {
                 plan.points.len(),
                 dir.display()
             );
-            execute(&dir, &plan, &left, &exec, &on_interrupt(), true)
+            execute(
+                &dir,
+                &plan,
+                &left,
+                &exec,
+                &on_interrupt(),
+                Afterwards::SayHowToSeeResults,
+            )
         }
         SweepCommand::Status { dir } => {
             let plan = sweep::plan::read(&dir)?;
@@ -194,15 +208,24 @@ pub fn on_interrupt() -> Arc<AtomicBool> {
     cancel
 }
 
-/// Run `indices` of the sweep in `dir` where `exec` says, until they end or `cancel` is set;
-/// `hint`: end by saying how to see the results (a caller that shows them itself does not).
+/// What a finished sweep says last.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Afterwards {
+    /// How to see its results: `sweep report`, `rerun server -d`.
+    SayHowToSeeResults,
+    /// Nothing: the caller shows the results itself (`bench accuracy`).
+    Quiet,
+}
+
+/// Run `indices` of the sweep in `dir` where `exec` says, until they end or `cancel` is set,
+/// ending as `afterwards` says.
 pub fn execute(
     dir: &Path,
     plan: &Plan,
     indices: &[usize],
     exec: &ExecArgs,
     cancel: &Arc<AtomicBool>,
-    hint: bool,
+    afterwards: Afterwards,
 ) -> anyhow::Result<Outcome> {
     let binary = std::env::current_exe()
         .and_then(|p| p.canonicalize())
@@ -254,7 +277,7 @@ pub fn execute(
             }
         }
     };
-    finish(dir, plan, &tally, cancel, hint)
+    finish(dir, plan, &tally, cancel, afterwards)
 }
 
 fn finish(
@@ -262,7 +285,7 @@ fn finish(
     plan: &Plan,
     tally: &Tally,
     cancel: &AtomicBool,
-    hint: bool,
+    afterwards: Afterwards,
 ) -> anyhow::Result<Outcome> {
     if cancel.load(Ordering::SeqCst) {
         eprintln!(
@@ -282,7 +305,7 @@ fn finish(
         );
     }
     match plan.record {
-        _ if !hint => {}
+        _ if afterwards == Afterwards::Quiet => {}
         true => eprintln!(
             "sweep: `hooke sweep report {}` writes the tables and chart; `rerun server -d {}` serves the recordings as one dataset",
             dir.display(),

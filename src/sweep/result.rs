@@ -94,6 +94,15 @@ pub struct PointResult {
     pub host: String,
 }
 
+impl PointResult {
+    /// The first sentence of why the point diverged, was refused or failed (the rest, its
+    /// advice, stays in result.json), if it says why.
+    pub fn first_sentence(&self) -> Option<&str> {
+        let m = self.message.as_deref()?;
+        Some(m.split_once(". ").map_or(m, |(first, _)| first))
+    }
+}
+
 /// The result in `path`, if the point is done.
 pub fn read(path: &Path) -> Option<PointResult> {
     let text = std::fs::read_to_string(path).ok()?;

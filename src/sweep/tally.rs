@@ -34,15 +34,16 @@ impl Tally {
                     Status::Refused => self.refused += 1,
                     Status::Failed => self.failed += 1,
                 }
-                let why = match (r.message, r.notes.len()) {
+                let why = match (&r.message, r.first_sentence(), r.notes.len()) {
                     // A divergence's first sentence says where; its advice is in result.json.
-                    (Some(m), _) if r.status == Status::Diverged => match m.split_once(". ") {
-                        Some((first, _)) => format!(": {first}. (result.json has the rest)"),
-                        None => format!(": {m}"),
-                    },
-                    (Some(m), _) => format!(": {m}"),
-                    (None, 0) => String::new(),
-                    (None, n) => {
+                    (Some(m), Some(first), _)
+                        if r.status == Status::Diverged && first.len() < m.len() =>
+                    {
+                        format!(": {first}. (result.json has the rest)")
+                    }
+                    (Some(m), ..) => format!(": {m}"),
+                    (None, _, 0) => String::new(),
+                    (None, _, n) => {
                         format!(", with {n} note(s) (result.json has them): {}", r.notes[0])
                     }
                 };

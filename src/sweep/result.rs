@@ -116,3 +116,22 @@ pub fn host() -> String {
         .or_else(|_| std::env::var("HOSTNAME"))
         .unwrap_or_else(|_| "unknown".to_owned())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_message_is_cut_at_its_first_sentence() {
+        let mut r: PointResult = serde_json::from_value(serde_json::json!({
+            "index": 0, "label": "x", "params": [], "status": "diverged", "notes": [],
+            "wall_secs_each": [], "load": "alone", "host": "here",
+        }))
+        .expect("a result without a message");
+        assert_eq!(r.first_sentence(), None);
+        r.message = Some("diverged at frame 3 (mass 7). Try a smaller step.".to_owned());
+        assert_eq!(r.first_sentence(), Some("diverged at frame 3 (mass 7)"));
+        r.message = Some("no adapter".to_owned());
+        assert_eq!(r.first_sentence(), Some("no adapter"));
+    }
+}

@@ -27,6 +27,8 @@ override NEWTON_TOLERANCE: f32 = 1e-4;
 override NEWTON_MAX_ITERATIONS: u32 = 10u;
 override NEWTON_RESIDUAL: f32 = 3e-2;
 override NEWTON_FLOOR: f32 = 1e-2;
+// The movable masses' weights' 2-norm in newtons (src/physics/solver.rs's weight_norm_n).
+override WEIGHT_N: f32 = 0.0;
 override NEWTON_STALL: f32 = 0.5;
 override NEWTON_BACKTRACKS: u32 = 2u;
 override NEWTON_OVERSHOOT: f32 = 1.1;

@@ -120,7 +120,7 @@ fn forces_and_rhs(
     store_grid_partial(lid, wid.x, RHS_SUMS, partial, false);
 }
 
-// After forces_and_rhs: r·z, the residual scale (the first iterate's |h f|), and whether to
+// After forces_and_rhs: r·z, the residual scale (the iterate's own, newton_scale), and whether to
 // iterate.
 @compute @workgroup_size(SOLVER_THREADS)
 fn cg_begin(@builtin(local_invocation_index) lid: u32) {
@@ -135,16 +135,15 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     // This step has used sv.newton + 1 of its budget's Newton iterations.
     scratch.frame.newton_most = max(scratch.frame.newton_most, sv.newton + 1u);
     let b_norm = sqrt(t.y);
-    if (sv.scale == 0.0) {
-        sv.scale = sqrt(t.z);
-    }
+    sv.scale = newton_scale(sqrt(t.z));
+    let share = relative(b_norm, sv.scale);
     if ((newton_done(b_norm, sv.scale) || newton_stalled(b_norm, sv.last_residual, sv.scale)) && newton_may_end(t.w)) {
         // The step's equations hold well enough: the step ends at this iterate.
         sv.cg_active = 0u;
         sv.newton_pending = 0u;
         sv.converged = 1u;
         scratch.solver = sv;
-        book_step(sv.newton, relative(b_norm, sv.scale), true);
+        book_step(sv.newton, share, true);
         return;
     }
     if (newton_overshot(b_norm, sv.last_residual, sv.halvings)) {
@@ -163,11 +162,11 @@ fn cg_begin(@builtin(local_invocation_index) lid: u32) {
     if (sv.newton > 0u && b_norm <= sv.best) {
         // newton_update keeps this iterate (sv.best == sv.last_residual).
         sv.best = b_norm;
+        sv.best_share = share;
     }
     sv.rz = t.x;
     sv.iterations = 0u;
     sv.newton_pending = 1u;
-    sv.b_norm = b_norm;
     if (b_norm == 0.0) {
         sv.residual = 0.0;
         sv.cg_active = 0u;
@@ -197,7 +196,7 @@ fn cg_apply(
     }
     let t = grid_total(lid, RHS_SUMS, false);
     let first = sv.iterations == 0u;
-    sv.residual = sqrt(t.y) / sv.b_norm;
+    sv.residual = sqrt(t.y) / sv.last_residual;
     if (!cg_goes_on(sv.residual, sv.iterations)) {
         sv.cg_active = 0u;
         if (writer) {
@@ -295,10 +294,10 @@ fn newton_update(
 // below it for a solve of Newton iteration j still running at the end of its CG budget.
 const NEWTON_OVERRAN: u32 = 0x80000000u;
 
-// The residual a step out of Newton iterations is booked with: the best iterate's where it
-// wandered and ends there (implicit_final), else its last evaluated iterate's.
+// The relative residual a step out of Newton iterations is booked with: the best iterate's where
+// it wandered and ends there (implicit_final), else its last evaluated iterate's.
 fn ended_at(sv: Solver) -> f32 {
-    return select(sv.evaluated, sv.best, newton_wandered(sv.evaluated, sv.best));
+    return select(relative(sv.evaluated, sv.scale), sv.best_share, newton_wandered(sv.evaluated, sv.best));
 }
 
 // Whether Newton has converged; the step's solve figures are booked for the snapshot and the
@@ -330,7 +329,7 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
         // A halving counts as an iteration; whether Newton converged is judged after solves.
         sv.newton += 1u;
         if (sv.newton >= NEWTON_MAX_ITERATIONS) {
-            book_step(sv.newton, relative(ended_at(sv), sv.scale), false);
+            book_step(sv.newton, ended_at(sv), false);
         }
     } else {
         scratch.frame.cg_most[sv.newton] = max(scratch.frame.cg_most[sv.newton], sv.iterations);
@@ -342,7 +341,7 @@ fn newton_end(@builtin(local_invocation_index) lid: u32) {
         if (sv.converged != 0u) {
             book_step(sv.newton, relative(sv.last_residual, sv.scale), true);
         } else if (sv.newton >= NEWTON_MAX_ITERATIONS) {
-            book_step(sv.newton, relative(ended_at(sv), sv.scale), false);
+            book_step(sv.newton, ended_at(sv), false);
         }
     }
     if (sv.converged == 0u && sv.newton >= scratch.frame.newton_budget && sv.newton < NEWTON_MAX_ITERATIONS) {

@@ -78,7 +78,6 @@ fn step_in_group(lid: u32) {
     for (var i = lid; i < n; i += GROUP_THREADS) {
         implicit_begin_at(i);
     }
-    var scale = 0.0;
     var last_residual = F32_MAX;
     var iterations = 0u;
     var max_residual = 0.0;
@@ -87,6 +86,7 @@ fn step_in_group(lid: u32) {
     var step_residual = 0.0;
     var halvings = 0u;
     var best = F32_MAX;
+    var best_share = 0.0;
     var last_evaluated = F32_MAX;
     for (var newton = 0u; newton < NEWTON_MAX_ITERATIONS; newton++) {
         for (var i = lid; i < n; i += GROUP_THREADS) {
@@ -100,10 +100,7 @@ fn step_in_group(lid: u32) {
         }
         let t = group_reduce(lid, start, false);
         let b_norm = sqrt(t.y);
-        if (scale == 0.0) {
-            // The step's momentum change |h f| at its first iterate.
-            scale = sqrt(t.z);
-        }
+        let scale = newton_scale(sqrt(t.z));
         step_residual = relative(b_norm, scale);
         last_evaluated = b_norm;
         if ((newton_done(b_norm, scale) || newton_stalled(b_norm, last_residual, scale)) && newton_may_end(t.w)) {
@@ -124,6 +121,7 @@ fn step_in_group(lid: u32) {
         if (newton > 0u && b_norm <= best) {
             // Each thread keeps its own masses', which only it wrote and reads.
             best = b_norm;
+            best_share = step_residual;
             for (var i = lid; i < n; i += GROUP_THREADS) {
                 keep_best_at(i);
             }
@@ -144,7 +142,7 @@ fn step_in_group(lid: u32) {
     }
     let at_best = !met && newton_wandered(last_evaluated, best);
     if (at_best) {
-        step_residual = relative(best, scale);
+        step_residual = best_share;
     }
     for (var i = lid; i < n; i += GROUP_THREADS) {
         implicit_final_at(i, at_best);

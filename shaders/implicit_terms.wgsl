@@ -65,9 +65,15 @@ fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
     return step_norm <= NEWTON_TOLERANCE * size_norm || step_norm < 1e-7;
 }
 
+// The momentum change an iterate's residual is judged against: |h f| at that iterate, and at
+// least the step's impulse of the weight WEIGHT_N (src/cpu/newton_rules.rs's newton_scale).
+fn newton_scale(hf: f32) -> f32 {
+    return max(hf, stage.dt * WEIGHT_N);
+}
+
 // Newton's residual is small enough to end the step at this iterate: at most NEWTON_RESIDUAL (the
-// host sets it for the run's step: src/physics/solver.rs's newton_residual) of the step's
-// momentum change |h f| at its first iterate.
+// host sets it for the run's step: src/physics/solver.rs's newton_residual) of the iterate's
+// momentum change `scale` (newton_scale).
 fn newton_done(residual: f32, scale: f32) -> bool {
     return residual <= NEWTON_RESIDUAL * scale;
 }

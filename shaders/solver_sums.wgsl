@@ -10,7 +10,7 @@ struct Solver {
     // r·z of the current iteration, and the β that cg_apply took for it (cg_advance's p).
     rz: f32,
     beta: f32,
-    // |h f| of the step's first Newton iterate: Newton's residuals are relative to it.
+    // The momentum change the last iterate evaluated is judged against (newton_scale).
     scale: f32,
     // |r| / |b| of the current solve.
     residual: f32,
@@ -26,9 +26,10 @@ struct Solver {
     newton: u32,
     newton_pending: u32,
     converged: u32,
-    // |b| of the current solve's start: its residual is relative to it.
-    b_norm: f32,
-    // |h f − M Δv| at the last Newton iterate solved from (newton_stalled, newton_overshot).
+    // `best` relative to its own scale: what a step that ends there is booked with.
+    best_share: f32,
+    // |h f − M Δv| at the last Newton iterate solved from (newton_stalled, newton_overshot), the
+    // |b| of the current solve's start, which its residual is relative to.
     last_residual: f32,
     // Halvings of the last update so far (newton_overshot); 2 in newton_pending while one is
     // to be applied.

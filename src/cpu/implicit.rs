@@ -33,8 +33,8 @@ use super::chunks::{each_mass, each_mass_pair};
 use super::forces::{Gather, compute_forces};
 use super::implicit_work::{ImplicitWork, Linearisation, SolveStats, linearise};
 use super::newton_rules::{
-    NewtonRules, newton_converged, newton_done, newton_overshot, newton_stalled, newton_wandered,
-    relative,
+    NewtonRules, newton_converged, newton_done, newton_overshot, newton_scale, newton_stalled,
+    newton_wandered, relative,
 };
 use super::solver_sums::{group_max, group_reduce};
 use super::system_blocks::{block_times, invert_block, own_block};
@@ -86,8 +86,9 @@ fn system_times(
 /// One step of `dt` of `integrator`, implicit Euler or BDF2 (`physics::BackwardStep`): backward
 /// Euler from the step's blended start. The ledger takes the dissipation rates at the converged
 /// iterate, the end of the step, over the whole step (backward quadrature, as the scheme itself).
-/// A step whose iterations run out short of Newton's rule, wandering (`newton_wandered`), ends
-/// at the iterate with the least residual it solved from after its first, with its rates.
+/// Each iterate's residual is judged against its own momentum change (`newton_scale`). A step
+/// whose iterations run out short of Newton's rule, wandering (`newton_wandered`), ends at the
+/// iterate with the least residual it solved from after its first, with its rates.
 pub fn implicit_step(
     model: &Model,
     gather: &mut Gather,
@@ -102,8 +103,7 @@ pub fn implicit_step(
     let t_end = state.time_secs + f64::from(dt);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
-    let mut scale = 0.0f32;
-    let rules = NewtonRules::of(f64::from(dt), integrator.order());
+    let rules = NewtonRules::of(model, f64::from(dt), integrator.order());
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
@@ -112,8 +112,8 @@ pub fn implicit_step(
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
     // The iterate with the least residual that Newton solved from after its first (Δv = 0, no
-    // solution at all): its residual and rates.
-    let mut best = (f32::MAX, Power::default());
+    // solution at all): that residual, relative to its own scale, and its rates.
+    let mut best = (f32::MAX, 0.0, Power::default());
     let mut last_evaluated = f32::MAX;
     for k in 0..NEWTON_MAX_ITERATIONS {
         if stop.asked() {
@@ -124,12 +124,9 @@ pub fn implicit_step(
         linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
         let sums = implicit_rhs(model, w, h, keep);
         let residual = sums.y.sqrt();
-        if scale == 0.0 {
-            // |h f| at the first iterate (Δv = 0: the first residual): what Newton's rule is
-            // relative to.
-            scale = sums.z.sqrt();
-        }
-        stats.step_residual = f64::from(relative(residual, scale));
+        let scale = newton_scale(sums.z.sqrt(), h, rules.weight_n);
+        let share = relative(residual, scale);
+        stats.step_residual = f64::from(share);
         last_evaluated = residual;
         if (newton_done(residual, scale, rules.tolerance)
             || newton_stalled(residual, last_residual, scale, rules.floor))
@@ -147,7 +144,7 @@ pub fn implicit_step(
         halvings = 0;
         last_residual = residual;
         if k > 0 && residual <= best.0 {
-            best = (residual, power);
+            best = (residual, share, power);
             w.best_dv.copy_from_slice(&w.dv_total);
         }
         let (iterations, residual) = solve(model, w, h, (residual, sums.x), stop);
@@ -170,8 +167,8 @@ pub fn implicit_step(
         // collider and one deep in it (its damper switches on at full strength on touching), and
         // ending on the deep one stored energy in the contact from nowhere (docs/stability.md).
         w.dv_total.copy_from_slice(&w.best_dv);
-        power = best.1;
-        stats.step_residual = f64::from(relative(best.0, scale));
+        power = best.2;
+        stats.step_residual = f64::from(best.1);
     }
     implicit_final(state, &w.dv_total, h);
     state.ledger.accumulate(&power, f64::from(dt));

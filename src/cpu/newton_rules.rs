@@ -3,26 +3,39 @@
 //! from `physics` as f32 overrides): the CPU's steps end, halve and go on exactly where
 //! lavapipe's do. Each rule compares a sum of `solver_sums::group_reduce`.
 
+use crate::model::Model;
 use crate::physics::{
     NEWTON_BACKTRACKS, NEWTON_OVERSHOOT, NEWTON_STALL, NEWTON_TOLERANCE, newton_floor,
-    newton_residual,
+    newton_residual, weight_norm_n,
 };
 
 /// One step's Newton tolerance and floor, as the shaders' `NEWTON_RESIDUAL` and `NEWTON_FLOOR`
-/// hold them (`physics::newton_residual` and `newton_floor` of the run's step, in f32).
+/// hold them (`physics::newton_residual` and `newton_floor` of the run's step, in f32), and the
+/// model's weight (`physics::weight_norm_n`, the shaders' `WEIGHT_N`).
 #[derive(Debug, Clone, Copy)]
 pub struct NewtonRules {
     pub tolerance: f32,
     pub floor: f32,
+    pub weight_n: f32,
 }
 
 impl NewtonRules {
-    pub fn of(dt_secs: f64, order: u32) -> Self {
+    pub fn of(model: &Model, dt_secs: f64, order: u32) -> Self {
         NewtonRules {
             tolerance: newton_residual(dt_secs, order) as f32,
             floor: newton_floor(dt_secs, order) as f32,
+            weight_n: weight_norm_n(model),
         }
     }
+}
+
+/// The momentum change an iterate's residual is judged against: |h f| at that iterate (at a
+/// solution it is |M Δv|, the step's own), and at least `h` times the weight `weight_n`.
+/// Not the first iterate's |h f|: at an impact the first iterate, x + h v, sinks deep into the
+/// collider, and its contact forces made that scale hundreds of times the step's real momentum
+/// change, so that an iterate far from any solution passed the rule (docs/stability.md).
+pub fn newton_scale(hf: f32, h: f32, weight_n: f32) -> f32 {
+    hf.max(h * weight_n)
 }
 
 /// Whether Newton's residual `residual` (|h f − M Δv| at the current iterate) is small enough
@@ -90,7 +103,11 @@ mod tests {
         // floor of f32 forces.
         assert!((newton_floor(1.0 / 60.0, 1) - 2.0 * NEWTON_RESIDUAL).abs() < 1e-12);
         assert_eq!(newton_floor(1e-4, 1), NEWTON_FLOOR);
-        let rules = NewtonRules::of(1.0 / 60.0, 1);
+        let rules = NewtonRules {
+            tolerance: newton_residual(1.0 / 60.0, 1) as f32,
+            floor: newton_floor(1.0 / 60.0, 1) as f32,
+            weight_n: 0.0,
+        };
         assert!(newton_stalled(0.045, 0.046, 1.0, rules.floor));
         assert_eq!(rules.tolerance, NEWTON_RESIDUAL as f32);
         // An update that leaves the residual over 1.1 times larger is halved, twice at most.
@@ -103,5 +120,8 @@ mod tests {
         assert!(newton_wandered(3.33, 0.3755) && !newton_wandered(1.05, 1.0));
         assert!(!newton_wandered(3.0, f32::MAX));
         assert_eq!(relative(1.0, 0.0), 0.0);
+        // An iterate is judged against its own |h f|, and at least its weight's impulse.
+        assert_eq!(newton_scale(2.0, 0.1, 10.0), 2.0);
+        assert_eq!(newton_scale(0.5, 0.1, 10.0), 1.0);
     }
 }

@@ -113,6 +113,7 @@ pub fn neighbour_bytes(mass_count: u64) -> u64 {
 pub struct SolverStatus {
     pub rz: f32,
     pub beta: f32,
+    /// The momentum change the last iterate evaluated is judged against (`newton_scale`).
     pub scale: f32,
     pub residual: f32,
     pub max_residual: f32,
@@ -122,8 +123,9 @@ pub struct SolverStatus {
     pub newton: u32,
     pub newton_pending: u32,
     pub converged: u32,
-    /// |b| of the current solve's start: its residual is relative to it.
-    pub b_norm: f32,
+    /// `best` relative to its own `scale`: what a step that ends there is booked with.
+    pub best_share: f32,
+    /// |h f − M Δv| at the last iterate solved from: the |b| of the current solve's start.
     pub last_residual: f32,
     /// Halvings of the last Newton update so far (`physics::NEWTON_BACKTRACKS`).
     pub halvings: u32,

@@ -154,6 +154,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
     use crate::physics::{
         CG_FORCING, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT,
         NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE, newton_floor, newton_residual,
+        weight_norm_n,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -183,6 +184,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
             newton_residual(dt_secs, integrator.order()),
         ),
         ("NEWTON_FLOOR", newton_floor(dt_secs, integrator.order())),
+        ("WEIGHT_N", f64::from(weight_norm_n(model))),
         ("NEWTON_STALL", NEWTON_STALL),
         ("NEWTON_BACKTRACKS", f64::from(NEWTON_BACKTRACKS)),
         ("NEWTON_OVERSHOOT", NEWTON_OVERSHOOT),

@@ -21,6 +21,6 @@ pub use solver::{
     NEWTON_BACKTRACKS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT, NEWTON_RESIDUAL,
     NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE, Preconditioner,
     SUM_GROUP_MASSES, SUM_GROUPS_MOST, SUM_LANES, VBD_RESIDUAL, newton_floor, newton_residual,
-    preconditioner_of, stiffness_against_step, sum_groups,
+    preconditioner_of, stiffness_against_step, sum_groups, weight_norm_n,
 };
 pub use xpbd::{XpbdSpring, xpbd_constants};

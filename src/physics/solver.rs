@@ -59,6 +59,25 @@ pub fn newton_floor(h_secs: f64, order: u32) -> f64 {
     NEWTON_FLOOR.max(NEWTON_FLOOR_PER_TOLERANCE * newton_residual(h_secs, order))
 }
 
+/// The 2-norm over the movable masses of their weights, |g| (Σ m²)^½ in newtons, rounded to f32
+/// once (the GPU takes it as the `WEIGHT_N` override). Times the step it is the impulse that
+/// gravity alone gives a step, the least momentum change a Newton iterate is judged against
+/// (`newton_scale`): a body at rest, whose forces cancel, is not held to a residual of zero.
+pub fn weight_norm_n(model: &crate::model::Model) -> f32 {
+    let g = model
+        .effects
+        .gravity_m_per_s2
+        .map_or(0.0, |g| g.as_dvec3().length());
+    let sum: f64 = model
+        .mass_kg
+        .iter()
+        .zip(&model.inv_mass)
+        .filter(|&(_, &w)| w != 0.0)
+        .map(|(&m, _)| f64::from(m) * f64::from(m))
+        .sum();
+    (g * sum.sqrt()) as f32
+}
+
 /// Newton's residual tolerance at step `h_secs` for a scheme of order `order`, relative to
 /// |h f|: `NEWTON_RESIDUAL` at one step per frame, and as (h / (1/60 s))^order below it. The
 /// scheme's own error per step falls as h^(order + 1) and |h f| as h, so the solver's error

@@ -703,7 +703,8 @@ fn parse_size(s: &str) -> f64 {
 
 /// A solver that stops short of its rule is reported, never silently taken: the implicit cloth
 /// at one step per frame strikes its sphere at frame 16, where Newton's ten iterations leave
-/// 0.30 of the step's momentum change unexplained against a rule of 0.03 (both backends alike).
+/// its contact forces all but unexplained: the best iterate's residual is 0.998 of its own |h f|,
+/// against a rule of 0.03 (both backends alike).
 /// The run says so once, naming the frame and the residual, and goes on (the frames after meet
 /// the rule again); the recording holds each frame's count and residual on the timeline
 /// (`stats/unmet_steps`, `stats/step_residual`, `stats/newton_iterations`) and the warning at
@@ -749,7 +750,7 @@ fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
         assert_eq!(value("/stats/unmet_steps", 15), 0.0, "{backend}");
         assert_eq!(value("/stats/newton_iterations", 16), 10.0, "{backend}");
         let residual = value("/stats/step_residual", 16);
-        assert!(residual > 0.1 && residual < 0.5, "{backend}: {residual}");
+        assert!(residual > 0.9 && residual < 1.05, "{backend}: {residual}");
         let note = at_frame(&c, "/notes", "TextLog:text", 20);
         let note = rerun::components::Text::from_arrow(note).unwrap_or_else(|e| panic!("{e}"));
         assert!(

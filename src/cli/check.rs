@@ -244,12 +244,12 @@ fn solver(s: &mut String, model: &Model, settings: &Settings) {
         };
         match dt {
             Some(dt) if dt.is_finite() => {
+                let substeps = (1.0 / (settings.frame_rate_hz * dt)).ceil();
+                let plural = if substeps > 1.0 { "s" } else { "" };
                 let _ = writeln!(
                     s,
-                    "    {:<14} {:.3e} s ({:.0} substeps/frame{by}){mark}",
+                    "    {:<14} {dt:.3e} s ({substeps:.0} substep{plural}/frame{by}){mark}",
                     i.name(),
-                    dt,
-                    (1.0 / (settings.frame_rate_hz * dt)).ceil()
                 );
             }
             Some(_) => match i.scheme().stable_step {

@@ -19,6 +19,7 @@
 
 use crate::integrator::{Integrator, StepOptions};
 
+use super::crossing::Crossing;
 use super::modes::{Modes, Source};
 use super::sweeps::Converging;
 
@@ -44,6 +45,8 @@ pub enum Limit {
     /// XPBD's or VBD's sweeps a step stop converging a body's springs: stable on each spring,
     /// the body stays stretched far past its springs' rest, with that stretch's energy.
     Sweeps(Converging),
+    /// A mass can cross a collider's middle in one step and be pushed out of its far side.
+    Crossing(Crossing),
 }
 
 impl Limit {
@@ -54,6 +57,7 @@ impl Limit {
             Limit::Damping { .. } => "damping",
             Limit::WeakDamping { .. } => "weak damping",
             Limit::Sweeps(_) => "sweeps",
+            Limit::Crossing(_) => "collider crossing",
         }
     }
 }
@@ -85,6 +89,7 @@ impl std::fmt::Display for Limit {
                 f,
                 "too little damping for a scheme that amplifies every undamped oscillation: the {source} have c/k = {ratio_s:.3e} s along them, and a swing across stretched springs has no dashpot at all"
             ),
+            Limit::Crossing(c) => write!(f, "{c}"),
             Limit::Sweeps(c) => {
                 let reach = if c.pinned {
                     format!(
@@ -162,12 +167,26 @@ pub fn stable_step(modes: &Modes, integrator: Integrator) -> StableStep {
 /// The estimate for one integrator with the sweeps of `options`. XPBD and VBD are stable on
 /// any one spring, but not at any step on a body: theirs is the step at which their sweeps
 /// still converge the springs, and XPBD's also that of the forces it steps as semi-implicit
-/// Euler does (contacts and drag).
+/// Euler does (contacts and drag). Every scheme's is also held to the step at which a mass can
+/// cross a collider's middle (`crossing.rs`).
 pub fn stable_step_with(
     modes: &Modes,
     integrator: Integrator,
     options: &StepOptions,
 ) -> StableStep {
+    let step = scheme_step(modes, integrator, options);
+    match (modes.crossing, step.dt_secs) {
+        (Some(c), Some(dt)) if c.dt_secs < dt => StableStep {
+            dt_secs: Some(c.dt_secs),
+            limit: Some(Limit::Crossing(c)),
+            ..step
+        },
+        _ => step,
+    }
+}
+
+/// The estimate of the scheme over the modes, colliders' crossing aside.
+fn scheme_step(modes: &Modes, integrator: Integrator, options: &StepOptions) -> StableStep {
     let scheme = integrator.scheme();
     let Some(sweeps) = scheme.sweeps() else {
         return limited_step(modes, integrator);

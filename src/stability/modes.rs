@@ -21,6 +21,7 @@ use std::fmt;
 use crate::laws::spring_kind::SpringKindTag;
 use crate::model::Model;
 
+use super::crossing::Crossing;
 use super::sweeps::SweepReach;
 
 /// What a mode's stiffness or damping comes from.
@@ -81,6 +82,8 @@ pub struct Modes {
     pub unprojected: Option<Box<Modes>>,
     /// How far XPBD's and VBD's sweeps must carry a correction through each body.
     pub reach: SweepReach,
+    /// The step at which a mass can cross a collider's middle, a limit of every scheme.
+    pub crossing: Option<Crossing>,
 }
 
 impl Modes {
@@ -110,6 +113,7 @@ impl Modes {
         // The contacts and the drag alone, the springs aside.
         modes.unprojected = Some(Box::new(Self::region(model, masses, false)));
         modes.reach = SweepReach::of(model);
+        modes.crossing = Crossing::of(model);
         modes
     }
 
@@ -159,6 +163,7 @@ impl Modes {
             drag_per_s: drag,
             unprojected: None,
             reach: SweepReach::default(),
+            crossing: None,
         }
     }
 }

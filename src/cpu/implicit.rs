@@ -103,7 +103,7 @@ pub fn implicit_step(
     let t_end = state.time_secs + f64::from(dt);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
-    let rules = NewtonRules::of(model, f64::from(dt), integrator.order());
+    let rules = NewtonRules::of(f64::from(dt), integrator.order(), w.weight_n);
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();

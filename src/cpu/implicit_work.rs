@@ -70,6 +70,9 @@ pub struct ImplicitWork {
     pub(super) multigrid: Option<Multigrid>,
     /// BDF2's last step start.
     pub(super) history: History,
+    /// The model's weight, which Newton's rule judges an iterate against at least
+    /// (`physics::weight_norm_n`), taken once.
+    pub(super) weight_n: f32,
 }
 
 impl ImplicitWork {
@@ -97,6 +100,7 @@ impl ImplicitWork {
                 Preconditioner::BlockJacobi => None,
             },
             history: History::default(),
+            weight_n: crate::physics::weight_norm_n(model),
         }
     }
 }

@@ -3,15 +3,14 @@
 //! from `physics` as f32 overrides): the CPU's steps end, halve and go on exactly where
 //! lavapipe's do. Each rule compares a sum of `solver_sums::group_reduce`.
 
-use crate::model::Model;
 use crate::physics::{
     NEWTON_BACKTRACKS, NEWTON_OVERSHOOT, NEWTON_STALL, NEWTON_TOLERANCE, newton_floor,
-    newton_residual, weight_norm_n,
+    newton_residual,
 };
 
 /// One step's Newton tolerance and floor, as the shaders' `NEWTON_RESIDUAL` and `NEWTON_FLOOR`
 /// hold them (`physics::newton_residual` and `newton_floor` of the run's step, in f32), and the
-/// model's weight (`physics::weight_norm_n`, the shaders' `WEIGHT_N`).
+/// model's weight (`physics::weight_norm_n`, the shaders' `WEIGHT_N`), which the caller keeps.
 #[derive(Debug, Clone, Copy)]
 pub struct NewtonRules {
     pub tolerance: f32,
@@ -20,11 +19,11 @@ pub struct NewtonRules {
 }
 
 impl NewtonRules {
-    pub fn of(model: &Model, dt_secs: f64, order: u32) -> Self {
+    pub fn of(dt_secs: f64, order: u32, weight_n: f32) -> Self {
         NewtonRules {
             tolerance: newton_residual(dt_secs, order) as f32,
             floor: newton_floor(dt_secs, order) as f32,
-            weight_n: weight_norm_n(model),
+            weight_n,
         }
     }
 }
@@ -103,11 +102,7 @@ mod tests {
         // floor of f32 forces.
         assert!((newton_floor(1.0 / 60.0, 1) - 2.0 * NEWTON_RESIDUAL).abs() < 1e-12);
         assert_eq!(newton_floor(1e-4, 1), NEWTON_FLOOR);
-        let rules = NewtonRules {
-            tolerance: newton_residual(1.0 / 60.0, 1) as f32,
-            floor: newton_floor(1.0 / 60.0, 1) as f32,
-            weight_n: 0.0,
-        };
+        let rules = NewtonRules::of(1.0 / 60.0, 1, 0.0);
         assert!(newton_stalled(0.045, 0.046, 1.0, rules.floor));
         assert_eq!(rules.tolerance, NEWTON_RESIDUAL as f32);
         // An update that leaves the residual over 1.1 times larger is halved, twice at most.

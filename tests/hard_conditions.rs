@@ -23,12 +23,7 @@ use hooke::state::{Snapshot, State, StepStats};
 const STOP_BOUND: Duration = Duration::from_millis(500);
 
 fn jello_with(replace: &str, with: &str) -> String {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/jello.toml"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    assert!(text.contains(replace), "jello.toml has no `{replace}`");
-    text.replace(replace, with)
+    common::example_scene_with("jello", &[(replace, with)])
 }
 
 /// Wait for `child` to exit; how long it took from `since`.

@@ -11,7 +11,7 @@ use crate::common::scene_model;
 
 use hooke::accuracy::is_stable;
 use hooke::integrator::Integrator;
-use hooke::stability::{Modes, stable_step};
+use hooke::stability::{Modes, StableStep, stable_step};
 
 #[test]
 fn every_explicit_integrator_is_stable_at_its_estimate_on_the_built_in_scenes() {
@@ -34,6 +34,32 @@ fn xpbd_and_vbd_are_stable_at_their_estimates_on_the_built_in_scenes() {
 /// to a third of its dashpots' line). cloth-256 and cloth-1024 are measured in
 /// docs/stability.md (minutes to hours here).
 fn stable_at_estimates(integrators: &[Integrator]) {
+    for_each_estimate(integrators, |name, model, _, integrator, step| {
+        if matches!(integrator, Integrator::Euler | Integrator::Rk2) {
+            assert!(
+                step.dt_secs.is_none() && step.dashpot_line_secs.is_some(),
+                "{name}: {integrator}: {step:?}"
+            );
+            return;
+        }
+        let Some(dt) = step.finite_dt() else {
+            panic!("{name}: no finite estimate for {integrator}: {step:?}");
+        };
+        assert!(
+            is_stable(model, integrator, dt, 0.5),
+            "{name}: {integrator} is unstable at its estimated step {dt:.4e} s ({:?})",
+            step.limit
+        );
+    });
+}
+
+/// `check`'s estimate of each of `integrators` on each built-in scene cheap enough for two
+/// cores, where the scene allows the integrator, handed to `each` with the scene's name, model
+/// and modes.
+fn for_each_estimate(
+    integrators: &[Integrator],
+    mut each: impl FnMut(&str, &std::sync::Arc<hooke::model::Model>, &Modes, Integrator, StableStep),
+) {
     for name in hooke::scene::BUILT_IN
         .iter()
         .map(|b| b.name)
@@ -42,25 +68,15 @@ fn stable_at_estimates(integrators: &[Integrator]) {
         let (model, _) = scene_model(name);
         let modes = Modes::of(&model);
         for &integrator in integrators {
-            if integrator.supports(&model.effects).is_err() {
-                continue;
-            }
-            let step = stable_step(&modes, integrator);
-            if matches!(integrator, Integrator::Euler | Integrator::Rk2) {
-                assert!(
-                    step.dt_secs.is_none() && step.dashpot_line_secs.is_some(),
-                    "{name}: {integrator}: {step:?}"
+            if integrator.supports(&model.effects).is_ok() {
+                each(
+                    name,
+                    &model,
+                    &modes,
+                    integrator,
+                    stable_step(&modes, integrator),
                 );
-                continue;
             }
-            let Some(dt) = step.finite_dt() else {
-                panic!("{name}: no finite estimate for {integrator}: {step:?}");
-            };
-            assert!(
-                is_stable(&model, integrator, dt, 0.5),
-                "{name}: {integrator} is unstable at its estimated step {dt:.4e} s ({:?})",
-                step.limit
-            );
         }
     }
 }
@@ -132,41 +148,31 @@ fn a_step_short_of_newtons_rule_at_contact_makes_no_energy() {
 #[test]
 fn the_implicit_schemes_are_stable_at_their_collider_crossing_estimates() {
     let mut crossed = Vec::new();
-    for name in hooke::scene::BUILT_IN
-        .iter()
-        .map(|b| b.name)
-        .filter(|n| !["cloth-256", "cloth-1024"].contains(n))
-    {
-        let (model, _) = scene_model(name);
-        let modes = Modes::of(&model);
-        for integrator in Integrator::ALL
-            .into_iter()
-            .filter(|i| i.unconditionally_stable() && i.scheme().sweeps().is_none())
-        {
-            if integrator.supports(&model.effects).is_err()
-                || (name == "tablecloth" && integrator.scheme().history())
-            {
-                continue;
-            }
-            let step = stable_step(&modes, integrator);
-            let Some(dt) = step.finite_dt() else {
-                assert!(modes.crossing.is_none(), "{name}: {integrator}: {step:?}");
-                continue;
-            };
-            assert!(
-                matches!(step.limit, Some(hooke::stability::Limit::Crossing(_))),
-                "{name}: {integrator}: {step:?}"
-            );
-            assert!(
-                is_stable(&model, integrator, dt, 0.5),
-                "{name}: {integrator} is unstable at its collider crossing estimate {dt:.4e} s"
-            );
-            crossed.push(name);
+    let backward: Vec<Integrator> = Integrator::ALL
+        .into_iter()
+        .filter(|i| i.unconditionally_stable() && i.scheme().sweeps().is_none())
+        .collect();
+    for_each_estimate(&backward, |name, model, modes, integrator, step| {
+        if name == "tablecloth" && integrator.scheme().history() {
+            return;
         }
-    }
+        let Some(dt) = step.finite_dt() else {
+            assert!(modes.crossing.is_none(), "{name}: {integrator}: {step:?}");
+            return;
+        };
+        assert!(
+            matches!(step.limit, Some(hooke::stability::Limit::Crossing(_))),
+            "{name}: {integrator}: {step:?}"
+        );
+        assert!(
+            is_stable(model, integrator, dt, 0.5),
+            "{name}: {integrator} is unstable at its collider crossing estimate {dt:.4e} s"
+        );
+        crossed.push(name.to_owned());
+    });
     for name in ["cloth", "jello-sphere", "ramp", "tablecloth", "tear"] {
         assert!(
-            crossed.contains(&name),
+            crossed.iter().any(|c| c == name),
             "{name}: no crossing estimate: {crossed:?}"
         );
     }
@@ -180,15 +186,13 @@ fn the_implicit_schemes_are_stable_at_their_collider_crossing_estimates() {
 fn a_sphere_struck_faster_is_crossed_at_a_proportionally_smaller_step() {
     let dir = common::temp_dir("crossing");
     let file = dir.join("jello-sphere-6.toml");
-    let scene = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/jello-sphere.toml"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let faster = scene.replace(
-        "velocity_m_per_s = [1.5, 0.0, 0.0]",
-        "velocity_m_per_s = [6.0, 0.0, 0.0]",
+    let faster = common::example_scene_with(
+        "jello-sphere",
+        &[(
+            "velocity_m_per_s = [1.5, 0.0, 0.0]",
+            "velocity_m_per_s = [6.0, 0.0, 0.0]",
+        )],
     );
-    assert_ne!(faster, scene);
     std::fs::write(&file, faster).unwrap_or_else(|e| panic!("{e}"));
     let path = file.to_string_lossy();
     let out = common::hooke(&[
@@ -240,18 +244,18 @@ fn a_sphere_struck_faster_is_crossed_at_a_proportionally_smaller_step() {
 fn an_impact_iterate_far_from_any_solution_is_not_taken_for_one() {
     let dir = common::temp_dir("impact-newton");
     let file = dir.join("jello-11.toml");
-    let scene = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/jello.toml"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let coarse = scene
-        .replace(
-            "integrator = \"semi-implicit\"",
-            "integrator = \"implicit\"",
-        )
-        .replace("frame_rate_hz = 60", "frame_rate_hz = 11")
-        .replace("substeps = 40", "substeps = 1")
-        .replace("duration_secs = 4.0", "duration_secs = 0.5");
+    let coarse = common::example_scene_with(
+        "jello",
+        &[
+            (
+                "integrator = \"semi-implicit\"",
+                "integrator = \"implicit\"",
+            ),
+            ("frame_rate_hz = 60", "frame_rate_hz = 11"),
+            ("substeps = 40", "substeps = 1"),
+            ("duration_secs = 4.0", "duration_secs = 0.5"),
+        ],
+    );
     std::fs::write(&file, coarse).unwrap_or_else(|e| panic!("{e}"));
     let rrd = dir.join("jello-11.rrd");
     let out = common::hooke(&[

@@ -66,6 +66,18 @@ pub fn file_size(path: &Path) -> u64 {
     std::fs::metadata(path).map(|m| m.len()).unwrap_or(0)
 }
 
+/// The text of `examples/scenes/NAME.toml` with each `(from, to)` replaced; each `from` must be
+/// there.
+pub fn example_scene_with(name: &str, replacements: &[(&str, &str)]) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("examples/scenes/{name}.toml"));
+    let mut text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{e}"));
+    for (from, to) in replacements {
+        assert!(text.contains(from), "{name}.toml has no `{from}`");
+        text = text.replace(from, to);
+    }
+    text
+}
+
 /// Standard gravity (m/s²).
 pub const G: f32 = 9.81;
 

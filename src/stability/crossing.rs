@@ -74,9 +74,9 @@ impl std::fmt::Display for Crossing {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "a mass meeting collider {} (a {} {:.3} m thick to its middle) at up to {:.3} m/s, its \
-             own speed and a fall from the start, crosses its middle in a larger step and is \
-             pushed out of the far side",
+            "a mass closing on collider {} (a {}, {:.3} m from its surface to its middle) at up to \
+             {:.3} m/s (its start speed and a fall from its start) crosses that middle within a \
+             larger step and is pushed out of the far side",
             self.collider, self.kind, self.half_thickness_m, self.speed_m_per_s
         )
     }

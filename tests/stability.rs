@@ -274,3 +274,45 @@ fn an_impact_iterate_far_from_any_solution_is_not_taken_for_one() {
     );
     assert!(!said.contains("energy came from nowhere"), "{said}");
 }
+
+/// A comparison entry above a collider crossing estimate is refused with the limit and the step
+/// that holds, and not told to try implicit Euler instead: the crossing binds every scheme.
+#[test]
+fn a_comparison_past_a_collider_crossing_is_refused_with_the_step_that_holds() {
+    let dir = common::temp_dir("crossing-compare");
+    let file = dir.join("jello-sphere-20hz.toml");
+    let scene = common::example_scene_with(
+        "jello-sphere",
+        &[
+            (
+                "velocity_m_per_s = [1.5, 0.0, 0.0]",
+                "velocity_m_per_s = [6.0, 0.0, 0.0]",
+            ),
+            ("frame_rate_hz = 60", "frame_rate_hz = 20"),
+            ("substeps = 48", "substeps = 1"),
+        ],
+    );
+    std::fs::write(&file, scene).unwrap_or_else(|e| panic!("{e}"));
+    let rrd = dir.join("compare.rrd");
+    let out = common::hooke(&[
+        "run",
+        &file.to_string_lossy(),
+        "--compare",
+        "implicit@1/20,bdf2@1/60",
+        "--backend",
+        "cpu",
+        "--frames",
+        "2",
+        "--save",
+        &rrd.to_string_lossy(),
+    ]);
+    let said = common::text(&out.stderr);
+    assert!(!out.status.success(), "{said}");
+    assert!(
+        said.contains("(implicit@1/20) is refused")
+            && said.contains("collider crossing limit: a mass closing on collider 0 (a sphere")
+            && said.contains("(implicit@1.718e-2)")
+            && !said.contains("use implicit or xpbd"),
+        "{said}"
+    );
+}

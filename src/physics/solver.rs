@@ -13,11 +13,12 @@ pub const NEWTON_TOLERANCE: f64 = 1e-4;
 pub const NEWTON_MAX_ITERATIONS: u32 = 10;
 /// At one step per frame (`NEWTON_RESIDUAL_STEP_SECS`), Newton stops once its residual
 /// |h f − M Δv| is at most this share of the step's momentum change |h f| (taken at the iterate
-/// judged, and at least its weight's impulse: `cpu::newton_rules::newton_scale`; these figures
-/// were measured when it was the first iterate's): the step's equations hold to 3%. Measured on jello and cloth at 1/60 s over 1 s,
-/// positions then differ from a solve to the f32 floor by 2.7e-2 and 2.1e-2 m RMS, against 1.2
-/// and 0.09 m between implicit Euler at 1/60 s and semi-implicit Euler at the scenes' own steps
-/// (2% and a quarter of the scheme's own error), at a third and a fifth of the cost.
+/// judged, and at least its weight's impulse: `cpu::newton_rules::newton_scale`): the step's
+/// equations hold to 3%. Measured on jello and cloth at 1/60 s over 1 s, when the scale was the
+/// first iterate's |h f|, positions then differed from a solve to the f32 floor by 2.7e-2 and
+/// 2.1e-2 m RMS, against 1.2 and 0.09 m between implicit Euler at 1/60 s and semi-implicit Euler
+/// at the scenes' own steps (2% and a quarter of the scheme's own error), at a third and a fifth
+/// of the cost.
 pub const NEWTON_RESIDUAL: f64 = 3e-2;
 /// The step `NEWTON_RESIDUAL` is set for.
 pub const NEWTON_RESIDUAL_STEP_SECS: f64 = 1.0 / 60.0;

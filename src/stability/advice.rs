@@ -133,8 +133,13 @@ pub enum Refusal {
     Unsupported(Unsupported),
     #[error(
         "dt = {dt_secs:.3e} s is above the estimated stable step {limit_secs:.3e} s of `{integrator}` on this scene{why}; \
-         give it a step of {limit_secs:.3e} s or less ({integrator}@{limit_secs:.3e}), or use implicit or xpbd for large steps",
-        why = limit.map(|l| format!(" ({} limit: {l})", l.name())).unwrap_or_default()
+         give it a step of {limit_secs:.3e} s or less ({integrator}@{limit_secs:.3e}){others}",
+        why = limit.map(|l| format!(" ({} limit: {l})", l.name())).unwrap_or_default(),
+        others = match limit {
+            // A collider's crossing holds every scheme to the step.
+            Some(Limit::Crossing(_)) => "",
+            _ => ", or use implicit or xpbd for large steps",
+        }
     )]
     AboveStableStep {
         integrator: Integrator,

@@ -50,7 +50,8 @@ pub enum Limit {
 }
 
 impl Limit {
-    /// Which limit, in a word: "stiffness", "damping" or "weak damping".
+    /// Which limit, in a few words: "stiffness", "damping", "weak damping", "sweeps" or
+    /// "collider crossing".
     pub fn name(&self) -> &'static str {
         match self {
             Limit::Stiffness { .. } => "stiffness",

@@ -132,9 +132,19 @@ fn a_step_short_of_newtons_rule_at_contact_makes_no_energy() {
         &file,
         &["--integrator", "implicit", "--dt", "1/60"],
     );
+    short_of_the_rule_and_no_energy_from_nowhere(
+        &out,
+        "implicit steps ended short of their acceptance rule",
+    );
+}
+
+/// The run ended, said `short` (a step that fell short of Newton's rule), and did not say that
+/// energy came from nowhere.
+fn short_of_the_rule_and_no_energy_from_nowhere(out: &std::process::Output, short: &str) {
     let said = common::text(&out.stderr);
+    assert!(out.status.success(), "{said}");
     assert!(
-        said.contains("implicit steps ended short of their acceptance rule"),
+        said.contains(short),
         "no step ran short of Newton's rule: {said}"
     );
     assert!(!said.contains("energy came from nowhere"), "{said}");
@@ -184,16 +194,13 @@ fn the_implicit_schemes_are_stable_at_their_collider_crossing_estimates() {
 /// that step and loses the jello within three times it.
 #[test]
 fn a_sphere_struck_faster_is_crossed_at_a_proportionally_smaller_step() {
-    let dir = common::temp_dir("crossing");
-    let file = dir.join("jello-sphere-6.toml");
-    let faster = common::example_scene_with(
+    let file = common::example_scene_file(
         "jello-sphere",
         &[(
             "velocity_m_per_s = [1.5, 0.0, 0.0]",
             "velocity_m_per_s = [6.0, 0.0, 0.0]",
         )],
     );
-    std::fs::write(&file, faster).unwrap_or_else(|e| panic!("{e}"));
     let path = file.to_string_lossy();
     let out = common::hooke(&[
         "bench",
@@ -242,9 +249,7 @@ fn a_sphere_struck_faster_is_crossed_at_a_proportionally_smaller_step() {
 /// weight's impulse): the step is said to fall short of the rule, and no energy appears.
 #[test]
 fn an_impact_iterate_far_from_any_solution_is_not_taken_for_one() {
-    let dir = common::temp_dir("impact-newton");
-    let file = dir.join("jello-11.toml");
-    let coarse = common::example_scene_with(
+    let out = common::run_example_variant(
         "jello",
         &[
             (
@@ -255,33 +260,19 @@ fn an_impact_iterate_far_from_any_solution_is_not_taken_for_one() {
             ("substeps = 40", "substeps = 1"),
             ("duration_secs = 4.0", "duration_secs = 0.5"),
         ],
+        &[],
     );
-    std::fs::write(&file, coarse).unwrap_or_else(|e| panic!("{e}"));
-    let rrd = dir.join("jello-11.rrd");
-    let out = common::hooke(&[
-        "run",
-        &file.to_string_lossy(),
-        "--backend",
-        "cpu",
-        "--save",
-        &rrd.to_string_lossy(),
-    ]);
-    let said = common::text(&out.stderr);
-    assert!(out.status.success(), "{said}");
-    assert!(
-        said.contains("frame 4: 1 of 1 implicit steps ended short of their acceptance rule"),
-        "{said}"
+    short_of_the_rule_and_no_energy_from_nowhere(
+        &out,
+        "frame 4: 1 of 1 implicit steps ended short of their acceptance rule",
     );
-    assert!(!said.contains("energy came from nowhere"), "{said}");
 }
 
 /// A comparison entry above a collider crossing estimate is refused with the limit and the step
 /// that holds, and not told to try implicit Euler instead: the crossing binds every scheme.
 #[test]
 fn a_comparison_past_a_collider_crossing_is_refused_with_the_step_that_holds() {
-    let dir = common::temp_dir("crossing-compare");
-    let file = dir.join("jello-sphere-20hz.toml");
-    let scene = common::example_scene_with(
+    let out = common::run_example_variant(
         "jello-sphere",
         &[
             (
@@ -291,21 +282,8 @@ fn a_comparison_past_a_collider_crossing_is_refused_with_the_step_that_holds() {
             ("frame_rate_hz = 60", "frame_rate_hz = 20"),
             ("substeps = 48", "substeps = 1"),
         ],
+        &["--compare", "implicit@1/20,bdf2@1/60", "--frames", "2"],
     );
-    std::fs::write(&file, scene).unwrap_or_else(|e| panic!("{e}"));
-    let rrd = dir.join("compare.rrd");
-    let out = common::hooke(&[
-        "run",
-        &file.to_string_lossy(),
-        "--compare",
-        "implicit@1/20,bdf2@1/60",
-        "--backend",
-        "cpu",
-        "--frames",
-        "2",
-        "--save",
-        &rrd.to_string_lossy(),
-    ]);
     let said = common::text(&out.stderr);
     assert!(!out.status.success(), "{said}");
     assert!(

@@ -78,6 +78,24 @@ pub fn example_scene_with(name: &str, replacements: &[(&str, &str)]) -> String {
     text
 }
 
+/// `example_scene_with`'s text written to a file of a fresh folder, named as the scene.
+pub fn example_scene_file(name: &str, replacements: &[(&str, &str)]) -> PathBuf {
+    let file = temp_dir(&format!("{name}-variant")).join(format!("{name}.toml"));
+    std::fs::write(&file, example_scene_with(name, replacements)).unwrap_or_else(|e| panic!("{e}"));
+    file
+}
+
+/// `hooke run` on the CPU backend of `example_scene_file(name, replacements)`, saved beside it,
+/// with `rest` after.
+pub fn run_example_variant(name: &str, replacements: &[(&str, &str)], rest: &[&str]) -> Output {
+    let file = example_scene_file(name, replacements);
+    let (toml, rrd) = (file.to_string_lossy(), file.with_extension("rrd"));
+    let rrd = rrd.to_string_lossy();
+    let mut args = vec!["run", &toml, "--backend", "cpu", "--save", &rrd];
+    args.extend_from_slice(rest);
+    hooke(&args)
+}
+
 /// Standard gravity (m/s²).
 pub const G: f32 = 9.81;
 

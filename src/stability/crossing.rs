@@ -99,14 +99,14 @@ fn lowest_m(c: &Collider, up: DVec3) -> f64 {
         Shape::Box { half_extents_m } => half_extents_m.as_dvec3().dot(up.abs()),
         Shape::Plane { .. } => 0.0,
     };
-    let centres: Vec<Vec3> = match &c.path {
-        Path::Linear { start_m, .. } => vec![*start_m],
-        Path::Keyframes(keys) => keys.iter().map(|k| k.1).collect(),
-    };
-    centres
-        .iter()
-        .map(|p| p.as_dvec3().dot(up) - reach)
-        .fold(f64::INFINITY, f64::min)
+    let bottom = |centre: Vec3| centre.as_dvec3().dot(up) - reach;
+    match &c.path {
+        Path::Linear { start_m, .. } => bottom(*start_m),
+        Path::Keyframes(keys) => keys
+            .iter()
+            .map(|k| bottom(k.1))
+            .fold(f64::INFINITY, f64::min),
+    }
 }
 
 /// The collider's largest speed along its path.

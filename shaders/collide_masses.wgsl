@@ -15,7 +15,7 @@ struct Pair {
     dissipated: f32,
 }
 
-// Contact force on mass a of the pair (a, b) and the power it dissipates (src/cpu/
+// Contact force on mass a of the pair (a, b) and the power it dissipates, where it acts (src/cpu/
 // collide_masses.rs's pair_contact): common.wgsl's contact_force along the line between them with
 // the pair's reduced mass, its friction stopping at most PAIR_STICK_SHARE of the sliding a step.
 fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f32>, wb: f32, dt: f32) -> Pair {
@@ -23,17 +23,19 @@ fn pair_contact(xa: vec3<f32>, va: vec3<f32>, wa: f32, xb: vec3<f32>, vb: vec3<f
     let diameter = 2.0 * contact.radius;
     let d = xa - xb;
     let len_sq = dot(d, d);
-    if (len_sq >= diameter * diameter || len_sq == 0.0 || wa + wb == 0.0) {
+    if (len_sq >= PAIR_ONSET_SQ || len_sq == 0.0 || wa + wb == 0.0) {
         return out;
     }
     let dist = sqrt(len_sq);
     let depth = diameter - dist;
-    if (depth <= 0.0) {
+    let n = d * (1.0 / dist);
+    // The pair's relative motion obeys the one-mass contact with the reduced mass, on from just
+    // before the touch where they close fast (contact_normal_force).
+    let mu = 1.0 / (wa + wb);
+    let pushes = contact_normal_force(contact.stiffness, contact.damping_ratio, depth, dot(va - vb, n), mu);
+    if (!contact_acts(pushes, depth)) {
         return out;
     }
-    let n = d * (1.0 / dist);
-    // The pair's relative motion obeys the one-mass contact with the reduced mass.
-    let mu = 1.0 / (wa + wb);
     let c = contact_force(contact.stiffness, contact.friction, contact.damping_ratio, depth, n, va - vb, vec3<f32>(0.0), mu, dt, PAIR_STICK_SHARE);
     out.touching = true;
     out.force = c.force;

@@ -89,6 +89,9 @@ override HAS_STENCILS: bool = false;
 // Mass–mass contact: the share of a pair's sliding its friction may stop in one step (set from
 // src/physics/mass_contact.rs).
 override PAIR_STICK_SHARE: f32 = 0.25;
+// The squared distance within which a pair's contact may act, before the touch where it closes
+// fast (src/physics/mass_contact.rs's pair_onset_sq_m2, of the scene's radius).
+override PAIR_ONSET_SQ: f32 = 0.0;
 
 const WORKGROUP: u32 = 64u;
 // Hash-grid buckets per block of the prefix sum (grid.wgsl): four per invocation.
@@ -262,19 +265,25 @@ struct Collider {
     _pad2: f32,
 }
 
-// Depth of x inside collider c placed at `center` and the outward normal, as (normal, depth);
-// depth ≤ 0 when outside. Mirrors Shape::penetration in src/model/colliders.rs, operation for
-// operation.
-fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
+// Signed depth of x in collider c placed at `center` (negative outside) and the outward normal
+// of the surface point nearest x, as (normal, depth); zero where there is no normal (a sphere's
+// centre). Mirrors Shape::signed_depth in src/model/colliders.rs, operation for operation.
+fn signed_depth(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
     let r = x - center;
     if (HAS_SPHERES && c.kind == SPHERE) {
         let dist = length(r);
-        let depth = c.shape.x - dist;
-        if (depth > 0.0 && dist > 0.0) {
-            return vec4<f32>(r / dist, depth);
+        if (dist > 0.0) {
+            return vec4<f32>(r / dist, c.shape.x - dist);
         }
     } else if (HAS_BOXES && c.kind == BOX) {
         let q = abs(r) - c.shape.xyz;
+        if (q.x > 0.0 || q.y > 0.0 || q.z > 0.0) {
+            // Outside: the nearest surface point is on a face, an edge or a corner.
+            let out = max(q, vec3<f32>(0.0));
+            let away = select(out, -out, r < vec3<f32>(0.0));
+            let dist = length(away);
+            return vec4<f32>(away / dist, -dist);
+        }
         var axis = vec3<f32>(0.0, 0.0, 1.0);
         var gap = q.z;
         if (q.x >= q.y && q.x >= q.z) {
@@ -288,14 +297,19 @@ fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
         if (dot(r, axis) < 0.0) {
             side = -1.0;
         }
-        if (gap < 0.0) {
-            return vec4<f32>(axis * side, -gap);
-        }
+        return vec4<f32>(axis * side, -gap);
     } else if (HAS_PLANES && c.kind == PLANE) {
-        let depth = -dot(r, c.shape.xyz);
-        if (depth > 0.0) {
-            return vec4<f32>(c.shape.xyz, depth);
-        }
+        return vec4<f32>(c.shape.xyz, -dot(r, c.shape.xyz));
+    }
+    return vec4<f32>(0.0);
+}
+
+// Depth of x inside collider c and the outward normal, as (normal, depth), where signed_depth is
+// positive; zero outside (Shape::penetration).
+fn penetration(c: Collider, center: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
+    let s = signed_depth(c, center, x);
+    if (s.w > 0.0) {
+        return s;
     }
     return vec4<f32>(0.0);
 }
@@ -338,15 +352,28 @@ struct Contact {
     dissipated: f32,
 }
 
-// Penalty contact along unit normal n at depth > 0 (src/cpu/law.rs): force and the power its
-// damping and friction take out. Friction opposes the tangential velocity the step would end with
-// under `load` (the mass's other forces) alone, stopping at most stick_share of it in a step, so
-// that sticking holds against a load instead of creeping.
+// The normal force of a Kelvin–Voigt contact at signed depth `depth` for normal velocity vn:
+// k·depth − c·vn while that pushes, zero otherwise (src/cpu/law.rs's contact_normal_force). The
+// contact is on while its force pushes, so that the force has no jump at the touch.
+fn contact_normal_force(stiffness: f32, damping_ratio: f32, depth: f32, vn: f32, m: f32) -> f32 {
+    let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
+    return max(stiffness * depth + damper, 0.0);
+}
+
+// Whether a contact acts: it pushes, or the mass is inside (law.rs's contact_acts).
+fn contact_acts(normal_force: f32, depth: f32) -> bool {
+    return normal_force > 0.0 || depth > 0.0;
+}
+
+// Penalty contact along unit normal n at signed depth `depth` (src/cpu/law.rs): force and the
+// power its damping and friction take out. Friction opposes the tangential velocity the step would
+// end with under `load` (the mass's other forces) alone, stopping at most stick_share of it in a
+// step, so that sticking holds against a load instead of creeping.
 fn contact_force(stiffness: f32, friction: f32, damping_ratio: f32, depth: f32, n: vec3<f32>, v_rel: vec3<f32>, load: vec3<f32>, m: f32, dt: f32, stick_share: f32) -> Contact {
     let vn = dot(v_rel, n);
-    let spring = stiffness * depth;
-    let damper = -2.0 * damping_ratio * sqrt(stiffness * m) * vn;
-    let fn_total = max(spring + damper, 0.0);
+    let fn_total = contact_normal_force(stiffness, damping_ratio, depth, vn, m);
+    // The spring holds energy only inside; the rest of the force is the damper's.
+    let spring = stiffness * max(depth, 0.0);
     let damper_part = fn_total - spring;
     var out = Contact(n * fn_total, -damper_part * vn);
     if (friction > 0.0) {

@@ -3,8 +3,8 @@
 // functions, named for the CPU functions they mirror). It runs in implicit.wgsl.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
-// #uses params springs offsets neighbors mass deriv x v ledger counters x_in v_in work terms stage
-// #calls check_state
+// #uses params springs offsets neighbors mass deriv x v ledger counters x_in v_in work terms stage colliders
+// #calls check_state collider_pose
 
 // ---- where the solver's vectors live ----
 
@@ -139,6 +139,8 @@ fn implicit_begin_at(i: u32) {
 
 // BDF2's start (src/cpu/backward.rs's implicit_blend): x̂ = x + history (x − x₋₁), the same for
 // v, keeping x and v as the next step's history. Its first step's history is 0: x₋₁ is unused.
+// A blend that would start a mass deeper in the ground or a collider than it is starts it at its
+// own depth and velocity (blend_along_surface).
 fn implicit_blend_at(i: u32) {
     let b = stage.history;
     let xo = x[i].xyz;
@@ -146,11 +148,53 @@ fn implicit_blend_at(i: u32) {
     let xl = work[block(HISTORY_X, i)].xyz;
     let vl = work[block(HISTORY_V, i)].xyz;
     if (b != 0.0) {
-        x[i] = vec4<f32>(xo + b * (xo - xl), 0.0);
-        v[i] = vec4<f32>(vo + b * (vo - vl), 0.0);
+        var start = Blend(xo + b * (xo - xl), vo + b * (vo - vl));
+        if (HAS_GROUND || HAS_COLLIDERS) {
+            start = blend_along_surface(start, deepest_penetration(start.x), deepest_penetration(xo).w, vo);
+        }
+        x[i] = vec4<f32>(start.x, 0.0);
+        v[i] = vec4<f32>(start.v, 0.0);
     }
     work[block(HISTORY_X, i)] = vec4<f32>(xo, 0.0);
     work[block(HISTORY_V, i)] = vec4<f32>(vo, 0.0);
+}
+
+struct Blend {
+    x: vec3<f32>,
+    v: vec3<f32>,
+}
+
+// BDF2's blended start of a mass whose blend's deepest contact is (normal, depth) `deepest`, the
+// mass itself `now` deep moving at v_now: unchanged unless the blend starts it deeper than it is;
+// then moved back out along the normal to the mass's depth, at the mass's own velocity
+// (backward.rs's blend_along_surface).
+fn blend_along_surface(b: Blend, deepest: vec4<f32>, now: f32, v_now: vec3<f32>) -> Blend {
+    if (deepest.w <= now) {
+        return b;
+    }
+    let n = deepest.xyz;
+    return Blend(b.x + (deepest.w - now) * n, v_now);
+}
+
+// The deepest p is in the ground or a collider at the stage's poses, 0 outside them all, and
+// that contact's outward normal, as (normal, depth) (backward.rs's deepest_penetration).
+fn deepest_penetration(p: vec3<f32>) -> vec4<f32> {
+    var deepest = vec4<f32>(0.0);
+    if (HAS_GROUND) {
+        let depth = params.ground_height - p.y;
+        if (depth > 0.0) {
+            deepest = vec4<f32>(0.0, 1.0, 0.0, depth);
+        }
+    }
+    if (HAS_COLLIDERS) {
+        for (var k = 0u; k < params.collider_count; k++) {
+            let c = penetration(colliders[k], collider_pose(k).position.xyz, p);
+            if (c.w > deepest.w) {
+                deepest = c;
+            }
+        }
+    }
+    return deepest;
 }
 
 fn implicit_iterate_at(i: u32) {

@@ -108,33 +108,36 @@ fn mass_force_beyond_springs(i: u32, xi: vec3<f32>, vi: vec3<f32>, f_springs: ve
     let h = stage.dt;
     if (HAS_GROUND) {
         let depth = params.ground_height - xi.y;
-        if (depth > 0.0) {
+        let pushes = contact_normal_force(params.ground_stiffness, params.ground_damping_ratio, depth, vi.y, m);
+        if (contact_acts(pushes, depth)) {
             let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, f, m, stage.dt, 1.0);
             f += c.force;
             contact_w += c.dissipated;
-            if (IMPLICIT) {
-                let k = params.ground_stiffness;
-                jac_diag.y += h * h * k + h * 2.0 * params.ground_damping_ratio * sqrt(k * m);
-            }
+        }
+        // Only a contact that pushes has a derivative (its force is zero about the iterate).
+        if (IMPLICIT && pushes > 0.0) {
+            let k = params.ground_stiffness;
+            jac_diag.y += h * h * k + h * 2.0 * params.ground_damping_ratio * sqrt(k * m);
         }
     }
     if (HAS_COLLIDERS) {
         for (var k = 0u; k < params.collider_count; k++) {
             let col = colliders[k];
             let pose = collider_pose(k);
-            let p = penetration(col, pose.position.xyz, xi);
-            if (p.w > 0.0) {
-                let n = p.xyz;
-                let u = pose.velocity.xyz;
+            let p = signed_depth(col, pose.position.xyz, xi);
+            let n = p.xyz;
+            let u = pose.velocity.xyz;
+            let pushes = contact_normal_force(col.stiffness, col.damping_ratio, p.w, dot(vi - u, n), m);
+            if (contact_acts(pushes, p.w)) {
                 let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, f, m, stage.dt, 1.0);
                 f += c.force;
                 contact_w += c.dissipated;
                 collider_w += dot(c.force, u);
-                if (IMPLICIT) {
-                    let s = h * h * col.stiffness + h * 2.0 * col.damping_ratio * sqrt(col.stiffness * m);
-                    jac_diag += s * n * n;
-                    jac_off += s * vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
-                }
+            }
+            if (IMPLICIT && pushes > 0.0) {
+                let s = h * h * col.stiffness + h * 2.0 * col.damping_ratio * sqrt(col.stiffness * m);
+                jac_diag += s * n * n;
+                jac_off += s * vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
             }
         }
     }

@@ -40,6 +40,7 @@ pub trait Real:
     fn length(v: Self::V) -> Self;
     fn abs(v: Self::V) -> Self::V;
     fn components(v: Self::V) -> [Self; 3];
+    fn of_components(c: [Self; 3]) -> Self::V;
     /// A model's vector (always f32) in this precision.
     fn of_vec(v: Vec3) -> Self::V;
 }
@@ -86,6 +87,10 @@ macro_rules! real {
             #[inline(always)]
             fn components(v: $v) -> [Self; 3] {
                 v.to_array()
+            }
+            #[inline(always)]
+            fn of_components(c: [Self; 3]) -> $v {
+                <$v>::from_array(c)
             }
             #[inline(always)]
             fn of_vec(v: Vec3) -> $v {

@@ -84,7 +84,7 @@ fn check_prints_the_model_and_stable_steps() {
     }
     // The run's integrator is marked with the step it takes, not beside its limit alone.
     assert!(
-        s.contains("<- this run: dt = 4.167e-4 s, 84% of the limit"),
+        s.contains("<- this run: dt = 4.167e-4 s, 83% of the limit"),
         "{s}"
     );
     // Where each body's pins landed (the cloth's two top corners).
@@ -311,7 +311,7 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
         assert_eq!(line("compiled-in effects: "), *effects, "{scene}");
     }
     // Mass–mass contact is listed among the effects, with its rule, its pair damping and its
-    // neighbour lists' reach (3 r) and rebuild distance (0.45 r).
+    // neighbour lists' reach (3 r) and rebuild distance (0.3 r).
     let s = text(&hooke(&["check", "pile", "--backend", "cpu"]).stdout);
     assert!(
         s.contains("self-collision (between bodies only): radius 0.02 m, stiffness 1000 N/m per pair, friction 0.5"),
@@ -320,7 +320,7 @@ fn check_lists_exactly_the_passes_each_built_in_scene_needs() {
     let s = text(&hooke(&["check", "cloth-fold", "--backend", "cpu"]).stdout);
     assert!(
         s.contains("self-collision (within and between bodies): radius 0.018 m")
-            && s.contains("neighbour lists of the masses within 0.0540 m, rebuilt once a mass has moved 0.0081 m"),
+            && s.contains("neighbour lists of the masses within 0.0540 m, rebuilt once a mass has moved 0.0054 m"),
         "cloth-fold:\n{s}"
     );
     // A fused scene says why it does not step a submission in one workgroup, and how many of

@@ -204,7 +204,7 @@ fn bad_scene_files_give_one_clear_error_with_field_and_position() {
         &with_table("[effects.ground]\nrestitution = 1.5\n"),
         "effects.ground.restitution",
         "3:15",
-        "between 0.05 and 1",
+        "between 0 (the impact ends at rest on the surface) and 1",
     );
     expect_scene_error(
         "huge-grid",

@@ -697,11 +697,11 @@ fn parse_size(s: &str) -> f64 {
 }
 
 /// A solver that stops short of its rule is reported, never silently taken: the implicit cloth
-/// at one step per frame strikes its sphere at frame 16, where Newton's ten iterations leave
-/// its contact forces all but unexplained: the best iterate's residual is 0.998 of its own |h f|,
-/// against a rule of 0.03 (both backends alike).
-/// The run says so once, naming the frame and the residual, and goes on (the frames after meet
-/// the rule again); the recording holds each frame's count and residual on the timeline
+/// at one step per frame, draped over its sphere with friction (which its Jacobian leaves out),
+/// ends frame 29 with Newton's ten iterations at a residual of 0.071 of its own |h f|, against a
+/// rule of 0.03 (both backends alike). (It struck the sphere at frame 16, which Newton used to
+/// leave all but unexplained, 0.998; the contact's force has no jump at the touch now.)
+/// The run says so once, naming the frame and the residual, and goes on; the recording holds each frame's count and residual on the timeline
 /// (`stats/unmet_steps`, `stats/step_residual`, `stats/newton_iterations`) and the warning at
 /// its frame (`notes`).
 #[test]
@@ -719,7 +719,7 @@ fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
             "--dt",
             "0.016666667",
             "--frames",
-            "20",
+            "30",
             "--backend",
             backend,
             "--save",
@@ -730,7 +730,7 @@ fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
         let said: Vec<&str> = err.lines().filter(|l| l.contains("ended short")).collect();
         assert_eq!(said.len(), 1, "{backend}: said {said:?}");
         assert!(
-            said[0].starts_with("warning: frame 16: 1 of 1 implicit steps ended short")
+            said[0].starts_with("warning: frame 29: 1 of 1 implicit steps ended short")
                 && said[0].contains("at most 0.030"),
             "{backend}: {}",
             said[0]
@@ -741,20 +741,20 @@ fn a_solver_short_of_its_rule_is_said_once_and_recorded() {
             let s = rerun::components::Scalar::from_arrow(a).unwrap_or_else(|e| panic!("{e}"));
             s[0].0.0
         };
-        assert_eq!(value("/stats/unmet_steps", 16), 1.0, "{backend}");
-        assert_eq!(value("/stats/unmet_steps", 15), 0.0, "{backend}");
-        assert_eq!(value("/stats/newton_iterations", 16), 10.0, "{backend}");
-        let residual = value("/stats/step_residual", 16);
-        assert!(residual > 0.9 && residual < 1.05, "{backend}: {residual}");
-        let note = at_frame(&c, "/notes", "TextLog:text", 20);
+        assert_eq!(value("/stats/unmet_steps", 29), 1.0, "{backend}");
+        assert_eq!(value("/stats/unmet_steps", 16), 0.0, "{backend}");
+        assert_eq!(value("/stats/newton_iterations", 29), 10.0, "{backend}");
+        let residual = value("/stats/step_residual", 29);
+        assert!(residual > 0.05 && residual < 0.1, "{backend}: {residual}");
+        let note = at_frame(&c, "/notes", "TextLog:text", 30);
         let note = rerun::components::Text::from_arrow(note).unwrap_or_else(|e| panic!("{e}"));
         assert!(
-            note[0].as_str().contains("frame 16"),
+            note[0].as_str().contains("frame 29"),
             "{backend}: {:?}",
             note[0]
         );
         let rows = &c[&("/notes".to_owned(), "TextLog:text".to_owned())];
         assert_eq!(rows.len(), 1, "{backend}");
-        assert_eq!(rows[0].0, Some(16), "{backend}");
+        assert_eq!(rows[0].0, Some(29), "{backend}");
     }
 }

@@ -100,8 +100,10 @@ fn a_head_on_pair_bounces_with_its_restitution_and_conserves_momentum() {
     let speed = 1.0f32;
     let closing = 2.0 * speed;
     // The contact lasts about π sqrt(μ/k) = 10 ms; 1e-5 s steps resolve it finely.
+    // (Below e = 0.2 the damper, on from before the touch, leaves less than a third of the
+    // undamped compression: a fifth at e = 0.1, laws::contact_law.)
     for (e, integrator) in [
-        (0.1f32, Integrator::SemiImplicit),
+        (0.2f32, Integrator::SemiImplicit),
         (0.5, Integrator::Verlet),
         (0.9, Integrator::Rk4),
     ] {

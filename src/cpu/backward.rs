@@ -8,6 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
+use crate::model::{Effects, Pose};
 use crate::physics::{BackwardStep, NEWTON_WORK_SHARE};
 
 /// The last step's start (x₋₁, v₋₁), once a step has been taken; empty for implicit Euler.
@@ -25,12 +26,15 @@ impl History {
 
     /// Blend the step's start into `x` and `v` (x̂ = x + history (x − x₋₁), the same for v),
     /// keeping their values before it as the next step's history. Implicit Euler keeps none.
+    /// With `deepest` (a mass's deepest penetration of the ground and colliders where the step's
+    /// forces see them, and that contact's outward normal), a blend that would start a mass
+    /// deeper than it is starts it at its own depth and velocity (`blend_along_surface`).
     pub fn implicit_blend(
         &mut self,
         step: BackwardStep,
         keep: bool,
-        x: &mut [Vec3],
-        v: &mut [Vec3],
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+        deepest: Option<&(dyn Fn(Vec3) -> (f32, Vec3) + Sync)>,
     ) {
         if !keep {
             return;
@@ -42,27 +46,82 @@ impl History {
             return;
         }
         let b = step.history;
-        blend(b, x, &mut self.x);
-        blend(b, v, &mut self.v);
+        let body = |((x, v), (lx, lv)): Chunks| {
+            for (((x, v), lx), lv) in x.iter_mut().zip(v).zip(lx).zip(lv) {
+                let (xn, vn) = (*x, *v);
+                *x = xn + b * (xn - *lx);
+                *v = vn + b * (vn - *lv);
+                if let Some(deepest) = deepest {
+                    let (now, _) = deepest(xn);
+                    (*x, *v) = blend_along_surface((*x, *v), deepest(*x), (now, vn));
+                }
+                *lx = xn;
+                *lv = vn;
+            }
+        };
+        if x.len() >= PARALLEL_MIN_MASSES {
+            x.par_chunks_mut(CHUNK)
+                .zip(v.par_chunks_mut(CHUNK))
+                .zip(
+                    self.x
+                        .par_chunks_mut(CHUNK)
+                        .zip(self.v.par_chunks_mut(CHUNK)),
+                )
+                .for_each(body);
+        } else {
+            body(((x, v), (&mut self.x[..], &mut self.v[..])));
+        }
     }
 }
 
-/// y ← y + b (y − y₋₁), y₋₁ ← y (as it was), per mass.
-fn blend(b: f32, y: &mut [Vec3], last: &mut [Vec3]) {
-    let body = |(y, last): (&mut [Vec3], &mut [Vec3])| {
-        for (y, last) in y.iter_mut().zip(last) {
-            let now = *y;
-            *y = now + b * (now - *last);
-            *last = now;
-        }
-    };
-    if y.len() >= PARALLEL_MIN_MASSES {
-        y.par_chunks_mut(CHUNK)
-            .zip(last.par_chunks_mut(CHUNK))
-            .for_each(body);
-    } else {
-        body((y, last));
+/// A chunk of the masses' positions and velocities, and of their history, blended together.
+type Chunks<'a> = (
+    (&'a mut [Vec3], &'a mut [Vec3]),
+    (&'a mut [Vec3], &'a mut [Vec3]),
+);
+
+/// BDF2's blended start (x̂, v̂) of a mass, where the blend's deepest contact is at `depth` with
+/// outward normal `n` and the mass itself is `now` deep moving at `v_now`: unchanged unless the
+/// blend starts it deeper than it is. There its two last states lie either side of an impact,
+/// and extrapolating them carries it on into the collider as if it had not been stopped, and
+/// kicks it back out by a third of the speed the impact took: a flat cloth landing on a table in
+/// one step started its next a third of a step deep and was thrown up with energy from nowhere
+/// (docs/stability.md). Such a start is moved back out along the normal to the mass's own depth,
+/// keeping its motion along the surface (a mass carried along by a moving collider stays in step
+/// with its neighbours), and takes the mass's own velocity: first order across the impact, as
+/// BDF2 is anywhere its motion is not smooth. The shaders' `blend_along_surface`.
+#[inline(always)]
+pub fn blend_along_surface(
+    (x, v): (Vec3, Vec3),
+    (depth, n): (f32, Vec3),
+    (now, v_now): (f32, Vec3),
+) -> (Vec3, Vec3) {
+    if depth <= now {
+        return (x, v);
     }
+    (x + (depth - now) * n, v_now)
+}
+
+/// The deepest a mass at `x` is in the ground or a collider at `poses`, 0 outside them all, and
+/// that contact's outward normal (`blend_along_surface` takes them). The shaders'
+/// `deepest_penetration`.
+#[inline(always)]
+pub fn deepest_penetration(effects: &Effects, poses: &[Pose], x: Vec3) -> (f32, Vec3) {
+    let mut deepest = (0.0, Vec3::ZERO);
+    if let Some(g) = effects.ground.as_ref() {
+        let depth = g.height_m - x.y;
+        if depth > 0.0 {
+            deepest = (depth, Vec3::Y);
+        }
+    }
+    for (c, pose) in effects.colliders.iter().zip(poses) {
+        if let Some((depth, n)) = c.shape.penetration(pose.position_m, x)
+            && depth > deepest.0
+        {
+            deepest = (depth, n);
+        }
+    }
+    deepest
 }
 
 /// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's velocity

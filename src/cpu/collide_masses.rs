@@ -12,14 +12,15 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use super::law::contact_force;
+use super::law::{contact_acts, contact_force, contact_normal_force};
 use super::neighbours::Neighbours;
 use crate::model::{MassContact, Model};
-use crate::physics::PAIR_STICK_SHARE;
+use crate::physics::{PAIR_STICK_SHARE, pair_onset_sq_m2};
 
 /// Contact force on mass `a` of the pair (a, b) and the power its damping and friction
-/// dissipate, or `None` if they do not touch (or sit exactly on each other, with no normal, or
-/// are both pinned). A penalty spring `k (2r − d)` along the line between them, damped on the
+/// dissipate, or `None` if the contact does not act (`law::contact_acts`: they neither touch
+/// nor close fast enough to be damped before touching; or sit exactly on each other, with no
+/// normal, or are both pinned). A penalty spring `k (2r − d)` along the line between them, damped on the
 /// pair's reduced mass μ = 1 / (w_a + w_b), pushing only; Coulomb friction on their relative
 /// sliding, at most [`PAIR_STICK_SHARE`] of what would stop it in one step.
 #[inline(always)]
@@ -32,17 +33,19 @@ pub fn pair_contact(
     let diameter = 2.0 * c.radius_m;
     let d = xa - xb;
     let len_sq = d.dot(d);
-    if len_sq >= diameter * diameter || len_sq == 0.0 || wa + wb == 0.0 {
+    if len_sq >= pair_onset_sq_m2(c.radius_m) || len_sq == 0.0 || wa + wb == 0.0 {
         return None;
     }
     let dist = len_sq.sqrt();
     let depth = diameter - dist;
-    if depth <= 0.0 {
+    let n = d * (1.0 / dist);
+    // The pair's relative motion obeys the one-mass contact with the reduced mass, on from just
+    // before the touch where they close fast (`contact_normal_force`).
+    let mu = 1.0 / (wa + wb);
+    let pushes = contact_normal_force(&c.contact, depth, (va - vb).dot(n), mu);
+    if !contact_acts(pushes, depth) {
         return None;
     }
-    let n = d * (1.0 / dist);
-    // The pair's relative motion obeys the one-mass contact with the reduced mass.
-    let mu = 1.0 / (wa + wb);
     Some(contact_force(
         &c.contact,
         depth,

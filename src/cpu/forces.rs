@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
 use super::collide_masses::collide_masses;
-use super::law::{contact_force, spring_force};
+use super::law::{contact_acts, contact_force, contact_normal_force, spring_force};
 use super::neighbours::Neighbours;
 use crate::model::{Model, Pose, Spring, poses_at};
 use crate::state::Power;
@@ -57,19 +57,23 @@ pub(super) fn force_on_mass<const SPRINGS: bool>(
     let mut collider_w = 0.0;
     if let Some(g) = &e.ground {
         let depth = g.height_m - xi.y;
-        if depth > 0.0 {
+        let pushes = contact_normal_force(&g.contact, depth, vi.y, m);
+        if contact_acts(pushes, depth) {
             let (fc, diss) = contact_force(&g.contact, depth, Vec3::Y, (vi, f), m, dt, 1.0);
             f += fc;
             contact_w += diss;
         }
     }
     for (c, pose) in e.colliders.iter().zip(poses) {
-        if let Some((depth, n)) = c.shape.penetration(pose.position_m, xi) {
+        if let Some((depth, n)) = c.shape.signed_depth(pose.position_m, xi) {
             let u = pose.velocity_m_per_s;
-            let (fc, diss) = contact_force(&c.contact, depth, n, (vi - u, f), m, dt, 1.0);
-            f += fc;
-            contact_w += diss;
-            collider_w += fc.dot(u);
+            let pushes = contact_normal_force(&c.contact, depth, (vi - u).dot(n), m);
+            if contact_acts(pushes, depth) {
+                let (fc, diss) = contact_force(&c.contact, depth, n, (vi - u, f), m, dt, 1.0);
+                f += fc;
+                contact_w += diss;
+                collider_w += fc.dot(u);
+            }
         }
     }
     // Ledger rates are energy leaving the system (damping, drag, contact) and entering it

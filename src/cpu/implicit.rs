@@ -25,7 +25,7 @@
 
 use glam::{Mat3, Vec3, Vec4};
 
-use super::backward::residual_work;
+use super::backward::{deepest_penetration, residual_work};
 use super::cg::{
     cg_direction, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
@@ -40,7 +40,7 @@ use super::solver_sums::{group_max, group_reduce};
 use super::system_blocks::{block_times, invert_block, own_block};
 use crate::backend::StopFlags;
 use crate::integrator::Integrator;
-use crate::model::Model;
+use crate::model::{Model, poses_at};
 use crate::physics::{BackwardStep, NEWTON_MAX_ITERATIONS};
 use crate::state::{Power, State};
 
@@ -107,8 +107,15 @@ pub fn implicit_step(
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
-    w.history
-        .implicit_blend(step, keep, &mut state.x, &mut state.v);
+    let poses = poses_at(&model.effects.colliders, t_end);
+    let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
+    let contact = model.effects.has_contact();
+    w.history.implicit_blend(
+        step,
+        keep,
+        (&mut state.x, &mut state.v),
+        contact.then_some(&depth as &(dyn Fn(Vec3) -> (f32, Vec3) + Sync)),
+    );
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
     // The iterate with the least residual that Newton solved from after its first (Δv = 0, no
@@ -121,7 +128,14 @@ pub fn implicit_step(
         }
         implicit_iterate(&state.x, &state.v, &w.dv_total, h, (&mut w.xk, &mut w.vk));
         power = compute_forces(model, gather, &w.xk, &w.vk, t_end, h, &mut w.acc);
-        linearise(model, gather.springs(), &w.xk, t_end, h, &mut w.lin);
+        linearise(
+            model,
+            gather.springs(),
+            (&w.xk, &w.vk),
+            t_end,
+            h,
+            &mut w.lin,
+        );
         let sums = implicit_rhs(model, w, h, keep);
         let residual = sums.y.sqrt();
         let scale = newton_scale(sums.z.sqrt(), h, rules.weight_n);
@@ -163,9 +177,10 @@ pub fn implicit_step(
     if !stats.met && newton_wandered(last_evaluated, best.0) {
         // Short of its rule and wandering, the step ends where it was best, not at its last
         // update, which no evaluation judged (nor did the ledger's rates, which were the last
-        // iterate's). At contact onset Newton alternates between an iterate clear of the
-        // collider and one deep in it (its damper switches on at full strength on touching), and
-        // ending on the deep one stored energy in the contact from nowhere (docs/stability.md).
+        // iterate's). Newton can alternate between an iterate clear of a collider and one deep
+        // in it (it did at every contact onset while the damper switched on at full strength on
+        // touching), and ending on the deep one stored energy in the contact from nowhere
+        // (docs/stability.md).
         w.dv_total.copy_from_slice(&w.best_dv);
         power = best.2;
         stats.step_residual = f64::from(best.1);

@@ -105,11 +105,12 @@ impl ImplicitWork {
     }
 }
 
-/// The system at `x` and time `t`: each spring's terms and each movable mass's contacts.
+/// The system at `x` (moving at `v`) and time `t`: each spring's terms and each movable mass's
+/// pushing contacts.
 pub(super) fn linearise(
     model: &Model,
     springs: &[Spring],
-    x: &[Vec3],
+    (x, v): (&[Vec3], &[Vec3]),
     t: f64,
     h: f32,
     lin: &mut Linearisation,
@@ -133,7 +134,7 @@ pub(super) fn linearise(
         *contacts = if model.inv_mass[i] == 0.0 {
             ContactBlock::default()
         } else {
-            ContactBlock::at(&model.effects, &poses, x[i], model.mass_kg[i], h)
+            ContactBlock::at(&model.effects, &poses, (x[i], v[i]), model.mass_kg[i], h)
         };
     });
 }
@@ -142,6 +143,7 @@ pub(super) fn linearise(
 #[cfg(test)]
 pub(super) fn linearised_at(model: &Model, x: &[Vec3], h: f32) -> Linearisation {
     let mut lin = Linearisation::new(model);
-    linearise(model, &model.springs, x, 0.0, h, &mut lin);
+    let at_rest = vec![Vec3::ZERO; x.len()];
+    linearise(model, &model.springs, (x, &at_rest), 0.0, h, &mut lin);
     lin
 }

@@ -23,10 +23,32 @@ pub fn spring_force<F: Real>(s: &Spring, xi: F::V, xj: F::V, vi: F::V, vj: F::V)
     (n * (elastic + damping), damping * F::dot(n, vi))
 }
 
-/// Penalty contact along unit normal `n` at depth `depth` > 0, for a mass with velocity `v_rel`
-/// relative to the collider and `load`, every other force on it in this evaluation (springs,
-/// gravity, drag, earlier contacts). Returns the force and the power its damping and friction
-/// take out at the current velocity.
+/// The normal force of a Kelvin–Voigt contact (spring `k`, damper 2ζ√(km)) at signed depth
+/// `depth` (negative outside) for a normal velocity `vn` (negative approaching): k·depth − c·vn
+/// while that pushes, zero otherwise. The contact is on while its force pushes, not while the
+/// mass is inside: a fast approach is damped just before the touch (within c|vn|/k of the
+/// surface), so the force has no jump there, which left Newton's method in the implicit schemes
+/// with no solution to find (docs/stability.md), and an impact keeps the linear oscillator's
+/// restitution exactly (`laws::contact_law`). The shaders' `contact_normal_force`.
+#[inline(always)]
+pub fn contact_normal_force<F: Real>(c: &ContactModel, depth: F, vn: F, mass: F) -> F {
+    let stiffness = F::of(c.stiffness_n_per_m);
+    let damper = -F::of(2.0) * F::of(c.damping_ratio) * (stiffness * mass).sqrt() * vn;
+    (stiffness * depth + damper).max(F::ZERO)
+}
+
+/// Whether a contact at signed depth `depth` acts at all: it pushes, or the mass is inside (a
+/// mass leaving faster than its spring pushes feels nothing, but the energy its spring held
+/// leaves the ledger through the damper's rate). The shaders' `contact_acts`.
+#[inline(always)]
+pub fn contact_acts<F: Real>(normal_force: F, depth: F) -> bool {
+    normal_force > F::ZERO || depth > F::ZERO
+}
+
+/// Penalty contact along unit normal `n` at signed depth `depth` ([`contact_normal_force`]), for
+/// a mass with velocity `v_rel` relative to the collider and `load`, every other force on it in
+/// this evaluation (springs, gravity, drag, earlier contacts). Returns the force and the power
+/// its damping and friction take out at the current velocity.
 ///
 /// Friction is Coulomb, `|F_t| ≤ μ F_n`, against the tangential velocity the step would end with
 /// under the load alone, `w = v_t + dt·load_t / m`: it stops that within one step when it can
@@ -45,12 +67,10 @@ pub fn contact_force<F: Real>(
     dt: F,
     stick_share: F,
 ) -> (F::V, F) {
-    let stiffness = F::of(c.stiffness_n_per_m);
     let vn = F::dot(v_rel, n);
-    let spring = stiffness * depth;
-    let damper = -F::of(2.0) * F::of(c.damping_ratio) * (stiffness * mass).sqrt() * vn;
-    // Contact pushes, never pulls: the damper may at most cancel the spring.
-    let fn_total = (spring + damper).max(F::ZERO);
+    let fn_total = contact_normal_force(c, depth, vn, mass);
+    // The spring holds energy only inside; the rest of the force is the damper's.
+    let spring = F::of(c.stiffness_n_per_m) * depth.max(F::ZERO);
     let damper_part = fn_total - spring;
     let mut force = n * fn_total;
     let mut dissipated = -damper_part * vn;

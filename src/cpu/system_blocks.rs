@@ -5,7 +5,7 @@
 
 use glam::{Mat3, Vec3};
 
-use super::law::Real;
+use super::law::{Real, contact_normal_force};
 use crate::model::{ContactModel, Effects, Pose, Spring};
 
 /// One spring's share of the system, scaled by h: h²k along n, h²k·max(0, 1 − L/l) across it,
@@ -75,23 +75,29 @@ pub struct ContactBlock {
 }
 
 impl ContactBlock {
-    /// The contacts mass `i` (of mass `m`) is in at `x`: the ground, then the colliders in
-    /// order.
+    /// The contacts that push mass `i` (of mass `m`) at `x` moving at `v`
+    /// (`law::contact_normal_force`): the ground, then the colliders in order. A contact that
+    /// does not push has no derivative (its force is zero about the iterate).
     #[inline(always)]
-    pub fn at(effects: &Effects, poses: &[Pose], x: Vec3, m: f32, h: f32) -> Self {
+    pub fn at(effects: &Effects, poses: &[Pose], (x, v): (Vec3, Vec3), m: f32, h: f32) -> Self {
         let share = |c: &ContactModel| {
             let k = c.stiffness_n_per_m;
             h * h * k + h * 2.0 * c.damping_ratio * (k * m).sqrt()
         };
         let mut block = ContactBlock::default();
-        if let Some(g) = effects.ground.as_ref().filter(|g| g.height_m - x.y > 0.0) {
+        if let Some(g) = effects.ground.as_ref()
+            && contact_normal_force(&g.contact, g.height_m - x.y, v.y, m) > 0.0
+        {
             block.diag.y += share(&g.contact);
         }
         for (c, pose) in effects.colliders.iter().zip(poses) {
-            if let Some((_, n)) = c.shape.penetration(pose.position_m, x) {
-                let s = share(&c.contact);
-                block.diag += s * n * n;
-                block.off += s * Vec3::new(n.x * n.y, n.x * n.z, n.y * n.z);
+            if let Some((depth, n)) = c.shape.signed_depth(pose.position_m, x) {
+                let vn = (v - pose.velocity_m_per_s).dot(n);
+                if contact_normal_force(&c.contact, depth, vn, m) > 0.0 {
+                    let s = share(&c.contact);
+                    block.diag += s * n * n;
+                    block.off += s * Vec3::new(n.x * n.y, n.x * n.z, n.y * n.z);
+                }
             }
         }
         block

@@ -140,7 +140,7 @@ pub fn vbd_solve_mass(
     }
     let mut block = own_block(m, h, e.air_drag_per_s.unwrap_or(0.0));
     if e.has_contact() {
-        block += ContactBlock::at(e, poses, x[i], m, h).block();
+        block += ContactBlock::at(e, poses, (x[i], v[i]), m, h).block();
     }
     v[i] + block_times(invert_block(block + springs), b)
 }

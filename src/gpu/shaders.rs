@@ -185,6 +185,15 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
         ),
         ("NEWTON_FLOOR", newton_floor(dt_secs, integrator.order())),
         ("WEIGHT_N", f64::from(weight_norm_n(model))),
+        (
+            "PAIR_ONSET_SQ",
+            f64::from(
+                model
+                    .effects
+                    .self_collision
+                    .map_or(0.0, |c| crate::physics::pair_onset_sq_m2(c.radius_m)),
+            ),
+        ),
         ("NEWTON_STALL", NEWTON_STALL),
         ("NEWTON_BACKTRACKS", f64::from(NEWTON_BACKTRACKS)),
         ("NEWTON_OVERSHOOT", NEWTON_OVERSHOOT),

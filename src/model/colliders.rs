@@ -124,9 +124,26 @@ pub enum Shape {
 impl Shape {
     /// Depth of `x` inside the shape placed at `center`, and the outward unit normal, when inside;
     /// in the precision of the vectors given (f32 for the backends, f64 for the reference).
-    /// Mirrors `penetration` in shaders/common.wgsl, operation for operation.
+    /// [`Shape::signed_depth`] where it is positive: what the energies and the post-step
+    /// safeguard take.
     #[inline(always)]
     pub fn penetration<V>(&self, center: V, x: V) -> Option<(V::Real, V)>
+    where
+        V: Vector + Sub<Output = V> + Mul<V::Real, Output = V> + Div<V::Real, Output = V>,
+    {
+        self.signed_depth(center, x)
+            .filter(|&(depth, _)| depth > <V::Real as Real>::ZERO)
+    }
+
+    /// Signed depth of `x` in the shape placed at `center` (negative outside: minus the distance
+    /// to the surface) and the outward unit normal of the surface point nearest `x`; `None` only
+    /// where there is no normal (a sphere's centre). The contact law acts on either side of the
+    /// surface (`cpu::law::contact_normal_force`: a fast approach is damped before the touch,
+    /// so that the force has no jump there), and outside a box the normal turns round its edges
+    /// and corners rather than jumping between faces. Mirrors `signed_depth` in
+    /// shaders/common.wgsl, operation for operation.
+    #[inline(always)]
+    pub fn signed_depth<V>(&self, center: V, x: V) -> Option<(V::Real, V)>
     where
         V: Vector + Sub<Output = V> + Mul<V::Real, Output = V> + Div<V::Real, Output = V>,
     {
@@ -138,12 +155,25 @@ impl Shape {
             Shape::Sphere { radius_m } => {
                 let dist = <V::Real as Real>::length(r);
                 let depth = <V::Real as Real>::of(radius_m) - dist;
-                (depth > zero && dist > zero).then(|| (depth, r / dist))
+                (dist > zero).then(|| (depth, r / dist))
             }
             Shape::Box { half_extents_m } => {
                 let q = <V::Real as Real>::abs(r) - of_vec(half_extents_m);
                 let [qx, qy, qz] = <V::Real as Real>::components(q);
-                // The face nearest the point: the axis where it is least deep (first on ties).
+                if qx > zero || qy > zero || qz > zero {
+                    // Outside: the nearest surface point is on a face, an edge or a corner.
+                    let [rx, ry, rz] = <V::Real as Real>::components(r);
+                    let out = |q: V::Real, r: V::Real| {
+                        let q = q.max(zero);
+                        if r < zero { -q } else { q }
+                    };
+                    let away =
+                        <V::Real as Real>::of_components([out(qx, rx), out(qy, ry), out(qz, rz)]);
+                    let dist = <V::Real as Real>::length(away);
+                    return Some((-dist, away / dist));
+                }
+                // Inside: the face nearest the point, the axis where it is least deep (first on
+                // ties).
                 let (axis, gap) = if qx >= qy && qx >= qz {
                     (of_vec(Vec3::X), qx)
                 } else if qy >= qz {
@@ -156,12 +186,11 @@ impl Shape {
                 } else {
                     one
                 };
-                (gap < zero).then(|| (-gap, axis * side))
+                Some((-gap, axis * side))
             }
             Shape::Plane { normal } => {
                 let n = of_vec(normal);
-                let depth = -<V::Real as Real>::dot(r, n);
-                (depth > zero).then_some((depth, n))
+                Some((-<V::Real as Real>::dot(r, n), n))
             }
         }
     }

@@ -25,7 +25,6 @@ pub use system::{BodyInfo, BodyShape, MeshShape, MeshVertices, Model};
 // The contact law and the spring kinds sit below the scene (whose validation reads them); the
 // model is where most code looks for them.
 pub use crate::laws::contact_law::{
-    MAX_CONTACT_DAMPING_RATIO, MIN_RESTITUTION, damping_ratio_for_restitution,
-    restitution_of_damping_ratio,
+    MIN_RESTITUTION, damping_ratio_for_restitution, restitution_of_damping_ratio,
 };
 pub use crate::laws::spring_kind::{SpringKindTag, kind_offsets};

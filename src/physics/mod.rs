@@ -15,6 +15,7 @@ pub use colouring::{Colouring, MassColouring, colour_masses, colour_springs, vbd
 pub use grid::{SCAN_BLOCK, inv_cell_per_m, table_size};
 pub use mass_contact::{
     NEIGHBOUR_SKIN_SHARE, PAIR_STICK_SHARE, neighbour_moved_limit_m, neighbour_reach_m,
+    pair_onset_sq_m2,
 };
 pub use solver::{
     BackwardStep, CG_FORCING, CG_MAX_ITERATIONS, MULTIGRID_MIN_MASSES, MULTIGRID_MIN_STIFFNESS,

@@ -60,9 +60,7 @@ fn contact(field: &str, stiffness: f32, friction: f32, restitution: f32) -> Chec
         return fail(
             format!("{field}.restitution"),
             format!(
-                "must lie between {least} and 1 (elastic), got {r}: a penalty contact pushes but never pulls, \
-                 so it bounces back at least {least} of the impact speed unless it is damped so hard that \
-                 the step would have to shrink"
+                "must lie between {least} (the impact ends at rest on the surface) and 1 (elastic), got {r}"
             ),
         );
     }

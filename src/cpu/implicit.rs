@@ -107,9 +107,14 @@ pub fn implicit_step(
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
-    let poses = poses_at(&model.effects.colliders, t_end);
+    // BDF2's blend keeps masses out of the colliders where the step's forces see them.
+    let contact = keep && model.effects.has_contact();
+    let poses = if contact {
+        poses_at(&model.effects.colliders, t_end)
+    } else {
+        Vec::new()
+    };
     let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
-    let contact = model.effects.has_contact();
     w.history.implicit_blend(
         step,
         keep,

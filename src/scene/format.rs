@@ -130,7 +130,7 @@ pub struct Contact {
     pub stiffness_n_per_m: f32,
     /// Coulomb friction coefficient (0 = frictionless).
     pub friction: f32,
-    /// Coefficient of restitution of a single mass hitting the collider (0.05 = barely bounces, 1 = elastic).
+    /// Coefficient of restitution of a single mass hitting the collider (0 = no bounce, 1 = elastic).
     pub restitution: f32,
 }
 
@@ -174,8 +174,8 @@ macro_rules! collider {
             /// Coulomb friction coefficient (0 = frictionless).
             #[serde(default)]
             pub friction: f32,
-            /// Coefficient of restitution of a single mass hitting the collider (0.05 = barely
-            /// bounces, 1 = elastic).
+            /// Coefficient of restitution of a single mass hitting the collider (0 = no bounce,
+            /// 1 = elastic).
             #[serde(default = "default_restitution")]
             pub restitution: f32,
         }

@@ -20,9 +20,9 @@ use crate::physics::{PAIR_STICK_SHARE, pair_onset_sq_m2};
 /// Contact force on mass `a` of the pair (a, b) and the power its damping and friction
 /// dissipate, or `None` if the contact does not act (`law::contact_acts`: they neither touch
 /// nor close fast enough to be damped before touching; or sit exactly on each other, with no
-/// normal, or are both pinned). A penalty spring `k (2r − d)` along the line between them, damped on the
-/// pair's reduced mass μ = 1 / (w_a + w_b), pushing only; Coulomb friction on their relative
-/// sliding, at most [`PAIR_STICK_SHARE`] of what would stop it in one step.
+/// normal, or are both pinned). A penalty spring `k (2r − d)` along the line between them,
+/// damped on the pair's reduced mass μ = 1 / (w_a + w_b), pushing only; Coulomb friction on
+/// their relative sliding, at most [`PAIR_STICK_SHARE`] of what would stop it in one step.
 #[inline(always)]
 pub fn pair_contact(
     c: &MassContact,

@@ -33,6 +33,8 @@ override NEWTON_STALL: f32 = 0.5;
 override NEWTON_BACKTRACKS: u32 = 2u;
 override NEWTON_OVERSHOOT: f32 = 1.1;
 override CG_FORCING: f32 = 0.1;
+// A step BDF2 restarts with implicit Euler solves to this share (src/physics/solver.rs).
+override CG_FORCING_AT_RESTART: f32 = 1e-3;
 // How many times its allowed depth a mass may sink in a step before its projection counts as
 // deep (src/laws/contact_law.rs's DEEP_SHARE).
 override DEEP_SHARE: f32 = 2.0;

@@ -4,7 +4,7 @@
 
 // Bindings: `ForcesModel` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force spring_records stage_pose
+// #import mass_force spring_records stage_pose stage_step
 
 @compute @workgroup_size(64)
 fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

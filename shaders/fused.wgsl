@@ -15,7 +15,7 @@
 
 // Bindings: `Fused` and `FusedMid` (group 0) and the state and stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force state_check contact_projection fused_mass stage_pose
+// #import mass_force state_check contact_projection fused_mass stage_pose stage_step
 
 fn end_pose(k: u32) -> Pose {
     return stage_end.poses[k];

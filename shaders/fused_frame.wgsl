@@ -17,7 +17,7 @@
 
 // Bindings: `FusedFrame` (group 0) and the stage groups of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import mass_force state_check contact_projection fused_mass
+// #import mass_force state_check contact_projection fused_mass stage_step
 
 // The step under way.
 var<private> frame_step: u32;

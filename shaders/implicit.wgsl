@@ -64,10 +64,43 @@ fn newton_running(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.converged == 0u);
 }
 
+// Whether BDF2's blend would sink any mass (blend_sinks_at), where the step restarts with
+// implicit Euler. Partials: (1 where one does, …), taken as a max.
 @compute @workgroup_size(SOLVER_THREADS)
-fn implicit_begin(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn restart_check(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    if (!(HISTORY && (HAS_GROUND || HAS_COLLIDERS))) {
+        return;
+    }
+    var sinks = 0.0;
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
-        implicit_begin_at(i);
+        if (blend_sinks_at(i)) {
+            sinks = 1.0;
+        }
+    }
+    store_grid_partial(lid, wid.x, OTHER_SUMS, vec4<f32>(sinks, 0.0, 0.0, 0.0), true);
+}
+
+// The step's start; with contact, BDF2 restarts where restart_check found a mass its blend would
+// sink, which workgroup 0 keeps in scratch.frame.restart for the step's later passes.
+@compute @workgroup_size(SOLVER_THREADS)
+fn implicit_begin(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    var restart = false;
+    if (HISTORY && (HAS_GROUND || HAS_COLLIDERS)) {
+        restart = grid_total(lid, OTHER_SUMS, true).x > 0.0;
+        if (wid.x == 0u && lid == 0u) {
+            scratch.frame.restart = select(0u, 1u, restart);
+        }
+    }
+    for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
+        implicit_begin_at(i, restart);
     }
 }
 

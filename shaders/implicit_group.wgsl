@@ -10,7 +10,7 @@
 //   p = z); returns the solve's first r·z, `rz` being block Jacobi's;
 // - group_cg_sums(lid, partial): after each iteration's cg_update_at, whose per-thread
 //   (r·z, r·r) is `partial`; returns the workgroup's (r·z, r·r).
-// #uses params
+// #uses params scratch
 // #calls group_cg_start group_cg_sums
 
 // Between a pass that writes the solver's vectors and one that reads them across a spring, in
@@ -70,13 +70,34 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32) -> vec2<f32> {
     return vec2<f32>(f32(iterations), residual);
 }
 
+// Whether BDF2 restarts this step (blend_sinks_at for any mass), kept in scratch.frame.restart
+// for restarting(), which every thread reads after the barrier.
+fn restart_in_group(lid: u32) -> bool {
+    if (!(HISTORY && (HAS_GROUND || HAS_COLLIDERS))) {
+        return false;
+    }
+    var sinks = 0.0;
+    for (var i = lid; i < params.mass_count; i += GROUP_THREADS) {
+        if (blend_sinks_at(i)) {
+            sinks = 1.0;
+        }
+    }
+    let restart = group_reduce(lid, vec4<f32>(sinks, 0.0, 0.0, 0.0), true).x > 0.0;
+    if (lid == 0u) {
+        scratch.frame.restart = select(0u, 1u, restart);
+    }
+    storageBarrier();
+    return restart;
+}
+
 // One backward step of the whole system: Newton iterations, each a CG solve, to the CPU's
 // stopping rules. A storage barrier separates a pass that writes what another thread's next
 // pass reads across a spring.
 fn step_in_group(lid: u32) {
     let n = params.mass_count;
+    let restart = restart_in_group(lid);
     for (var i = lid; i < n; i += GROUP_THREADS) {
-        implicit_begin_at(i);
+        implicit_begin_at(i, restart);
     }
     var last_residual = F32_MAX;
     var iterations = 0u;

@@ -3,7 +3,7 @@
 // functions, named for the CPU functions they mirror). It runs in implicit.wgsl.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
-// #uses params springs offsets neighbors mass deriv x v ledger counters x_in v_in work terms stage colliders
+// #uses params springs offsets neighbors mass deriv x v ledger counters x_in v_in work terms stage colliders scratch
 // #calls check_state collider_pose
 
 // ---- where the solver's vectors live ----
@@ -47,12 +47,33 @@ fn set_term(slot: u32, value: vec4<f32>) {
     }
 }
 
+// ---- the step: BDF2's, or implicit Euler's where BDF2 restarts ----
+
+// Whether this step is a BDF2 step restarted with implicit Euler across an impact (decided at
+// its start from blend_sinks_at over every mass: restart_check, step_in_group).
+fn restarting() -> bool {
+    return HISTORY && (HAS_GROUND || HAS_COLLIDERS) && scratch.frame.restart != 0u;
+}
+
+// The step the solve takes (h in x = x̂ + h v): the stage's, or the whole step in a restart
+// (src/physics/solver.rs's BackwardStep::restarted). mass_force.wgsl and system_blocks.wgsl
+// call it.
+fn solve_dt() -> f32 {
+    return select(stage.dt, stage.whole_dt, restarting());
+}
+
 // ---- the stopping rules, as src/cpu/newton_rules.rs's and src/cpu/cg.rs's ----
 
+// The step's forcing: CG_FORCING, or CG_FORCING_AT_RESTART in a restart (src/cpu/cg.rs's
+// cg_forcing).
+fn cg_forcing() -> f32 {
+    return select(CG_FORCING, CG_FORCING_AT_RESTART, restarting());
+}
+
 // Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
-// after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
+// after `iterations` iterations: until the step's forcing of |b| (inexact Newton) or its cap.
 fn cg_goes_on(residual: f32, iterations: u32) -> bool {
-    return residual > CG_FORCING && iterations < CG_MAX_ITERATIONS;
+    return residual > cg_forcing() && iterations < CG_MAX_ITERATIONS;
 }
 
 // A solve whose p·Ap is not positive and finite stops where it is.
@@ -68,7 +89,7 @@ fn newton_converged(step_norm: f32, size_norm: f32) -> bool {
 // The momentum change an iterate's residual is judged against: |h f| at that iterate, and at
 // least the step's impulse of the weight WEIGHT_N (src/cpu/newton_rules.rs's newton_scale).
 fn newton_scale(hf: f32) -> f32 {
-    return max(hf, stage.dt * WEIGHT_N);
+    return max(hf, solve_dt() * WEIGHT_N);
 }
 
 // Newton's residual is small enough to end the step at this iterate: at most NEWTON_RESIDUAL (the
@@ -130,68 +151,53 @@ fn contact_times(i: u32, p: vec3<f32>) -> vec3<f32> {
 
 // ---- the passes, per mass: src/cpu/implicit.rs's functions of the same names ----
 
-fn implicit_begin_at(i: u32) {
+fn implicit_begin_at(i: u32, restart: bool) {
     set_vector(DV_TOTAL, i, vec4<f32>(0.0));
     if (HISTORY) {
-        implicit_blend_at(i);
+        implicit_blend_at(i, restart);
     }
 }
 
 // BDF2's start (src/cpu/backward.rs's implicit_blend): x̂ = x + history (x − x₋₁), the same for
-// v, keeping x and v as the next step's history. Its first step's history is 0: x₋₁ is unused.
-// A blend that would start a mass deeper in the ground or a collider than it is starts it at its
-// own depth and velocity (blend_along_surface).
-fn implicit_blend_at(i: u32) {
-    let b = stage.history;
+// v, keeping x and v as the next step's history. Its first step's history is 0, and a
+// `restart` starts from x and v themselves: x₋₁ is unused.
+fn implicit_blend_at(i: u32, restart: bool) {
+    let b = select(stage.history, 0.0, restart);
     let xo = x[i].xyz;
     let vo = v[i].xyz;
-    let xl = work[block(HISTORY_X, i)].xyz;
-    let vl = work[block(HISTORY_V, i)].xyz;
     if (b != 0.0) {
-        var start = Blend(xo + b * (xo - xl), vo + b * (vo - vl));
-        if (HAS_GROUND || HAS_COLLIDERS) {
-            start = blend_along_surface(start, deepest_penetration(start.x), deepest_penetration(xo).w, vo);
-        }
-        x[i] = vec4<f32>(start.x, 0.0);
-        v[i] = vec4<f32>(start.v, 0.0);
+        let xl = work[block(HISTORY_X, i)].xyz;
+        let vl = work[block(HISTORY_V, i)].xyz;
+        x[i] = vec4<f32>(xo + b * (xo - xl), 0.0);
+        v[i] = vec4<f32>(vo + b * (vo - vl), 0.0);
     }
     work[block(HISTORY_X, i)] = vec4<f32>(xo, 0.0);
     work[block(HISTORY_V, i)] = vec4<f32>(vo, 0.0);
 }
 
-struct Blend {
-    x: vec3<f32>,
-    v: vec3<f32>,
-}
-
-// BDF2's blended start of a mass whose blend's deepest contact is (normal, depth) `deepest`, the
-// mass itself `now` deep moving at v_now: unchanged unless the blend starts it deeper than it is;
-// then moved back out along the normal to the mass's depth, at the mass's own velocity
-// (backward.rs's blend_along_surface).
-fn blend_along_surface(b: Blend, deepest: vec4<f32>, now: f32, v_now: vec3<f32>) -> Blend {
-    if (deepest.w <= now) {
-        return b;
+// Whether BDF2's blend would start mass i deeper in the ground or a collider than it is, where
+// the step restarts with implicit Euler (backward.rs's blend_sinks). Not on a step with no
+// history to blend.
+fn blend_sinks_at(i: u32) -> bool {
+    let b = stage.history;
+    if (b == 0.0) {
+        return false;
     }
-    let n = deepest.xyz;
-    return Blend(b.x + (deepest.w - now) * n, v_now);
+    let xo = x[i].xyz;
+    let xl = work[block(HISTORY_X, i)].xyz;
+    return deepest_penetration(xo + b * (xo - xl)) > deepest_penetration(xo);
 }
 
-// The deepest p is in the ground or a collider at the stage's poses, 0 outside them all, and
-// that contact's outward normal, as (normal, depth) (backward.rs's deepest_penetration).
-fn deepest_penetration(p: vec3<f32>) -> vec4<f32> {
-    var deepest = vec4<f32>(0.0);
+// The deepest p is in the ground or a collider at the stage's poses, 0 outside them all
+// (backward.rs's deepest_penetration).
+fn deepest_penetration(p: vec3<f32>) -> f32 {
+    var deepest = 0.0;
     if (HAS_GROUND) {
-        let depth = params.ground_height - p.y;
-        if (depth > 0.0) {
-            deepest = vec4<f32>(0.0, 1.0, 0.0, depth);
-        }
+        deepest = max(deepest, params.ground_height - p.y);
     }
     if (HAS_COLLIDERS) {
         for (var k = 0u; k < params.collider_count; k++) {
-            let c = penetration(colliders[k], collider_pose(k).position.xyz, p);
-            if (c.w > deepest.w) {
-                deepest = c;
-            }
+            deepest = max(deepest, penetration(colliders[k], collider_pose(k).position.xyz, p).w);
         }
     }
     return deepest;
@@ -200,7 +206,7 @@ fn deepest_penetration(p: vec3<f32>) -> vec4<f32> {
 fn implicit_iterate_at(i: u32) {
     let vk = v[i].xyz + vector_at(DV_TOTAL, i).xyz;
     v_in[i] = vec4<f32>(vk, 0.0);
-    x_in[i] = vec4<f32>(x[i].xyz + stage.dt * vk, 0.0);
+    x_in[i] = vec4<f32>(x[i].xyz + solve_dt() * vk, 0.0);
 }
 
 // The iterate just solved from has the least residual so far: keep its Δv and its forces'
@@ -222,7 +228,7 @@ fn implicit_final_at(i: u32, at_best: bool) {
     }
     let vn = v[i].xyz + dv;
     v[i] = vec4<f32>(vn, 0.0);
-    x[i] = vec4<f32>(x[i].xyz + stage.dt * vn, 0.0);
+    x[i] = vec4<f32>(x[i].xyz + solve_dt() * vn, 0.0);
     ledger[i] += stage.whole_dt * rates;
     check_state(x[i].xyz, vn);
 }
@@ -248,7 +254,7 @@ fn implicit_rhs_at(i: u32) -> vec4<f32> {
     var inv = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
     if (mass[i].y != 0.0) {
         let m = mass[i].x;
-        hf = stage.dt * m * deriv[2u * i].xyz;
+        hf = solve_dt() * m * deriv[2u * i].xyz;
         b = hf - m * vector_at(DV_TOTAL, i).xyz;
         var block = own_block(i);
         if (has_contact_terms()) {

@@ -7,7 +7,7 @@
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
 // #uses params colliders mass deriv x_in v_in stage
-// #calls spring_range spring_end collider_pose
+// #calls spring_range spring_end collider_pose solve_dt
 
 // fused_frame's state in workgroup memory (STATE_IN_WORKGROUP): two halves, the step's and the
 // next's, each WORKGROUP_MASSES masses of six words (x, then v). A load from workgroup memory
@@ -105,12 +105,12 @@ fn mass_force_beyond_springs(i: u32, xi: vec3<f32>, vi: vec3<f32>, f_springs: ve
     var collider_w = 0.0;
     var jac_diag = vec3<f32>(0.0);
     var jac_off = vec3<f32>(0.0);
-    let h = stage.dt;
+    let h = solve_dt();
     if (HAS_GROUND) {
         let depth = params.ground_height - xi.y;
         let pushes = contact_normal_force(params.ground_stiffness, params.ground_damping_ratio, depth, vi.y, m);
         if (contact_acts(pushes, depth)) {
-            let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, f, m, stage.dt, 1.0);
+            let c = contact_force(params.ground_stiffness, params.ground_friction, params.ground_damping_ratio, depth, vec3<f32>(0.0, 1.0, 0.0), vi, f, m, h, 1.0);
             f += c.force;
             contact_w += c.dissipated;
         }
@@ -129,7 +129,7 @@ fn mass_force_beyond_springs(i: u32, xi: vec3<f32>, vi: vec3<f32>, f_springs: ve
             let u = pose.velocity.xyz;
             let pushes = contact_normal_force(col.stiffness, col.damping_ratio, p.w, dot(vi - u, n), m);
             if (contact_acts(pushes, p.w)) {
-                let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, f, m, stage.dt, 1.0);
+                let c = contact_force(col.stiffness, col.friction, col.damping_ratio, p.w, n, vi - u, f, m, h, 1.0);
                 f += c.force;
                 contact_w += c.dissipated;
                 collider_w += dot(c.force, u);

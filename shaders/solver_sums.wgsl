@@ -53,7 +53,8 @@ struct FrameSolve {
     // The most Newton iterations a step began, and CG iterations a solve of Newton iteration j
     // took.
     newton_most: u32,
-    _pad: u32,
+    // 1 while the step under way is BDF2 restarted with implicit Euler (restarting()).
+    restart: u32,
     cg_most: array<u32, 16>,
 }
 

@@ -4,7 +4,8 @@
 // block solve (vbd.wgsl) both read it.
 // A library: `#uses` names the bindings it reads, which its program must bind, and `#calls` the
 // functions its program must define (src/gpu/shaders.rs checks both when it composes a program).
-// #uses params springs mass x_in stage
+// #uses params springs mass x_in
+// #calls solve_dt
 
 struct SpringTerms {
     n: vec3<f32>,
@@ -26,7 +27,7 @@ fn spring_terms(i: u32, nb: Neighbor) -> SpringTerms {
 fn spring_terms_along(s: Spring, d: vec3<f32>, len: f32) -> SpringTerms {
     var t = SpringTerms(vec3<f32>(0.0), 0.0, 0.0, 0.0);
     if (len > MIN_SPRING_LENGTH) {
-        let h = stage.dt;
+        let h = solve_dt();
         let k = h * h * s.stiffness;
         t.n = d * (1.0 / len);
         t.stiff_along = k;
@@ -43,7 +44,7 @@ fn own_mass_term(i: u32) -> f32 {
     if (HAS_DRAG) {
         drag = params.drag_per_s;
     }
-    return mass[i].x * (1.0 + stage.dt * drag);
+    return mass[i].x * (1.0 + solve_dt() * drag);
 }
 
 // m(1 + hγ) I.

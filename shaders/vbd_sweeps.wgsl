@@ -6,7 +6,7 @@
 
 // Bindings: `VbdSweeps` (group 0) and the stage group of src/gpu/bindings.rs, which
 // src/gpu/shaders.rs declares before this file; `#import` names the libraries compiled with it.
-// #import vbd_mass mass_force spring_records system_blocks stage_pose
+// #import vbd_mass mass_force spring_records system_blocks stage_pose stage_step
 
 // Each thread's share, for the first lane of its mass to add.
 var<workgroup> share_sh: array<VbdShare, VBD_THREADS>;

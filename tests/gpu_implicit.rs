@@ -93,6 +93,57 @@ fn gpu_bdf2_matches_the_cpu_on_both_paths() {
     }
 }
 
+/// BDF2 restarts with implicit Euler across an impact (`cpu::backward::blend_sinks`), decided on
+/// the device over every mass (`restart_check`, or the one-workgroup step's own pass) and its
+/// solves taken to `CG_FORCING_AT_RESTART`: the jello dropped at 1/14 s, whose landing restarts
+/// (its blend would carry the lowest layer on into the ground), ends where the CPU ends on both
+/// paths, bit for bit on lavapipe, and lands without energy from nowhere.
+#[test]
+fn bdf2_restarts_across_a_landing_as_on_the_cpu_on_both_paths() {
+    if !have_adapter() {
+        return;
+    }
+    use hooke::gpu::ImplicitPath::{InGroup, Passes};
+    let (model, _) = scene_model("jello");
+    let step = Step::new(Integrator::Bdf2, 1.0 / 14.0);
+    let start = hooke::accuracy::energy_scale(&model);
+    for path in [InGroup, Passes] {
+        let mut cpu = CpuBackend::new(model.clone(), step);
+        let tuning = hooke::gpu::Tuning {
+            implicit: path,
+            ..hooke::gpu::Tuning::for_run(&model, step)
+        };
+        let mut gpu = ok(GpuBackend::with_tuning(model.clone(), step, None, tuning));
+        let b0 = ok(cpu.snapshot(0, Default::default())).energies.balance_j();
+        step_alike((&mut cpu, &mut gpu), (14, 1), |_, _, _| {});
+        let (c, g) = (ok(cpu.state()), ok(gpu.state()));
+        let apart = hooke::conformance::Apart::of(&c, &g);
+        let path = gpu.implicit_path();
+        if common::parity::gpu_rounds_as_the_cpu() {
+            assert!(
+                apart.same_bits,
+                "{path:?}: lavapipe ends {:.3e} m from the CPU",
+                apart.farthest_m
+            );
+        } else {
+            assert!(apart.farthest_m <= 5e-4, "{path:?}: {apart:?}");
+        }
+        let lowest = c.x.iter().map(|x| x.y).fold(f32::INFINITY, f32::min);
+        assert!(
+            lowest < 0.05,
+            "{path:?}: the jello did not land ({lowest} m)"
+        );
+        let gained = ok(cpu.snapshot(14, Default::default()))
+            .energies
+            .balance_j()
+            - b0;
+        assert!(
+            gained < 0.1 * start,
+            "{path:?}: the landing gained {gained} J of {start} J"
+        );
+    }
+}
+
 /// Runs at one step per frame (docs/drivers.md): implicit Euler on the cloth for 60 frames, through its
 /// fall onto the sphere and the ground, where some steps end without meeting Newton's rule
 /// (`unmet` below, reported in the run's output), and BDF2 on the jello. The cloth is chaotic there: the CPU from a

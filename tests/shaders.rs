@@ -328,7 +328,7 @@ fn every_library_a_program_imports_finds_its_bindings_and_functions_there() {
         .collect();
     assert!(missing.is_empty(), "{}", missing.join("\n"));
     // The check can fail: a program without x_in, spring_end or a library is told so (and one
-    // that defines spring_range and collider_pose is not told of them).
+    // that defines spring_range, collider_pose and solve_dt is not told of them).
     let unmet = hooke::gpu::unmet(
         "test.wgsl",
         ["mass_force", "no_such_library"].into_iter(),
@@ -341,7 +341,7 @@ fn every_library_a_program_imports_finds_its_bindings_and_functions_there() {
             "v_in",
             "stage",
         ],
-        "fn spring_range(i: u32) -> vec2<u32> {}\nfn collider_pose(k: u32) -> Pose {}",
+        "fn spring_range(i: u32) -> vec2<u32> {}\nfn collider_pose(k: u32) -> Pose {}\nfn solve_dt() -> f32 {}",
     );
     assert_eq!(unmet.len(), 3, "{unmet:?}");
     assert!(unmet[0].contains("binding 'x_in'"), "{unmet:?}");

@@ -8,13 +8,24 @@ use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES, each_mass, each_mass_pair};
 use super::system_blocks::block_times;
-use crate::physics::{CG_FORCING, CG_MAX_ITERATIONS};
+use crate::physics::{CG_FORCING, CG_FORCING_AT_RESTART, CG_MAX_ITERATIONS};
 
 /// Whether CG goes on at `residual` (|r| relative to the Newton residual |b| it started from)
-/// after `iterations` iterations: until CG_FORCING of |b| (inexact Newton) or its cap.
-/// (In f32, with CG_FORCING as the shaders' override holds it.)
-pub fn cg_goes_on(residual: f32, iterations: u32) -> bool {
-    residual > CG_FORCING as f32 && iterations < CG_MAX_ITERATIONS
+/// after `iterations` iterations: until `forcing` of |b| (inexact Newton; `cg_forcing`) or its
+/// cap.
+pub fn cg_goes_on(residual: f32, iterations: u32, forcing: f32) -> bool {
+    residual > forcing && iterations < CG_MAX_ITERATIONS
+}
+
+/// The step's forcing: CG_FORCING, or CG_FORCING_AT_RESTART in a step BDF2 restarts with (in
+/// f32, as the shaders' overrides hold them; their `cg_forcing` reads the restart from the
+/// device).
+pub fn cg_forcing(restarted: bool) -> f32 {
+    if restarted {
+        CG_FORCING_AT_RESTART as f32
+    } else {
+        CG_FORCING as f32
+    }
 }
 
 /// A solve whose p·Ap is not positive and finite stops where it is.
@@ -76,9 +87,11 @@ mod tests {
 
     #[test]
     fn a_solve_stops_at_a_share_of_its_start_or_at_its_cap() {
-        assert!(cg_goes_on(CG_FORCING as f32 * 1.01, 0));
-        assert!(!cg_goes_on(CG_FORCING as f32 * 0.99, 0));
-        assert!(!cg_goes_on(1.0, CG_MAX_ITERATIONS));
+        let forcing = cg_forcing(false);
+        assert!(cg_goes_on(CG_FORCING as f32 * 1.01, 0, forcing));
+        assert!(!cg_goes_on(CG_FORCING as f32 * 0.99, 0, forcing));
+        assert!(!cg_goes_on(1.0, CG_MAX_ITERATIONS, forcing));
+        assert!(cg_goes_on(CG_FORCING as f32 * 0.99, 0, cg_forcing(true)));
         assert!(!usable_curvature(0.0) && !usable_curvature(f32::INFINITY));
         assert!(!usable_curvature(f32::NAN) && usable_curvature(1.0));
     }

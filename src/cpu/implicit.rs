@@ -27,7 +27,7 @@ use glam::{Mat3, Vec3, Vec4};
 
 use super::backward::{deepest_penetration, residual_work};
 use super::cg::{
-    cg_direction, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
+    cg_direction, cg_forcing, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
 use super::chunks::{each_mass, each_mass_pair};
 use super::forces::{Gather, compute_forces};
@@ -88,7 +88,9 @@ fn system_times(
 /// iterate, the end of the step, over the whole step (backward quadrature, as the scheme itself).
 /// Each iterate's residual is judged against its own momentum change (`newton_scale`). A step
 /// whose iterations run out short of Newton's rule, wandering (`newton_wandered`), ends at the
-/// iterate with the least residual it solved from after its first, with its rates.
+/// iterate with the least residual it solved from after its first, with its rates. A BDF2 step
+/// whose blend would start a mass deeper in a collider than it is restarts with implicit Euler
+/// (`backward::blend_sinks`), its solves taken to `CG_FORCING_AT_RESTART`.
 pub fn implicit_step(
     model: &Model,
     gather: &mut Gather,
@@ -98,8 +100,7 @@ pub fn implicit_step(
     dt: f32,
     stop: &StopFlags,
 ) -> SolveStats {
-    let step = BackwardStep::of(integrator, dt, w.history.steps_taken());
-    let h = step.solve_secs;
+    let mut step = BackwardStep::of(integrator, dt, w.history.steps_taken());
     let t_end = state.time_secs + f64::from(dt);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
@@ -107,20 +108,19 @@ pub fn implicit_step(
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
-    // BDF2's blend keeps masses out of the colliders where the step's forces see them.
-    let contact = keep && model.effects.has_contact();
-    let poses = if contact {
-        poses_at(&model.effects.colliders, t_end)
-    } else {
-        Vec::new()
+    // BDF2 restarts across an impact, judged where the step's forces see the colliders.
+    let restarted = BackwardStep::restarts_at_impacts(integrator, &model.effects) && {
+        let poses = poses_at(&model.effects.colliders, t_end);
+        let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
+        w.history.blend_sinks_any(step, &state.x, &depth)
     };
-    let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
-    w.history.implicit_blend(
-        step,
-        keep,
-        (&mut state.x, &mut state.v),
-        contact.then_some(&depth as &(dyn Fn(Vec3) -> (f32, Vec3) + Sync)),
-    );
+    if restarted {
+        step = step.restarted();
+    }
+    let h = step.solve_secs;
+    let forcing = cg_forcing(restarted);
+    w.history
+        .implicit_blend(step, keep, (&mut state.x, &mut state.v));
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
     // The iterate with the least residual that Newton solved from after its first (Δv = 0, no
@@ -166,7 +166,7 @@ pub fn implicit_step(
             best = (residual, share, power);
             w.best_dv.copy_from_slice(&w.dv_total);
         }
-        let (iterations, residual) = solve(model, w, h, (residual, sums.x), stop);
+        let (iterations, residual) = solve(model, w, h, (residual, sums.x), (forcing, stop));
         stats.newton += 1;
         stats.iterations += iterations;
         stats.residual = stats.residual.max(f64::from(residual));
@@ -314,14 +314,15 @@ pub fn implicit_final(state: &mut State, dv_total: &[Vec3], h: f32) {
 }
 
 /// Preconditioned conjugate gradients for the system at the current linearisation, from δ = 0,
-/// into `w.dv`, until `cg_goes_on` says or `stop` is asked, given |b| and b·B⁻¹b (block Jacobi's
-/// first r·z). Returns the iterations and |r| / |b|, as `solve_in_group` (implicit_group.wgsl).
+/// into `w.dv`, until `cg_goes_on` says at the step's `forcing` or `stop` is asked, given |b|
+/// and b·B⁻¹b (block Jacobi's first r·z). Returns the iterations and |r| / |b|, as
+/// `solve_in_group` (implicit_group.wgsl).
 fn solve(
     model: &Model,
     w: &mut ImplicitWork,
     h: f32,
     (b_norm, rz): (f32, f32),
-    stop: &StopFlags,
+    (forcing, stop): (f32, &StopFlags),
 ) -> (u32, f32) {
     let ImplicitWork {
         lin,
@@ -360,7 +361,7 @@ fn solve(
     p.copy_from_slice(z);
     let mut residual = 1.0f32;
     let mut iterations = 0;
-    while cg_goes_on(residual, iterations) && !stop.asked() {
+    while cg_goes_on(residual, iterations, forcing) && !stop.asked() {
         iterations += 1;
         apply_system(model, lin, h, p, ap);
         let pap = sum(p, ap);

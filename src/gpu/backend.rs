@@ -140,6 +140,8 @@ impl GpuBackend {
         let needed = Needed {
             implicit: implicit.then_some(path),
             multigrid: multigrid.is_some(),
+            restarts: implicit
+                && crate::physics::BackwardStep::restarts_at_impacts(integrator, &model.effects),
             springs_change: model.effects.springs_change(),
             mass_contact: model.effects.self_collision.is_some(),
             xpbd: sweeps == Some(Over::Springs),

@@ -120,6 +120,10 @@ macro_rules! kernel_table {
 
             // ---- implicit.wgsl: the same step a dispatch per pass (larger systems), on the solver's
             // grid of workgroups, two dispatches per CG iteration ----
+            RestartCheck = restart_check in Implicit {
+                group: Solve, threads: SolverGrid, needs: ImplicitRestarts,
+                cpu: "History::blend_sinks_any (cpu/backward.rs), at implicit_step's start",
+            }
             ImplicitBegin = implicit_begin in Implicit {
                 group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),
             }

@@ -45,6 +45,8 @@ pub enum Needs {
     /// The implicit integrator, the whole step in one workgroup (small systems), its CG
     /// preconditioned by block Jacobi.
     ImplicitInGroup,
+    /// BDF2 a dispatch per pass on a scene with the ground or a collider (its restart test).
+    ImplicitRestarts,
     /// The implicit integrator a dispatch per pass, its CG preconditioned by multigrid.
     ImplicitMultigrid,
     /// The implicit integrator in one workgroup, its CG preconditioned by multigrid.

@@ -85,7 +85,9 @@ pub fn step_report(model: &Model, step: Step) -> StepReport {
             Preconditioner::Multigrid => Hierarchy::new(model).map_or(0, |h| h.levels.len() as u32),
             Preconditioner::BlockJacobi => 0,
         };
-        vec![implicit::passes(path, levels)]
+        let restarts =
+            crate::physics::BackwardStep::restarts_at_impacts(integrator, &model.effects);
+        vec![implicit::passes(path, levels, restarts)]
     } else {
         Vec::new()
     };
@@ -235,7 +237,11 @@ impl std::fmt::Display for StepReport {
 /// workgroup, so its steps may differ from a discrete GPU's).
 pub fn adapter_step_passes(gpu: &GpuBackend, model: &Model, integrator: Integrator) -> Vec<String> {
     let mut passes = match gpu.implicit_path() {
-        Some(path) => vec![implicit::passes(path, gpu.multigrid_levels())],
+        Some(path) => vec![implicit::passes(
+            path,
+            gpu.multigrid_levels(),
+            crate::physics::BackwardStep::restarts_at_impacts(integrator, &model.effects),
+        )],
         None => Vec::new(),
     };
     let one_sweep = Sweeps {

@@ -91,6 +91,8 @@ pub struct Needed {
     pub implicit: Option<Path>,
     /// Its CG preconditioned by multigrid (on either path).
     pub multigrid: bool,
+    /// BDF2 restarting across impacts (`physics::BackwardStep::restarts_at_impacts`).
+    pub restarts: bool,
     pub springs_change: bool,
     pub mass_contact: bool,
     pub xpbd: bool,
@@ -106,6 +108,7 @@ impl Needed {
         match needs {
             Needs::Always => true,
             Needs::ImplicitPasses => self.implicit == Some(Path::Passes),
+            Needs::ImplicitRestarts => self.restarts && self.implicit == Some(Path::Passes),
             Needs::ImplicitInGroup => self.implicit == Some(Path::InGroup) && !self.multigrid,
             Needs::ImplicitMultigrid => self.multigrid && self.implicit == Some(Path::Passes),
             Needs::ImplicitInGroupMultigrid => {

@@ -268,7 +268,14 @@ pub fn dispatches_per_step(model: &Model, step: Step, paths: StepPaths) -> Dispa
             ..DispatchCount::default()
         },
         (true, Path::Passes) => DispatchCount {
-            fixed: count(BEGIN.len() + END.len()) + steps,
+            fixed: count(
+                begin(crate::physics::BackwardStep::restarts_at_impacts(
+                    integrator,
+                    &model.effects,
+                ))
+                .len()
+                    + END.len(),
+            ) + steps,
             per_newton_iteration: count(NEWTON_BEGIN.len() + NEWTON_END.len() + linearise + cycle),
             per_cg_iteration: count(CG_ITERATION.len() + cycle),
             ..DispatchCount::default()
@@ -393,7 +400,7 @@ mod tests {
         };
         let mut plans = vec![
             implicit::IN_GROUP.to_vec(),
-            implicit::BEGIN.to_vec(),
+            implicit::begin(true).to_vec(),
             implicit::NEWTON_BEGIN.to_vec(),
             implicit::CG_ITERATION.to_vec(),
             implicit::NEWTON_END.to_vec(),

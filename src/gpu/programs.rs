@@ -8,7 +8,7 @@
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The libraries a kernel file may import, by name: functions over bindings their programs bind.
-const LIBRARIES: [(&str, &str); 13] = [
+const LIBRARIES: [(&str, &str); 14] = [
     (
         "xpbd_project",
         include_str!("../../shaders/xpbd_project.wgsl"),
@@ -41,6 +41,7 @@ const LIBRARIES: [(&str, &str); 13] = [
     ),
     ("fused_mass", include_str!("../../shaders/fused_mass.wgsl")),
     ("stage_pose", include_str!("../../shaders/stage_pose.wgsl")),
+    ("stage_step", include_str!("../../shaders/stage_step.wgsl")),
     (
         "solver_sums",
         include_str!("../../shaders/solver_sums.wgsl"),

@@ -152,9 +152,9 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
         frame_state,
     } = *s;
     use crate::physics::{
-        CG_FORCING, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS, NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT,
-        NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE, newton_floor, newton_residual,
-        weight_norm_n,
+        CG_FORCING, CG_FORCING_AT_RESTART, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS,
+        NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT, NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE,
+        newton_floor, newton_residual, weight_norm_n,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -164,7 +164,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
         ("XPBD", flag(sweeps == Some(Over::Springs))),
         // VBD's block solve takes the contacts' block from mass_force, as implicit Euler does.
         ("IMPLICIT", flag(scheme.assembles_blocks())),
-        // BDF2 blends each step's start from the last (implicit_blend_at).
+        // BDF2 blends each step's start from the last (implicit_blend_at), or restarts.
         ("HISTORY", flag(scheme.history())),
         (
             "SEMI_IMPLICIT",
@@ -199,6 +199,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
         ("NEWTON_OVERSHOOT", NEWTON_OVERSHOOT),
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
+        ("CG_FORCING_AT_RESTART", CG_FORCING_AT_RESTART),
         ("VBD_RESIDUAL", crate::physics::VBD_RESIDUAL),
         (
             "DEEP_SHARE",

@@ -10,6 +10,7 @@ use super::kernels::Kernel;
 use super::plan::{ListBuild, step_plan};
 use crate::backend::{BackendError, Internal};
 use crate::integrator::Explicit;
+use crate::physics::BackwardStep;
 
 impl GpuBackend {
     /// Write the stage slots of the next `steps` steps (in one workgroup without colliders, the
@@ -125,6 +126,7 @@ impl GpuBackend {
             solver,
             post: &post,
             multigrid: self.resources.multigrid.as_ref().map(|mg| mg.passes()),
+            restarts: BackwardStep::restarts_at_impacts(self.integrator, &self.model.effects),
         };
         // The solve's iterations and residual reach the snapshot, read back with the frame.
         if self.implicit_path == Some(Path::InGroup) {

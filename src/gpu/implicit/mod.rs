@@ -6,5 +6,5 @@ mod plan;
 mod solve;
 
 pub use super::kernels::Path;
-pub use plan::{BEGIN, CG_ITERATION, END, IN_GROUP, NEWTON_BEGIN, NEWTON_END, SolverHome, passes};
+pub use plan::{CG_ITERATION, END, IN_GROUP, NEWTON_BEGIN, NEWTON_END, SolverHome, begin, passes};
 pub use solve::{Budgets, ImplicitStep};

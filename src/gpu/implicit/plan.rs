@@ -85,6 +85,14 @@ pub const IN_GROUP_MULTIGRID: [Dispatch; 1] = [Dispatch {
     ..at(MgImplicitStep)
 }];
 pub const BEGIN: [Dispatch; 2] = [at(ImplicitBegin), at(SolverBegin)];
+/// BEGIN after BDF2's restart test, where it may restart across impacts
+/// (`physics::BackwardStep::restarts_at_impacts`).
+pub const BEGIN_RESTARTING: [Dispatch; 3] = [at(RestartCheck), at(ImplicitBegin), at(SolverBegin)];
+
+/// A step's first passes: BEGIN, after the restart test where `restarts`.
+pub fn begin(restarts: bool) -> &'static [Dispatch] {
+    if restarts { &BEGIN_RESTARTING } else { &BEGIN }
+}
 /// The Newton iterate, its forces and right-hand side, and the first half of the solve's first
 /// CG iteration (`cg_apply` with p = z).
 pub const NEWTON_BEGIN: [Dispatch; 4] = [
@@ -100,17 +108,19 @@ pub const NEWTON_END: [Dispatch; 2] = [at(NewtonUpdate), at(NewtonEnd)];
 pub const END: [Dispatch; 1] = [at(ImplicitFinal)];
 
 /// For `hooke check`: the passes of one implicit step, the repeated parts in brackets, its CG
-/// preconditioned by a multigrid cycle over `levels` coarse levels (0: block Jacobi).
-pub fn passes(path: Path, levels: u32) -> String {
+/// preconditioned by a multigrid cycle over `levels` coarse levels (0: block Jacobi), with BDF2's
+/// restart test where it `restarts`.
+pub fn passes(path: Path, levels: u32, restarts: bool) -> String {
     let names = |ds: &[Dispatch]| {
         ds.iter()
             .map(|d| d.kernel.name())
             .collect::<Vec<_>>()
             .join(" → ")
     };
+    let restart = if restarts { "restart test → " } else { "" };
     match path {
         Path::InGroup if levels > 0 => format!(
-            "{} (one workgroup, the whole step: [Newton: iterate → forces → levels × {levels} → \
+            "{} (one workgroup, the whole step: {restart}[Newton: iterate → forces → levels × {levels} → \
              [CG: product → update → [cycle: fine down → restrict × {levels} → coarsest{} → fine up]]])",
             names(&IN_GROUP_MULTIGRID),
             if levels > 1 {
@@ -120,17 +130,17 @@ pub fn passes(path: Path, levels: u32) -> String {
             }
         ),
         Path::InGroup => format!(
-            "{} (one workgroup, the whole step: [Newton: iterate → forces → [CG]])",
+            "{} (one workgroup, the whole step: {restart}[Newton: iterate → forces → [CG]])",
             names(&IN_GROUP)
         ),
         Path::Passes if levels > 0 => {
-            let [begin @ .., apply] = NEWTON_BEGIN;
+            let [newton_begin @ .., apply] = NEWTON_BEGIN;
             let [advance, _] = CG_ITERATION;
             let cycle = format!("[cycle: {}]", super::super::multigrid::cycle_text(levels));
             format!(
                 "{} → [Newton: {} → [levels: {} → {}] × {levels} → {} → {cycle} → {} → [CG: {} → {cycle} → {}] → {}] → {}",
-                names(&BEGIN),
-                names(&begin),
+                names(begin(restarts)),
+                names(&newton_begin),
                 MgLinearise.name(),
                 MgInvert.name(),
                 MgFactor.name(),
@@ -143,7 +153,7 @@ pub fn passes(path: Path, levels: u32) -> String {
         }
         Path::Passes => format!(
             "{} → [Newton: {} → [CG: {}] → {}] → {}",
-            names(&BEGIN),
+            names(begin(restarts)),
             names(&NEWTON_BEGIN),
             names(&CG_ITERATION),
             names(&NEWTON_END),

@@ -119,6 +119,9 @@ pub struct ImplicitStep<'a> {
     /// iteration's passes after cg_begin (the levels' blocks) and a cycle's
     /// (`gpu/multigrid.rs`); the one-workgroup step runs its own (`mg_implicit_step`).
     pub multigrid: Option<(&'a [Dispatch], &'a [Dispatch])>,
+    /// Whether a step may restart across an impact (BDF2 with contact): each step's passes
+    /// then begin with the restart test.
+    pub restarts: bool,
 }
 
 /// `ds` added to `plan`, each at its own slot counted from stage slot `slot`.
@@ -227,7 +230,7 @@ impl ImplicitStep<'_> {
     /// One step's dispatches, at stage slot `slot`: its Newton iterations, each with its
     /// solve's budget of CG iterations, then the post-step passes.
     fn plan_step(&self, plan: &mut Vec<Dispatch>, slot: u32, budgets: Budgets) {
-        at_slot(plan, &BEGIN, slot);
+        at_slot(plan, begin(self.restarts), slot);
         // With multigrid, each z is the cycle's on the residual cg_advance (or forces_and_rhs)
         // left, made before cg_apply reads it; the cycle's levels are linearised once per
         // Newton iteration.

@@ -35,6 +35,9 @@ override NEWTON_OVERSHOOT: f32 = 1.1;
 override CG_FORCING: f32 = 0.1;
 // A step BDF2 restarts with implicit Euler solves to this share (src/physics/solver.rs).
 override CG_FORCING_AT_RESTART: f32 = 1e-3;
+// BDF2 restarts where its blend rule would move a mass back by more than this share of its
+// shortest spring (src/physics/solver.rs).
+override RESTART_PRESS_SHARE: f32 = 0.5;
 // How many times its allowed depth a mass may sink in a step before its projection counts as
 // deep (src/laws/contact_law.rs's DEEP_SHARE).
 override DEEP_SHARE: f32 = 2.0;

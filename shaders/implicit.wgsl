@@ -64,8 +64,8 @@ fn newton_running(lid: u32) -> bool {
     return uniform_flag(lid, scratch.solver.converged == 0u);
 }
 
-// Whether BDF2's blend would sink any mass (blend_sinks_at), where the step restarts with
-// implicit Euler. Partials: (1 where one does, …), taken as a max.
+// Whether BDF2's blend, kept out of the colliders, would press any mass's springs hard
+// (blend_presses_at), where the step restarts with implicit Euler. Partials: (1 where one does, …), taken as a max.
 @compute @workgroup_size(SOLVER_THREADS)
 fn restart_check(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -75,17 +75,17 @@ fn restart_check(
     if (!(HISTORY && (HAS_GROUND || HAS_COLLIDERS))) {
         return;
     }
-    var sinks = 0.0;
+    var presses = 0.0;
     for (var i = gid.x; i < params.mass_count; i += solver_groups() * SOLVER_THREADS) {
-        if (blend_sinks_at(i)) {
-            sinks = 1.0;
+        if (blend_presses_at(i)) {
+            presses = 1.0;
         }
     }
-    store_grid_partial(lid, wid.x, OTHER_SUMS, vec4<f32>(sinks, 0.0, 0.0, 0.0), true);
+    store_grid_partial(lid, wid.x, OTHER_SUMS, vec4<f32>(presses, 0.0, 0.0, 0.0), true);
 }
 
-// The step's start; with contact, BDF2 restarts where restart_check found a mass its blend would
-// sink, which workgroup 0 keeps in scratch.frame.restart for the step's later passes.
+// The step's start; with contact, BDF2 restarts where restart_check found a mass whose blend
+// would press its springs, which workgroup 0 keeps in scratch.frame.restart for the step's later passes.
 @compute @workgroup_size(SOLVER_THREADS)
 fn implicit_begin(
     @builtin(global_invocation_id) gid: vec3<u32>,

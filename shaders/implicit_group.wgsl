@@ -70,19 +70,19 @@ fn solve_in_group(lid: u32, rz_start: f32, b_norm: f32) -> vec2<f32> {
     return vec2<f32>(f32(iterations), residual);
 }
 
-// Whether BDF2 restarts this step (blend_sinks_at for any mass), kept in scratch.frame.restart
+// Whether BDF2 restarts this step (blend_presses_at for any mass), kept in scratch.frame.restart
 // for restarting(), which every thread reads after the barrier.
 fn restart_in_group(lid: u32) -> bool {
     if (!(HISTORY && (HAS_GROUND || HAS_COLLIDERS))) {
         return false;
     }
-    var sinks = 0.0;
+    var presses = 0.0;
     for (var i = lid; i < params.mass_count; i += GROUP_THREADS) {
-        if (blend_sinks_at(i)) {
-            sinks = 1.0;
+        if (blend_presses_at(i)) {
+            presses = 1.0;
         }
     }
-    let restart = group_reduce(lid, vec4<f32>(sinks, 0.0, 0.0, 0.0), true).x > 0.0;
+    let restart = group_reduce(lid, vec4<f32>(presses, 0.0, 0.0, 0.0), true).x > 0.0;
     if (lid == 0u) {
         scratch.frame.restart = select(0u, 1u, restart);
     }

@@ -50,7 +50,7 @@ fn set_term(slot: u32, value: vec4<f32>) {
 // ---- the step: BDF2's, or implicit Euler's where BDF2 restarts ----
 
 // Whether this step is a BDF2 step restarted with implicit Euler across an impact (decided at
-// its start from blend_sinks_at over every mass: restart_check, step_in_group).
+// its start from blend_presses_at over every mass: restart_check, step_in_group).
 fn restarting() -> bool {
     return HISTORY && (HAS_GROUND || HAS_COLLIDERS) && scratch.frame.restart != 0u;
 }
@@ -160,7 +160,9 @@ fn implicit_begin_at(i: u32, restart: bool) {
 
 // BDF2's start (src/cpu/backward.rs's implicit_blend): x̂ = x + history (x − x₋₁), the same for
 // v, keeping x and v as the next step's history. Its first step's history is 0, and a
-// `restart` starts from x and v themselves: x₋₁ is unused.
+// `restart` starts from x and v themselves: x₋₁ is unused. A blend that would start a mass
+// deeper in the ground or a collider than it is starts it at its own depth and velocity
+// (blend_along_surface).
 fn implicit_blend_at(i: u32, restart: bool) {
     let b = select(stage.history, 0.0, restart);
     let xo = x[i].xyz;
@@ -168,36 +170,79 @@ fn implicit_blend_at(i: u32, restart: bool) {
     if (b != 0.0) {
         let xl = work[block(HISTORY_X, i)].xyz;
         let vl = work[block(HISTORY_V, i)].xyz;
-        x[i] = vec4<f32>(xo + b * (xo - xl), 0.0);
-        v[i] = vec4<f32>(vo + b * (vo - vl), 0.0);
+        var start = Blend(xo + b * (xo - xl), vo + b * (vo - vl));
+        if (HAS_GROUND || HAS_COLLIDERS) {
+            start = blend_along_surface(start, deepest_penetration(start.x), deepest_penetration(xo).w, vo);
+        }
+        x[i] = vec4<f32>(start.x, 0.0);
+        v[i] = vec4<f32>(start.v, 0.0);
     }
     work[block(HISTORY_X, i)] = vec4<f32>(xo, 0.0);
     work[block(HISTORY_V, i)] = vec4<f32>(vo, 0.0);
 }
 
-// Whether BDF2's blend would start mass i deeper in the ground or a collider than it is, where
-// the step restarts with implicit Euler (backward.rs's blend_sinks). Not on a step with no
-// history to blend.
-fn blend_sinks_at(i: u32) -> bool {
+struct Blend {
+    x: vec3<f32>,
+    v: vec3<f32>,
+}
+
+// BDF2's blended start of a mass whose blend's deepest contact is (normal, depth) `deepest`, the
+// mass itself `now` deep moving at v_now: unchanged unless the blend starts it deeper than it is;
+// then moved back out along the normal to the mass's depth, at the mass's own velocity
+// (backward.rs's blend_along_surface).
+fn blend_along_surface(b: Blend, deepest: vec4<f32>, now: f32, v_now: vec3<f32>) -> Blend {
+    if (deepest.w <= now) {
+        return b;
+    }
+    let n = deepest.xyz;
+    return Blend(b.x + (deepest.w - now) * n, v_now);
+}
+
+// Whether blend_along_surface would move mass i back by more than RESTART_PRESS_SHARE of its
+// shortest spring, where the step restarts with implicit Euler (backward.rs's blend_presses).
+// Not on a step with no history to blend.
+fn blend_presses_at(i: u32) -> bool {
     let b = stage.history;
     if (b == 0.0) {
         return false;
     }
     let xo = x[i].xyz;
     let xl = work[block(HISTORY_X, i)].xyz;
-    return deepest_penetration(xo + b * (xo - xl)) > deepest_penetration(xo);
+    let depth = deepest_penetration(xo + b * (xo - xl)).w;
+    let now = deepest_penetration(xo).w;
+    return depth - now > RESTART_PRESS_SHARE * shortest_spring(i);
 }
 
-// The deepest p is in the ground or a collider at the stage's poses, 0 outside them all
-// (backward.rs's deepest_penetration).
-fn deepest_penetration(p: vec3<f32>) -> f32 {
-    var deepest = 0.0;
+// The rest length of mass i's shortest unbroken spring, F32_MAX where it has none
+// (backward.rs's shortest_spring).
+fn shortest_spring(i: u32) -> f32 {
+    var shortest = F32_MAX;
+    let end = offsets[i + 1u];
+    for (var e = offsets[i]; e < end; e++) {
+        let s = springs[neighbors[e].spring];
+        if (!(s.stiffness == 0.0 && s.damping == 0.0)) {
+            shortest = min(shortest, s.rest);
+        }
+    }
+    return shortest;
+}
+
+// The deepest p is in the ground or a collider at the stage's poses, 0 outside them all, and
+// that contact's outward normal, as (normal, depth) (backward.rs's deepest_penetration).
+fn deepest_penetration(p: vec3<f32>) -> vec4<f32> {
+    var deepest = vec4<f32>(0.0);
     if (HAS_GROUND) {
-        deepest = max(deepest, params.ground_height - p.y);
+        let depth = params.ground_height - p.y;
+        if (depth > 0.0) {
+            deepest = vec4<f32>(0.0, 1.0, 0.0, depth);
+        }
     }
     if (HAS_COLLIDERS) {
         for (var k = 0u; k < params.collider_count; k++) {
-            deepest = max(deepest, penetration(colliders[k], collider_pose(k).position.xyz, p).w);
+            let c = penetration(colliders[k], collider_pose(k).position.xyz, p);
+            if (c.w > deepest.w) {
+                deepest = c;
+            }
         }
     }
     return deepest;

@@ -8,8 +8,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use crate::model::{Effects, Pose};
-use crate::physics::{BackwardStep, NEWTON_WORK_SHARE};
+use crate::model::{Effects, Model, Pose, Spring};
+use crate::physics::{BackwardStep, NEWTON_WORK_SHARE, RESTART_PRESS_SHARE};
 
 /// The last step's start (x₋₁, v₋₁), once a step has been taken; empty for implicit Euler.
 #[derive(Debug, Default)]
@@ -24,35 +24,44 @@ impl History {
         u64::from(!self.x.is_empty())
     }
 
-    /// Whether BDF2's blend of this step (`step.history`) would start some mass deeper in the
-    /// ground or a collider than it is (`blend_sinks`), `deepest` giving a position's deepest
-    /// contact: the step then restarts (`BackwardStep::restarted`).
-    pub fn blend_sinks_any(
+    /// Whether BDF2's blend of this step (`step.history`), kept out of the colliders mass by
+    /// mass (`blend_along_surface`), would move some mass back by more than
+    /// `RESTART_PRESS_SHARE` of its shortest spring (`blend_presses`): the step then restarts
+    /// (`BackwardStep::restarted`). `shortest` gives a mass's shortest spring's rest length and
+    /// `deepest` a position's deepest contact.
+    pub fn blend_presses_any(
         &self,
         step: BackwardStep,
         x: &[Vec3],
-        deepest: &(dyn Fn(Vec3) -> f32 + Sync),
+        shortest: &(dyn Fn(usize) -> f32 + Sync),
+        deepest: &(dyn Fn(Vec3) -> (f32, Vec3) + Sync),
     ) -> bool {
         if self.x.is_empty() || step.history == 0.0 {
             return false;
         }
         let b = step.history;
-        let sinks = |(x, last): (&Vec3, &Vec3)| blend_sinks(b, *x, *last, deepest);
+        let presses = |(i, (x, last)): (usize, (&Vec3, &Vec3))| {
+            blend_presses(b, (*x, *last), shortest(i), deepest)
+        };
         if x.len() >= PARALLEL_MIN_MASSES {
-            x.par_iter().zip(&self.x[..]).any(sinks)
+            x.par_iter().zip(&self.x[..]).enumerate().any(presses)
         } else {
-            x.iter().zip(&self.x).any(sinks)
+            x.iter().zip(&self.x).enumerate().any(presses)
         }
     }
 
     /// Blend the step's start into `x` and `v` (x̂ = x + history (x − x₋₁), the same for v),
     /// keeping their values before it as the next step's history. Implicit Euler keeps none; a
-    /// restarted step (history 0) starts from x and v themselves.
+    /// restarted step (history 0) starts from x and v themselves. With `deepest` (a mass's
+    /// deepest penetration of the ground and colliders where the step's forces see them, and
+    /// that contact's outward normal), a blend that would start a mass deeper than it is starts
+    /// it at its own depth and velocity (`blend_along_surface`).
     pub fn implicit_blend(
         &mut self,
         step: BackwardStep,
         keep: bool,
         (x, v): (&mut [Vec3], &mut [Vec3]),
+        deepest: Option<&(dyn Fn(Vec3) -> (f32, Vec3) + Sync)>,
     ) {
         if !keep {
             return;
@@ -71,6 +80,10 @@ impl History {
                 let (xn, vn) = (*x, *v);
                 *x = xn + b * (xn - *lx);
                 *v = vn + b * (vn - *lv);
+                if let Some(deepest) = deepest {
+                    let (now, _) = deepest(xn);
+                    (*x, *v) = blend_along_surface((*x, *v), deepest(*x), (now, vn));
+                }
                 *lx = xn;
                 *lv = vn;
             }
@@ -96,35 +109,84 @@ type Chunks<'a> = (
     (&'a mut [Vec3], &'a mut [Vec3]),
 );
 
-/// Whether BDF2's blend x + b (x − x₋₁) would start a mass now at `x` (at `last` a step ago)
-/// deeper in the ground or a collider than it is. Its two last states then lie either side of
-/// an impact: extrapolating them carries it on into the collider as if it had not been
-/// stopped, and kicks it back out with a third of the speed the impact took (a flat cloth
-/// landing on a table was thrown up with energy from nowhere). Moving such masses back alone
-/// stopped a body's lowest layer while the layers above extrapolated their fall: the jello's
-/// blend after its landing at 1/14 s held 44 J of elastic energy from its 7.6 J start. So
-/// the whole step restarts with implicit Euler from its own start (`BackwardStep::restarted`),
-/// first order across the impact, as BDF2 is anywhere its motion is not smooth
-/// (docs/stability.md). The shaders' `blend_sinks`.
+/// BDF2's blended start (x̂, v̂) of a mass, where the blend's deepest contact is at `depth` with
+/// outward normal `n` and the mass itself is `now` deep moving at `v_now`: unchanged unless the
+/// blend starts it deeper than it is. There its two last states lie either side of an impact,
+/// and extrapolating them carries it on into the collider as if it had not been stopped, and
+/// kicks it back out by a third of the speed the impact took: a flat cloth landing on a table in
+/// one step started its next a third of a step deep and was thrown up with energy from nowhere
+/// (docs/stability.md). Such a start is moved back out along the normal to the mass's own depth,
+/// keeping its motion along the surface (a mass carried along by a moving collider stays in step
+/// with its neighbours), and takes the mass's own velocity: first order across the impact, as
+/// BDF2 is anywhere its motion is not smooth. Where that would press a spring hard
+/// (`blend_presses`), the step restarts instead. The shaders' `blend_along_surface`.
 #[inline(always)]
-pub fn blend_sinks(b: f32, x: Vec3, last: Vec3, deepest: &(dyn Fn(Vec3) -> f32 + Sync)) -> bool {
-    deepest(x + b * (x - last)) > deepest(x)
+pub fn blend_along_surface(
+    (x, v): (Vec3, Vec3),
+    (depth, n): (f32, Vec3),
+    (now, v_now): (f32, Vec3),
+) -> (Vec3, Vec3) {
+    if depth <= now {
+        return (x, v);
+    }
+    (x + (depth - now) * n, v_now)
 }
 
-/// The deepest a mass at `x` is in the ground or a collider at `poses`, 0 outside them all
-/// (`blend_sinks` compares two). The shaders' `deepest_penetration`.
+/// Whether `blend_along_surface` would move a mass now at `x` (at `last` a step ago) back by
+/// more than `RESTART_PRESS_SHARE` of `shortest_m`, its shortest spring's rest length. Moved
+/// back alone while its neighbours extrapolate their fall, such a mass presses its springs by
+/// that much: at the jello's landing at 1/14 s the lowest layer was stopped a spacing and more
+/// short of the layers above, whose start then held 44 J of elastic energy from its 7.6 J
+/// start. There the whole step restarts with implicit Euler from its own start
+/// (`BackwardStep::restarted`), as multistep methods restart at a discontinuity. Restarting
+/// at every landing instead cost BDF2 its accuracy at ordinary steps (the jello at 1/240 s:
+/// 3.1e-2 m RMS against 5.1e-3 m with the rule; docs/stability.md). The shaders'
+/// `blend_presses`.
 #[inline(always)]
-pub fn deepest_penetration(effects: &Effects, poses: &[Pose], x: Vec3) -> f32 {
-    let mut deepest = 0.0f32;
+pub fn blend_presses(
+    b: f32,
+    (x, last): (Vec3, Vec3),
+    shortest_m: f32,
+    deepest: &(dyn Fn(Vec3) -> (f32, Vec3) + Sync),
+) -> bool {
+    let (depth, _) = deepest(x + b * (x - last));
+    let (now, _) = deepest(x);
+    depth - now > RESTART_PRESS_SHARE * shortest_m
+}
+
+/// The deepest a mass at `x` is in the ground or a collider at `poses`, 0 outside them all, and
+/// that contact's outward normal (`blend_along_surface` takes them). The shaders'
+/// `deepest_penetration`.
+#[inline(always)]
+pub fn deepest_penetration(effects: &Effects, poses: &[Pose], x: Vec3) -> (f32, Vec3) {
+    let mut deepest = (0.0, Vec3::ZERO);
     if let Some(g) = effects.ground.as_ref() {
-        deepest = deepest.max(g.height_m - x.y);
+        let depth = g.height_m - x.y;
+        if depth > 0.0 {
+            deepest = (depth, Vec3::Y);
+        }
     }
     for (c, pose) in effects.colliders.iter().zip(poses) {
-        if let Some((depth, _)) = c.shape.penetration(pose.position_m, x) {
-            deepest = deepest.max(depth);
+        if let Some((depth, n)) = c.shape.penetration(pose.position_m, x)
+            && depth > deepest.0
+        {
+            deepest = (depth, n);
         }
     }
     deepest
+}
+
+/// The rest length of mass `i`'s shortest unbroken spring, `f32::MAX` where it has none
+/// (`blend_presses` takes it). The shaders' `shortest_spring`.
+#[inline(always)]
+pub fn shortest_spring(model: &Model, springs: &[Spring], i: usize) -> f32 {
+    model
+        .adjacency
+        .of(i)
+        .iter()
+        .map(|nb| &springs[nb.spring as usize])
+        .filter(|s| !s.is_broken())
+        .fold(f32::MAX, |m, s| m.min(s.rest_m))
 }
 
 /// The work the residual `b` (h f − M Δv) would do as an impulse −b on the iterate's velocity

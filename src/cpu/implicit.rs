@@ -25,7 +25,7 @@
 
 use glam::{Mat3, Vec3, Vec4};
 
-use super::backward::{deepest_penetration, residual_work};
+use super::backward::{deepest_penetration, residual_work, shortest_spring};
 use super::cg::{
     cg_direction, cg_forcing, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
@@ -89,8 +89,8 @@ fn system_times(
 /// Each iterate's residual is judged against its own momentum change (`newton_scale`). A step
 /// whose iterations run out short of Newton's rule, wandering (`newton_wandered`), ends at the
 /// iterate with the least residual it solved from after its first, with its rates. A BDF2 step
-/// whose blend would start a mass deeper in a collider than it is restarts with implicit Euler
-/// (`backward::blend_sinks`), its solves taken to `CG_FORCING_AT_RESTART`.
+/// whose blend, kept out of the colliders, would press a spring hard restarts with implicit
+/// Euler (`backward::blend_presses`), its solves taken to `CG_FORCING_AT_RESTART`.
 pub fn implicit_step(
     model: &Model,
     gather: &mut Gather,
@@ -108,19 +108,31 @@ pub fn implicit_step(
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
-    // BDF2 restarts across an impact, judged where the step's forces see the colliders.
-    let restarted = BackwardStep::restarts_at_impacts(integrator, &model.effects) && {
-        let poses = poses_at(&model.effects.colliders, t_end);
-        let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
-        w.history.blend_sinks_any(step, &state.x, &depth)
+    // BDF2's blend keeps masses out of the colliders where the step's forces see them, or the
+    // step restarts where that would press a spring hard.
+    let contact = BackwardStep::restarts_at_impacts(integrator, &model.effects);
+    let poses = if contact {
+        poses_at(&model.effects.colliders, t_end)
+    } else {
+        Vec::new()
     };
+    let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
+    let springs = gather.springs();
+    let shortest = |i: usize| shortest_spring(model, springs, i);
+    let restarted = contact
+        && w.history
+            .blend_presses_any(step, &state.x, &shortest, &depth);
     if restarted {
         step = step.restarted();
     }
     let h = step.solve_secs;
     let forcing = cg_forcing(restarted);
-    w.history
-        .implicit_blend(step, keep, (&mut state.x, &mut state.v));
+    w.history.implicit_blend(
+        step,
+        keep,
+        (&mut state.x, &mut state.v),
+        contact.then_some(&depth as &(dyn Fn(Vec3) -> (f32, Vec3) + Sync)),
+    );
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
     // The iterate with the least residual that Newton solved from after its first (Δv = 0, no

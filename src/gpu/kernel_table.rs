@@ -122,7 +122,7 @@ macro_rules! kernel_table {
             // grid of workgroups, two dispatches per CG iteration ----
             RestartCheck = restart_check in Implicit {
                 group: Solve, threads: SolverGrid, needs: ImplicitRestarts,
-                cpu: "History::blend_sinks_any (cpu/backward.rs), at implicit_step's start",
+                cpu: "History::blend_presses_any (cpu/backward.rs), at implicit_step's start",
             }
             ImplicitBegin = implicit_begin in Implicit {
                 group: Solve, threads: SolverGrid, needs: ImplicitPasses, cpu: (implicit),

@@ -156,7 +156,7 @@ pub struct FrameSolve {
     /// The most Newton iterations any step began.
     pub newton_most: u32,
     /// 1 while the step under way is a BDF2 step restarted with implicit Euler (the kernels set
-    /// it at each step's start; `cpu::backward::blend_sinks`).
+    /// it at each step's start; `cpu::backward::blend_presses`).
     pub restart: u32,
     /// The most CG iterations of any solve of Newton iteration j.
     pub cg_most: [u32; MAX_NEWTON_SLOTS],

@@ -154,7 +154,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
     use crate::physics::{
         CG_FORCING, CG_FORCING_AT_RESTART, CG_MAX_ITERATIONS, NEWTON_BACKTRACKS,
         NEWTON_MAX_ITERATIONS, NEWTON_OVERSHOOT, NEWTON_STALL, NEWTON_TOLERANCE, NEWTON_WORK_SHARE,
-        newton_floor, newton_residual, weight_norm_n,
+        RESTART_PRESS_SHARE, newton_floor, newton_residual, weight_norm_n,
     };
     let mut c = effect_constants(model);
     let flag = |on: bool| if on { 1.0 } else { 0.0 };
@@ -200,6 +200,7 @@ pub fn constants(model: &Model, s: &Specialisation) -> Vec<(&'static str, f64)> 
         ("NEWTON_WORK_SHARE", NEWTON_WORK_SHARE),
         ("CG_FORCING", CG_FORCING),
         ("CG_FORCING_AT_RESTART", CG_FORCING_AT_RESTART),
+        ("RESTART_PRESS_SHARE", f64::from(RESTART_PRESS_SHARE)),
         ("VBD_RESIDUAL", crate::physics::VBD_RESIDUAL),
         (
             "DEEP_SHARE",

@@ -21,8 +21,8 @@ pub use solver::{
     BackwardStep, CG_FORCING, CG_FORCING_AT_RESTART, CG_MAX_ITERATIONS, MULTIGRID_MIN_MASSES,
     MULTIGRID_MIN_STIFFNESS, NEWTON_BACKTRACKS, NEWTON_FLOOR, NEWTON_MAX_ITERATIONS,
     NEWTON_OVERSHOOT, NEWTON_RESIDUAL, NEWTON_RESIDUAL_STEP_SECS, NEWTON_STALL, NEWTON_TOLERANCE,
-    NEWTON_WORK_SHARE, Preconditioner, SUM_GROUP_MASSES, SUM_GROUPS_MOST, SUM_LANES, VBD_RESIDUAL,
-    newton_floor, newton_residual, preconditioner_of, stiffness_against_step, sum_groups,
-    weight_norm_n,
+    NEWTON_WORK_SHARE, Preconditioner, RESTART_PRESS_SHARE, SUM_GROUP_MASSES, SUM_GROUPS_MOST,
+    SUM_LANES, VBD_RESIDUAL, newton_floor, newton_residual, preconditioner_of,
+    stiffness_against_step, sum_groups, weight_norm_n,
 };
 pub use xpbd::{XpbdSpring, xpbd_constants};

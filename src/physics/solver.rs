@@ -14,6 +14,12 @@ pub const CG_FORCING: f64 = 0.1;
 /// ended its landing with 18 J of elastic energy from its 7.6 J start; solved to this share it
 /// lands with 0.02 J (docs/stability.md). Such steps are a few in a run.
 pub const CG_FORCING_AT_RESTART: f64 = 1e-3;
+/// BDF2 restarts a step where keeping its blend out of the colliders would move a mass back by
+/// more than this share of its shortest spring's rest length (`cpu::backward::blend_presses`):
+/// past half, the lowest layer of a landing body starts pressed into the one above, and the
+/// jello gained energy at steps from 6.5e-2 to 9e-2 s; below it, the rule keeps BDF2 second
+/// order away from the contact (docs/stability.md).
+pub const RESTART_PRESS_SHARE: f32 = 0.5;
 /// Newton stops when the update is this small relative to Δv (or Δv is below 1e-7 m/s).
 pub const NEWTON_TOLERANCE: f64 = 1e-4;
 /// Newton iteration cap per step.
@@ -148,9 +154,9 @@ impl BackwardStep {
         }
     }
 
-    /// Whether `integrator` on a scene with `effects` may restart across impacts (BDF2 with the
-    /// ground or a collider, `cpu::backward::blend_sinks`): the GPU then compiles and runs its
-    /// restart test.
+    /// Whether `integrator` on a scene with `effects` keeps its blend out of the colliders and
+    /// may restart across impacts (BDF2 with the ground or a collider,
+    /// `cpu::backward::blend_presses`): the GPU then compiles and runs its restart test.
     pub fn restarts_at_impacts(
         integrator: crate::integrator::Integrator,
         effects: &crate::model::Effects,
@@ -159,7 +165,7 @@ impl BackwardStep {
     }
 
     /// The same step taken as implicit Euler from the step's own start: how BDF2 restarts across
-    /// an impact (`cpu::backward::blend_sinks`), as multistep methods restart at a
+    /// an impact (`cpu::backward::blend_presses`), as multistep methods restart at a
     /// discontinuity. Its history is kept for the next step, which blends again.
     pub fn restarted(self) -> Self {
         Self {

@@ -8,7 +8,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN_MASSES};
-use crate::model::{Effects, Model, Pose, Spring};
+use crate::integrator::Integrator;
+use crate::model::{Effects, Model, Pose, Spring, poses_at};
 use crate::physics::{BackwardStep, NEWTON_WORK_SHARE, RESTART_PRESS_SHARE};
 
 /// The last step's start (x₋₁, v₋₁), once a step has been taken; empty for implicit Euler.
@@ -22,6 +23,33 @@ impl History {
     /// Whether a step has been taken since the history began (BDF2 then blends).
     pub fn steps_taken(&self) -> u64 {
         u64::from(!self.x.is_empty())
+    }
+
+    /// The start of a step of `dt` of `integrator` (implicit Euler or BDF2) ending at `t_end`:
+    /// BDF2's blend into `x` and `v`, kept out of the ground and colliders where the step's
+    /// forces see them (`blend_along_surface`), or a restart where that would press a spring
+    /// hard (`blend_presses`). Returns the step as taken and whether it restarted.
+    pub fn start_step(
+        &mut self,
+        (model, springs): (&Model, &[Spring]),
+        (integrator, dt, t_end): (Integrator, f32, f64),
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+    ) -> (BackwardStep, bool) {
+        let step = BackwardStep::of(integrator, dt, self.steps_taken());
+        let contact = BackwardStep::restarts_at_impacts(integrator, &model.effects);
+        let poses = if contact {
+            poses_at(&model.effects.colliders, t_end)
+        } else {
+            Vec::new()
+        };
+        let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
+        let shortest = |i: usize| shortest_spring(model, springs, i);
+        let restarted = contact && self.blend_presses_any(step, x, &shortest, &depth);
+        let step = if restarted { step.restarted() } else { step };
+        let keep = integrator.scheme().history();
+        let deepest = contact.then_some(&depth as &(dyn Fn(Vec3) -> (f32, Vec3) + Sync));
+        self.implicit_blend(step, keep, (x, v), deepest);
+        (step, restarted)
     }
 
     /// Whether BDF2's blend of this step (`step.history`), kept out of the colliders mass by

@@ -25,7 +25,7 @@
 
 use glam::{Mat3, Vec3, Vec4};
 
-use super::backward::{deepest_penetration, residual_work, shortest_spring};
+use super::backward::residual_work;
 use super::cg::{
     cg_direction, cg_forcing, cg_goes_on, cg_update, cg_update_unpreconditioned, usable_curvature,
 };
@@ -40,8 +40,8 @@ use super::solver_sums::{group_max, group_reduce};
 use super::system_blocks::{block_times, invert_block, own_block};
 use crate::backend::StopFlags;
 use crate::integrator::Integrator;
-use crate::model::{Model, poses_at};
-use crate::physics::{BackwardStep, NEWTON_MAX_ITERATIONS};
+use crate::model::Model;
+use crate::physics::NEWTON_MAX_ITERATIONS;
 use crate::state::{Power, State};
 
 /// (M − h D − h² K) p, filtered (pinned rows are zero).
@@ -100,7 +100,6 @@ pub fn implicit_step(
     dt: f32,
     stop: &StopFlags,
 ) -> SolveStats {
-    let mut step = BackwardStep::of(integrator, dt, w.history.steps_taken());
     let t_end = state.time_secs + f64::from(dt);
     let mut stats = SolveStats::default();
     let mut power = Power::default();
@@ -108,31 +107,13 @@ pub fn implicit_step(
     let mut last_residual = f32::MAX;
     // BDF2 keeps its history, and its Newton heeds its residual's work (NEWTON_WORK_SHARE).
     let keep = integrator.scheme().history();
-    // BDF2's blend keeps masses out of the colliders where the step's forces see them, or the
-    // step restarts where that would press a spring hard.
-    let contact = BackwardStep::restarts_at_impacts(integrator, &model.effects);
-    let poses = if contact {
-        poses_at(&model.effects.colliders, t_end)
-    } else {
-        Vec::new()
-    };
-    let depth = |x: Vec3| deepest_penetration(&model.effects, &poses, x);
-    let springs = gather.springs();
-    let shortest = |i: usize| shortest_spring(model, springs, i);
-    let restarted = contact
-        && w.history
-            .blend_presses_any(step, &state.x, &shortest, &depth);
-    if restarted {
-        step = step.restarted();
-    }
+    let (step, restarted) = w.history.start_step(
+        (model, gather.springs()),
+        (integrator, dt, t_end),
+        (&mut state.x, &mut state.v),
+    );
     let h = step.solve_secs;
     let forcing = cg_forcing(restarted);
-    w.history.implicit_blend(
-        step,
-        keep,
-        (&mut state.x, &mut state.v),
-        contact.then_some(&depth as &(dyn Fn(Vec3) -> (f32, Vec3) + Sync)),
-    );
     implicit_begin(&mut w.dv_total);
     let mut halvings = 0;
     // The iterate with the least residual that Newton solved from after its first (Δv = 0, no

@@ -167,8 +167,8 @@ pub fn blend_along_surface(
 /// short of the layers above, whose start then held 44 J of elastic energy from its 7.6 J
 /// start. There the whole step restarts with implicit Euler from its own start
 /// (`BackwardStep::restarted`), as multistep methods restart at a discontinuity. Restarting
-/// at every landing instead cost BDF2 its accuracy at ordinary steps (the jello at 1/240 s:
-/// 3.1e-2 m RMS against 5.1e-3 m with the rule; docs/stability.md). The shaders'
+/// at every landing instead cost BDF2 its accuracy at ordinary steps (the jello at 1/60 s:
+/// 0.26 m RMS against 9.5e-2 m with the rule; docs/stability.md). The shaders'
 /// `blend_presses`.
 #[inline(always)]
 pub fn blend_presses(

@@ -10,9 +10,9 @@ pub const CG_FORCING: f64 = 0.1;
 /// The forcing of a step BDF2 restarts with implicit Euler across an impact
 /// (`BackwardStep::restarted`): its first iterate carries a falling body a whole step deep into
 /// the ground, and the first update's linear model is far from the step's solution there, so a
-/// solve stopped at `CG_FORCING` left the lattice crushed. The jello dropped at 1/10 s then
-/// ended its landing with 18 J of elastic energy from its 7.6 J start; solved to this share it
-/// lands with 0.02 J (docs/stability.md). Such steps are a few in a run.
+/// solve stopped at `CG_FORCING` left the lattice crushed: in a trial build the jello dropped at
+/// 1/10 s ended its landing with 18 J of elastic energy from its 7.6 J start; solved to this
+/// share it lands with 0.02 J (docs/stability.md). Such steps are a few in a run.
 pub const CG_FORCING_AT_RESTART: f64 = 1e-3;
 /// BDF2 restarts a step where keeping its blend out of the colliders would move a mass back by
 /// more than this share of its shortest spring's rest length (`cpu::backward::blend_presses`):

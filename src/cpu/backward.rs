@@ -169,7 +169,7 @@ pub fn blend_along_surface(
 /// (`BackwardStep::restarted`), as multistep methods restart at a discontinuity. Restarting
 /// at every landing instead cost BDF2 its accuracy at ordinary steps (the jello at 1/60 s:
 /// 0.26 m RMS against 9.5e-2 m with the rule; docs/stability.md). The shaders'
-/// `blend_presses`.
+/// `blend_presses_at`.
 #[inline(always)]
 pub fn blend_presses(
     b: f32,

@@ -136,3 +136,45 @@ pub fn prepare_all(
     }
     Ok(true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cached reference reads back exactly what was computed: points that compute it and
+    /// points that read it measure the same error, to the bit (a Slurm sweep's errors equal a
+    /// local one's). serde_json's default float parsing missed some f32 ends by an ulp.
+    #[test]
+    fn a_cached_reference_reads_back_to_the_bit() {
+        let mut state = 0x9e37_79b9u32;
+        let positions: Vec<[f64; 3]> = (0..20_000)
+            .map(|_| {
+                let mut next = || {
+                    state ^= state << 13;
+                    state ^= state >> 17;
+                    state ^= state << 5;
+                    f64::from(f32::from_bits(0x3c00_0000 + (state % 0x0300_0000)))
+                };
+                [next(), -next(), next()]
+            })
+            .collect();
+        let end = ReferenceEnd {
+            solver: ReferenceSolver::F64Rk4 { dt_secs: 1e-3 },
+            digest: None,
+            positions: positions.clone(),
+        };
+        let text = serde_json::to_string(&end).unwrap_or_default();
+        let back: ReferenceEnd = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+        let off = positions
+            .iter()
+            .zip(&back.positions)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            off,
+            0,
+            "{off} of {} positions came back changed",
+            positions.len()
+        );
+    }
+}

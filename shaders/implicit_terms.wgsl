@@ -220,7 +220,7 @@ fn shortest_spring(i: u32) -> f32 {
     let end = offsets[i + 1u];
     for (var e = offsets[i]; e < end; e++) {
         let s = springs[neighbors[e].spring];
-        if (!(s.stiffness == 0.0 && s.damping == 0.0)) {
+        if (!is_broken(s)) {
             shortest = min(shortest, s.rest);
         }
     }
